@@ -1,0 +1,19 @@
+"""clrender: a physically based path tracer with OpenCL C kernels and a Python host.
+
+    import clrender
+    scene = clrender.load_scene("scenes/cornell_box.json")
+    image = clrender.render(scene, spp=64)
+    clrender.save_image(image, "cornell.png")
+"""
+from .device import choose_device, list_devices
+from .errors import KernelBuildError, SceneError
+from .image import load_image, save_image
+from .metrics import efficiency, mse, relative_mse, rmse
+from .render import Renderer, RenderInterrupted, RenderResult, render
+from .scene import load_scene, load_scene_dict
+
+__all__ = [
+    "KernelBuildError", "RenderInterrupted", "RenderResult", "Renderer", "SceneError",
+    "choose_device", "efficiency", "list_devices", "load_image", "load_scene", "load_scene_dict",
+    "mse", "relative_mse", "render", "rmse", "save_image",
+]

@@ -1,0 +1,182 @@
+"""A scene flattened into the arrays the kernel reads (dtypes from layout.py)."""
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import layout
+from .bvh import build_bvh
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+@dataclass
+class SceneArrays:
+    nodes: np.ndarray
+    triangles: np.ndarray
+    shading: np.ndarray
+    info: np.ndarray
+    materials: np.ndarray
+    emitters: np.ndarray
+    emitter_cdf: np.ndarray
+    env_texels: np.ndarray      # (H*W, 4) float32; one dummy texel without an image
+    env_cdf: np.ndarray
+    env_index: int              # emitter index of the environment, -1 without one
+    env_size: tuple             # (width, height) of the environment image, (0, 0) without one
+    scene_sphere: np.ndarray    # centre xyz, radius
+    bvh_depth: int
+    degenerate_triangles: int   # zero-area triangles dropped at load
+
+
+def active_environment(scene):
+    """The scene's environment light, or None when it has none or it is black."""
+    env = scene.environment
+    if env is None:
+        return None
+    if env.image is not None:
+        return env if np.any(env.image > 0) else None
+    return env if np.any(env.radiance > 0) else None
+
+
+def build_scene_arrays(scene):
+    v0, v1, v2, normals, info = _gather_triangles(scene)
+    area2 = np.linalg.norm(np.cross(v1 - v0, v2 - v0), axis=1)
+    keep = area2 > 0
+    degenerate = int(np.count_nonzero(~keep))
+    v0, v1, v2, normals, info = v0[keep], v1[keep], v2[keep], normals[keep], info[keep]
+
+    bvh = build_bvh(v0, v1, v2)
+    order = bvh.prim_order
+    v0, v1, v2, normals, info = v0[order], v1[order], v2[order], normals[order], info[order]
+
+    triangles = np.zeros(len(v0), layout.TRIANGLE)
+    triangles["v0"][:, :3] = v0
+    triangles["e1"][:, :3] = v1 - v0
+    triangles["e2"][:, :3] = v2 - v0
+    shading = np.zeros(len(v0), layout.TRIANGLE_SHADING)
+    for k, name in enumerate(("n0", "n1", "n2")):
+        shading[name][:, :3] = normals[:, k]
+
+    lo, hi = scene.bounds()
+    sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
+    emitters, powers = _triangle_emitters(scene, v0, v1, v2, info)
+    env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
+    light_emitters = []
+    for light in scene.lights:
+        if light.type == "environment":
+            if active_environment(scene) is None:
+                continue
+            env_index = len(emitters) + len(light_emitters)
+            if light.image is not None:
+                env_texels, env_cdf, mean = _environment_tables(light.image)
+                env_size = (light.image.shape[1], light.image.shape[0])
+            else:
+                mean = float(light.radiance.mean())
+            light_emitters.append(_emitter("environment", light.radiance))
+            powers.append(4 * np.pi * np.pi * sphere[3] ** 2 * mean)
+        elif light.type == "point":
+            light_emitters.append(_emitter("point", light.radiance, p0=light.position))
+            powers.append(4 * np.pi * float(light.radiance.mean()))
+        else:
+            light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
+            powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
+    emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
+
+    return SceneArrays(
+        nodes=bvh.nodes, triangles=triangles, shading=shading,
+        info=_info_array(info), materials=_material_array(scene.materials),
+        emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
+        env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
+        scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
+        degenerate_triangles=degenerate)
+
+
+def _gather_triangles(scene):
+    """Concatenate all shapes: corners, per-vertex normals, and the TriangleInfo columns
+    (material, object, emitter = -1, medium pair = -1) per triangle."""
+    v0, v1, v2, normals, info = [], [], [], [], []
+    for object_id, shape in enumerate(scene.shapes):
+        mesh = shape.mesh
+        corners = mesh.vertices[mesh.faces]
+        v0.append(corners[:, 0])
+        v1.append(corners[:, 1])
+        v2.append(corners[:, 2])
+        if mesh.normals is not None:
+            normals.append(mesh.normals[mesh.faces])
+        else:
+            flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+            normals.append(np.repeat(flat[:, None, :], 3, axis=1))
+        info.append(np.tile([shape.material, object_id, -1, -1], (len(mesh.faces), 1)))
+    if not v0:
+        empty = np.zeros((0, 3))
+        return empty, empty, empty, np.zeros((0, 3, 3)), np.zeros((0, 4), np.int32)
+    return (np.concatenate(v0), np.concatenate(v1), np.concatenate(v2),
+            np.concatenate(normals), np.concatenate(info).astype(np.int32))
+
+
+def _triangle_emitters(scene, v0, v1, v2, info):
+    """One emitter per triangle whose material emits; records its index in info[:, 2].
+
+    Returns the emitters and their powers (the selection weights)."""
+    emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3)
+    slots = np.flatnonzero(np.any(emission[info[:, 0]] > 0, axis=1)) if len(info) else np.zeros(0, int)
+    info[slots, 2] = np.arange(len(slots))
+    radiance = emission[info[slots, 0]]
+    e1, e2 = v1[slots] - v0[slots], v2[slots] - v0[slots]
+    area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+    emitters = np.zeros(len(slots), layout.EMITTER)
+    emitters["kind"][:, 0] = layout.EMITTER_KINDS["triangle"]
+    emitters["radiance"][:, :3] = radiance
+    emitters["p0"][:, :3] = v0[slots]
+    emitters["p0"][:, 3] = area
+    emitters["e1"][:, :3] = e1
+    emitters["e2"][:, :3] = e2
+    return emitters, list(np.pi * area * radiance.mean(axis=1))
+
+
+def _emitter(kind, radiance, p0=(0, 0, 0)):
+    e = np.zeros(1, layout.EMITTER)
+    e["kind"][:, 0] = layout.EMITTER_KINDS[kind]
+    e["radiance"][:, :3] = radiance
+    e["p0"][:, :3] = p0
+    return e
+
+
+def _info_array(info):
+    out = np.zeros(len(info), layout.TRIANGLE_INFO)
+    out["info"] = info
+    return out
+
+
+def _material_array(materials):
+    out = np.zeros(len(materials), layout.MATERIAL)
+    for i, m in enumerate(materials):
+        out[i]["kind"][0] = layout.MATERIAL_KINDS["diffuse"]
+        out[i]["color"][:3] = m.albedo
+        out[i]["emission"][:3] = m.emission
+    return out
+
+
+def _cdf(weights):
+    """Normalised CDF with len(weights) + 1 entries, ending exactly at 1 (uniform if all zero)."""
+    if len(weights) == 0:
+        return np.array([0.0, 1.0], np.float32)
+    if not weights.sum() > 0:
+        weights = np.ones_like(weights)
+    cdf = np.concatenate([[0.0], np.cumsum(weights) / weights.sum()])
+    cdf[-1] = 1.0
+    return cdf.astype(np.float32)
+
+
+def _environment_tables(image):
+    """Texels and the sampling CDFs of a lat-long image: luminance x sin(theta) per texel.
+
+    Returns (texels, [marginal | conditional rows], mean radiance over the sphere)."""
+    height, width, _ = image.shape
+    sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
+    weights = np.maximum(image @ LUMINANCE, 0) * sin_theta[:, None]
+    rows = np.stack([_cdf(row) for row in weights])
+    marginal = _cdf(weights.sum(axis=1))
+    texels = np.zeros((height * width, 4), np.float32)
+    texels[:, :3] = image.reshape(-1, 3)
+    mean = float((image.mean(axis=2) * sin_theta[:, None]).sum() / (sin_theta.sum() * width))
+    return texels, np.concatenate([marginal, rows.ravel()]).astype(np.float32), mean

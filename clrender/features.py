@@ -1,0 +1,42 @@
+"""The one place that decides which kernel features a scene needs.
+
+The megakernel is compiled with one -D define per feature, so code a scene does not use is not
+compiled. Features are deliberately coarse: each new combination costs a kernel build.
+"""
+import itertools
+
+from .layout import ENVIRONMENT_MODES
+
+# Every feature and the values it may take; the first value is "absent".
+FEATURE_VALUES = {
+    "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
+    "DELTA_LIGHTS": (0, 1),
+}
+
+
+def scene_features(scene):
+    """The feature values (name -> int) that `scene` needs."""
+    environment = scene.environment
+    if environment is None:
+        env_mode = ENVIRONMENT_MODES["none"]
+    else:
+        env_mode = ENVIRONMENT_MODES["image" if environment.image is not None else "constant"]
+    return {
+        "ENVIRONMENT": env_mode,
+        "DELTA_LIGHTS": int(any(light.type in ("point", "directional") for light in scene.lights)),
+    }
+
+
+def all_feature_combinations():
+    """Every combination of feature values the defines allow (for compile checks)."""
+    names = list(FEATURE_VALUES)
+    for values in itertools.product(*(FEATURE_VALUES[n] for n in names)):
+        yield dict(zip(names, values))
+
+
+def describe(features):
+    """Human-readable list of enabled features."""
+    env_names = {v: k for k, v in ENVIRONMENT_MODES.items()}
+    parts = [f"environment={env_names[features['ENVIRONMENT']]}"]
+    parts += [name.lower() for name, value in features.items() if name != "ENVIRONMENT" and value]
+    return ", ".join(parts)

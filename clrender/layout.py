@@ -1,0 +1,70 @@
+"""numpy dtypes that mirror the structs in kernels/types.h.
+
+Every struct is built from 16-byte vectors (float4/int4), so the C layout has no hidden padding
+and the numpy dtype is a plain sequence of 4-wide fields. tests/test_layout.py compiles a kernel
+that reports sizeof/offsetof of each struct and compares them with these dtypes.
+"""
+import numpy as np
+
+F4 = ("<f4", (4,))
+I4 = ("<i4", (4,))
+
+
+def _struct(*fields):
+    return np.dtype([(name, kind) for name, kind in fields])
+
+
+# Two-child BVH node: each node stores the boxes of both children, so one node fetch tests both.
+# For a child: *_lo.w holds (as int bits) the child node index when *_hi.w is 0, otherwise the
+# first primitive in the reordered triangle array; *_hi.w holds (as int bits) the primitive count.
+BVH_NODE = _struct(("left_lo", F4), ("left_hi", F4), ("right_lo", F4), ("right_hi", F4))
+
+# Triangle geometry for Moller-Trumbore: v0 and the two edges.
+TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
+
+# Per-triangle attributes: shading normals at the three vertices (w unused) and integer info.
+TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
+# info: x material index, y object id, z emitter index (-1 none), w medium pair (reserved, -1)
+TRIANGLE_INFO = _struct(("info", I4))
+
+# kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
+MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4))
+
+# kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
+EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
+
+CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
+
+RENDER_PARAMS = np.dtype([
+    ("camera", CAMERA),
+    ("frame", I4),         # width, height, first sample, samples in this pass
+    ("config", I4),        # max depth, roulette depth, seed, emitter count
+    ("environment", I4),   # emitter index, image width, image height
+    ("scene_sphere", F4),  # centre, radius
+])
+
+STRUCTS = {
+    "BvhNode": BVH_NODE,
+    "Triangle": TRIANGLE,
+    "TriangleShading": TRIANGLE_SHADING,
+    "TriangleInfo": TRIANGLE_INFO,
+    "Material": MATERIAL,
+    "Emitter": EMITTER,
+    "Camera": CAMERA,
+    "RenderParams": RENDER_PARAMS,
+}
+
+# Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
+# values exist in one place only.
+MATERIAL_KINDS = {"diffuse": 0}
+EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
+ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
+
+
+def c_constants():
+    """The enumerations above as C #define lines."""
+    lines = []
+    for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
+                          ("ENVIRONMENT", ENVIRONMENT_MODES)):
+        lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,148 @@
+"""Progressive rendering: short kernel launches that each add a few samples per pixel."""
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl as cl
+
+from . import layout
+from .arrays import build_scene_arrays
+from .device import build_program, choose_device
+from .features import scene_features
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray            # linear float32 (H, W, 3)
+    samples: int                 # samples per pixel actually taken
+    seconds: float               # kernel time (launches and waits), excluding set-up
+    discarded_samples: int       # non-finite samples dropped (counted as black)
+
+    @property
+    def samples_per_second(self):
+        h, w, _ = self.image.shape
+        return self.samples * w * h / self.seconds if self.seconds > 0 else 0.0
+
+
+class RenderInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a render; `result` holds the image of the samples completed so far."""
+
+    def __init__(self, result):
+        super().__init__("render interrupted")
+        self.result = result
+
+
+class Renderer:
+    """A scene uploaded to one device with its specialised kernel, ready to render many times."""
+
+    def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25):
+        self.scene = scene
+        self.device = device if isinstance(device, cl.Device) else choose_device(device)
+        self.context = cl.Context([self.device])
+        self.queue = cl.CommandQueue(self.context)
+        self.features = scene_features(scene)
+        self.arrays = build_scene_arrays(scene)
+        self.kernel = build_program(self.context, self.features).render_pass
+        self.local_size = local_size
+        self.pass_seconds = pass_seconds
+        a = self.arrays
+        self._buffers = [self._upload(x) for x in (
+            a.nodes, a.triangles, a.shading, a.info, a.materials, a.emitters, a.emitter_cdf,
+            a.env_texels, a.env_cdf)]
+
+    def _upload(self, array):
+        flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
+        data = array if array.size else np.zeros(1, array.dtype)
+        return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
+
+    def params(self, first_sample, samples, max_depth, rr_depth, seed):
+        camera = self.scene.camera
+        width, height = camera.resolution
+        forward = camera.look_at - camera.position
+        forward /= np.linalg.norm(forward)
+        right = np.cross(forward, camera.up)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        tan_half = np.tan(np.radians(camera.fov) / 2)
+        p = np.zeros(1, layout.RENDER_PARAMS)
+        p["camera"]["origin"][0, :3] = camera.position
+        p["camera"]["forward"][0, :3] = forward
+        p["camera"]["right"][0, :3] = right * tan_half * width / height
+        p["camera"]["up"][0, :3] = up * tan_half
+        p["frame"] = (width, height, first_sample, samples)
+        p["config"] = (max_depth, rr_depth, seed, len(self.arrays.emitters))
+        p["environment"] = (self.arrays.env_index, *self.arrays.env_size, 0)
+        p["scene_sphere"] = self.arrays.scene_sphere
+        return p
+
+    def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
+               samples_per_pass=None):
+        """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
+        after every launch. Samples per launch adapt to `pass_seconds` unless fixed by
+        `samples_per_pass`; the image does not depend on the split."""
+        settings = self.scene.render
+        spp = settings.spp if spp is None else spp
+        seed = settings.seed if seed is None else seed
+        max_depth = settings.max_depth if max_depth is None else max_depth
+        rr_depth = settings.rr_depth if rr_depth is None else rr_depth
+        width, height = self.scene.camera.resolution
+        mf = cl.mem_flags
+        accumulator = np.zeros((height * width, 4), np.float32)
+        accum_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=accumulator)
+        discarded = np.zeros(1, np.int32)
+        discarded_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=discarded)
+        params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
+        global_size = self._global_size(width, height)
+
+        done, per_pass, seconds = 0, samples_per_pass or 1, 0.0
+        try:
+            while done < spp:
+                count = min(per_pass, spp - done)
+                cl.enqueue_copy(self.queue, params_buffer,
+                                self.params(done, count, max_depth, rr_depth, seed))
+                start = time.perf_counter()
+                self.kernel(self.queue, global_size, self.local_size, params_buffer,
+                            *self._buffers, accum_buffer, discarded_buffer)
+                self.queue.finish()
+                elapsed = time.perf_counter() - start
+                seconds += elapsed
+                done += count
+                if samples_per_pass is None:
+                    per_pass = self._next_pass_size(count, elapsed)
+                if progress is not None:
+                    progress(done, spp, seconds)
+        except KeyboardInterrupt:
+            self.queue.finish()
+            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, seconds)) from None
+        return self._result(accum_buffer, discarded_buffer, seconds)
+
+    def _global_size(self, width, height):
+        if self.local_size is None:
+            return (width, height)
+        lx, ly = self.local_size
+        return (-(-width // lx) * lx, -(-height // ly) * ly)
+
+    def _next_pass_size(self, count, elapsed):
+        if elapsed <= 0:
+            return count * 2
+        target = int(count * self.pass_seconds / elapsed)
+        return max(1, min(target, count * 4))
+
+    def _result(self, accum_buffer, discarded_buffer, seconds):
+        width, height = self.scene.camera.resolution
+        accumulator = np.empty((height * width, 4), np.float32)
+        discarded = np.empty(1, np.int32)
+        cl.enqueue_copy(self.queue, accumulator, accum_buffer)
+        cl.enqueue_copy(self.queue, discarded, discarded_buffer)
+        # The w channel counts the samples each pixel received, so an interrupted render is
+        # normalised exactly by what was done.
+        counts = accumulator[:, 3:4]
+        image = np.where(counts > 0, accumulator[:, :3] / np.maximum(counts, 1), 0.0)
+        return RenderResult(image.reshape(height, width, 3).astype(np.float32),
+                            int(counts.min()) if counts.size else 0, seconds, int(discarded[0]))
+
+
+def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None):
+    """Render `scene` and return the linear float32 (H, W, 3) image."""
+    return Renderer(scene, device).render(spp=spp, seed=seed, max_depth=max_depth,
+                                          progress=progress).image

@@ -1,0 +1,1 @@
+"""OpenCL C sources of the megakernel, shipped as package data."""

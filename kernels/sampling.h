@@ -1,0 +1,48 @@
+// Warps from the unit square and the MIS heuristic. pdf names carry their measure:
+// *_pdf_w is per unit solid angle, *_pdf_a per unit area.
+#ifndef CLRENDER_SAMPLING_H
+#define CLRENDER_SAMPLING_H
+
+// Cosine-weighted direction around +z (Malley's method on the unit disk).
+float3 sample_cosine_hemisphere(float2 u) {
+    float r = sqrt(u.x);
+    float s, c;
+    sincos_2pi(u.y, &s, &c);
+    return (float3)(r * c, r * s, sqrt(fmax(0.0f, 1.0f - u.x)));
+}
+
+float sample_cosine_hemisphere_pdf_w(float cos_theta) { return fmax(cos_theta, 0.0f) * INV_PI_F; }
+
+float3 sample_uniform_sphere(float2 u) {
+    float z = 1.0f - 2.0f * u.x;
+    float r = sqrt(fmax(0.0f, 1.0f - z * z));
+    float s, c;
+    sincos_2pi(u.y, &s, &c);
+    return (float3)(r * c, r * s, z);
+}
+
+#define UNIFORM_SPHERE_PDF_W (0.25f * INV_PI_F)
+
+// Barycentrics (b1, b2) uniform over a triangle.
+float2 sample_triangle(float2 u) {
+    float su = sqrt(u.x);
+    return (float2)(1.0f - su, u.y * su);
+}
+
+// Index i with probability cdf[i+1] - cdf[i]; cdf has n+1 entries, cdf[0] = 0, cdf[n] = 1.
+int sample_discrete_cdf(__global const float* cdf, int n, float u) {
+    int lo = 0, hi = n;  // invariant: cdf[lo] <= u < cdf[hi]
+    while (hi - lo > 1) {
+        int mid = (lo + hi) >> 1;
+        if (cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    return lo;
+}
+
+float power_heuristic(float pdf_a, float pdf_b) {
+    float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+    // both zero only where neither strategy could have produced the sample
+    return a + b > 0.0f ? a / (a + b) : 0.0f;
+}
+
+#endif

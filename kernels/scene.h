@@ -1,0 +1,66 @@
+// The scene as the kernel sees it: buffers bundled so that functions take one argument, and the
+// surface point reconstructed from a hit.
+#ifndef CLRENDER_SCENE_H
+#define CLRENDER_SCENE_H
+
+typedef struct {
+    __constant RenderParams* params;
+    __global const BvhNode* nodes;
+    __global const Triangle* triangles;
+    __global const TriangleShading* shading;
+    __global const TriangleInfo* info;
+    __global const Material* materials;
+    __global const Emitter* emitters;
+    __global const float* emitter_cdf;   // emitter count + 1 entries
+    __global const float4* env_texels;   // environment image, row-major, top row first
+    __global const float* env_cdf;       // marginal (height + 1) then conditional rows (width + 1)
+} Scene;
+
+typedef struct {
+    float3 p;          // position, from barycentrics (more accurate than origin + t * dir)
+    float3 ng;         // unit geometric normal, on the side the ray came from
+    float3 ns;         // unit shading normal, on the same side as ng
+    bool front_face;   // ray arrived on the side the triangle winding faces
+    int material;
+    int object;
+    int emitter;
+} SurfacePoint;
+
+bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
+    hit->t = t_max;
+    hit->triangle = -1;
+    return traverse_bvh(scene->nodes, scene->triangles, origin, dir, false, hit);
+}
+
+bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
+    Hit hit;
+    hit.t = t_max;
+    hit.triangle = -1;
+    return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit);
+}
+
+SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
+    __global const Triangle* tri = scene->triangles + hit->triangle;
+    __global const TriangleShading* sh = scene->shading + hit->triangle;
+    int4 info = scene->info[hit->triangle].info;
+    float b0 = 1.0f - hit->b1 - hit->b2;
+    SurfacePoint sp;
+    sp.p = tri->v0.xyz + hit->b1 * tri->e1.xyz + hit->b2 * tri->e2.xyz;
+    float3 ng = normalize(cross(tri->e1.xyz, tri->e2.xyz));
+    sp.front_face = dot(ng, dir) < 0.0f;
+    sp.ng = sp.front_face ? ng : -ng;
+    float3 ns = b0 * sh->n0.xyz + hit->b1 * sh->n1.xyz + hit->b2 * sh->n2.xyz;
+    float ns_len = length(ns);
+    ns = ns_len > 0.0f ? ns / ns_len : ng;
+    sp.ns = dot(ns, sp.ng) < 0.0f ? -ns : ns;
+    sp.material = info.x;
+    sp.object = info.y;
+    sp.emitter = info.z;
+    return sp;
+}
+
+float emitter_selection_pmf(const Scene* scene, int emitter) {
+    return scene->emitter_cdf[emitter + 1] - scene->emitter_cdf[emitter];
+}
+
+#endif
