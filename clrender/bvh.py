@@ -9,8 +9,9 @@ on the hot path.
 
 Node layout (``layout.BVH_NODE``): each node stores the boxes of both children. ``*_hi.w`` (int
 bits) is the child's primitive count (0: interior child), ``*_lo.w`` (int bits) is the child node
-index (interior) or the first slot in ``prim_order`` (leaf). An empty child has an inverted box
-(lo = +inf, hi = -inf), count 0 and index -1.
+index (interior) or the first slot in ``prim_order`` (leaf). An empty child has the box
+lo = hi = (+inf, +inf, +inf), count 0 and index -1: the kernel's slab test gives it an entry
+distance of +inf (or an exit before the entry) for every ray, so it is never entered.
 """
 from dataclasses import dataclass
 
@@ -52,9 +53,9 @@ def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16) -> Bvh:
     separated by binning (all coincide) is split at its centroid median instead, and so is a node
     whose SAH split would make the tree deeper than ``MAX_DEPTH``.
     """
-    lo, hi = _triangle_bounds(v0, v1, v2)
     if max_leaf_size < 1 or bins < 2:
         raise ValueError("need max_leaf_size >= 1 and bins >= 2")
+    lo, hi = _triangle_bounds(v0, v1, v2)
     n = lo.shape[1]
     if n == 0:
         return Bvh(_empty_nodes(1), np.zeros(0, np.int32), 1)
@@ -88,12 +89,12 @@ def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16) -> Bvh:
 
         if n_split:
             depth = level
-        perm, counts = _partition(plan, split, counts)
+        perm, counts, child_order = _partition(plan, split, counts, bins)
         lo = np.take(lo, perm, axis=1)
         hi = np.take(hi, perm, axis=1)
         idx = np.take(idx, perm)
-        parent = np.repeat(index[split].astype(np.int32), 2)
-        side = np.tile(np.array([0, 1], np.int8), n_split)
+        parent = np.repeat(index[split].astype(np.int32), 2)[child_order]
+        side = np.tile(np.array([0, 1], np.int8), n_split)[child_order]
         n_nodes += n_split
         level += 1
 
@@ -127,22 +128,35 @@ def _plan_level(lo, hi, counts, level, max_leaf_size, bins) -> _LevelPlan:
     axis = np.argmax(cmax - cmin, axis=0)
     nodes = np.arange(k)
     axis_min = cmin[axis, nodes]
-    scale = _bin_scale(cmax[axis, nodes] - axis_min, bins)
+    node_bins = _node_bins(counts, bins)
+    scale = _bin_scale(cmax[axis, nodes] - axis_min, node_bins)
 
     c = np.take(cen.ravel(), axis[seg] * n + np.arange(n))
-    frac = (c - axis_min[seg]) * scale[seg]  # in [0, bins]
-    bin_id = np.minimum(frac.astype(np.int64), bins - 1)
-    bin_counts, bin_lo, bin_hi = _bin_bounds(lo, hi, bin_id * k + seg, k, bins)
+    frac = (c - axis_min[seg]) * scale[seg]  # in [0, node_bins]
+    bin_id = np.minimum(frac.astype(np.int64), node_bins[seg] - 1)
 
-    box_lo = bin_lo.min(axis=0)
-    box_hi = bin_hi.max(axis=0)
+    box_lo = np.empty((3, k), np.float32)
+    box_hi = np.empty((3, k), np.float32)
+    best_plane = np.empty(k, np.int64)
+    best_cost = np.empty(k, np.float32)
+    n_left = np.empty(k, np.int64)
+    for first, last in _runs(node_bins):
+        nb = int(node_bins[first])
+        e0, e1 = starts[first], starts[last - 1] + counts[last - 1]
+        key = bin_id[e0:e1] * (last - first) + (seg[e0:e1] - first)
+        bin_counts, bin_lo, bin_hi = _bin_bounds(
+            lo[:, e0:e1], hi[:, e0:e1], key, last - first, nb)
+        box_lo[:, first:last] = bin_lo.min(axis=0)
+        box_hi[:, first:last] = bin_hi.max(axis=0)
+        best_plane[first:last], best_cost[first:last], n_left[first:last] = _best_sah_split(
+            bin_counts, bin_lo, bin_hi, counts[first:last])
+
     area = _half_area(box_lo, box_hi)
-    best_plane, best_cost, n_left = _best_sah_split(bin_counts, bin_lo, bin_hi, counts)
-
     has_split = np.isfinite(best_cost)
     split_pays = (TRAVERSAL_COST * area + INTERSECTION_COST * best_cost
                   < INTERSECTION_COST * counts * area)
-    leaf = (counts <= max_leaf_size) & ~(has_split & split_pays)
+    # Deeper than MAX_DEPTH a node must be a leaf; the median fallback guarantees it is small.
+    leaf = (counts <= max_leaf_size) & (~(has_split & split_pays) | (level > MAX_DEPTH))
 
     too_deep = level + _median_depth(np.maximum(n_left, counts - n_left), max_leaf_size) > MAX_DEPTH
     median = ~leaf & (~has_split | too_deep)
@@ -153,14 +167,32 @@ def _plan_level(lo, hi, counts, level, max_leaf_size, bins) -> _LevelPlan:
     return _LevelPlan(seg, starts, box_lo, box_hi, leaf, n_left, right)
 
 
+def _node_bins(counts, bins):
+    """Bins per node: the next power of two >= count, capped at `bins`.
+
+    A node of c primitives fills at most c bins, so small nodes get few bins; this keeps the
+    per-bin work proportional to the primitive count instead of bins * nodes. The partition
+    orders each level's nodes by this value so that equal-bin nodes form contiguous runs.
+    """
+    bit_length = np.frexp((np.maximum(counts, 2) - 1).astype(np.float64))[1]
+    return np.minimum(np.left_shift(1, bit_length), bins)
+
+
+def _runs(values):
+    """(first, last) index ranges of the runs of equal consecutive values."""
+    edges = np.flatnonzero(np.diff(values)) + 1
+    bounds = np.concatenate([[0], edges, [len(values)]])
+    return zip(bounds[:-1].tolist(), bounds[1:].tolist())
+
+
 def _bin_scale(extent, bins):
-    """Per-node factor mapping a centroid offset to a bin coordinate in [0, bins].
+    """Per-node factor mapping a centroid offset to a bin coordinate in [0, bins[node]].
 
     Zero (or denormal) extents get scale 0, which puts every centroid in bin 0: such a node has
     no binned split and falls back to the median split.
     """
     with np.errstate(divide="ignore", over="ignore"):
-        scale = np.float32(bins) / extent
+        scale = bins.astype(np.float32) / extent
     scale[~np.isfinite(scale)] = 0
     return scale
 
@@ -250,14 +282,20 @@ def _median_sides(right, frac, seg, counts, median, bins):
     right[ordered] = rank >= counts[node] // 2
 
 
-def _partition(plan, split, counts):
+def _partition(plan, split, counts, bins):
     """Stable partition of the primitives of split nodes into (left, right) child segments.
 
-    Returns the gather permutation for the next level's arrays and the next level's node sizes
-    (children in parent order, left before right). Primitives of leaves are dropped.
+    Children are listed in parent order, left before right, then stably reordered by their bin
+    count (see _node_bins). Returns the gather permutation for the next level's arrays, the
+    children's sizes and that reordering (indices into the parent-ordered child list).
+    Primitives of leaves are dropped.
     """
     n_left = plan.n_left[split]
-    child_counts = np.stack([n_left, counts[split] - n_left], axis=1).ravel()
+    natural_counts = np.stack([n_left, counts[split] - n_left], axis=1).ravel()
+    order = np.argsort(_node_bins(natural_counts, bins).astype(np.uint16), kind="stable")
+    position = np.empty_like(order)
+    position[order] = np.arange(order.size)
+    child_counts = natural_counts[order]
     child_starts = _exclusive_cumsum(child_counts)
 
     split_rank = np.cumsum(split) - 1
@@ -269,11 +307,11 @@ def _partition(plan, split, counts):
     node_start = plan.starts[seg]
     left_rank = lefts_before[kept] - lefts_before[node_start]
     rank = np.where(right, kept - node_start - left_rank, left_rank)
-    dest = child_starts[2 * split_rank[seg] + right] + rank
+    dest = child_starts[position[2 * split_rank[seg] + right]] + rank
 
     perm = np.empty(kept.size, np.int64)
     perm[dest] = kept
-    return perm, child_counts
+    return perm, child_counts, order
 
 
 def _exclusive_cumsum(x):
@@ -284,18 +322,28 @@ def _exclusive_cumsum(x):
 
 def _triangle_bounds(v0, v1, v2):
     """Per-triangle boxes as (3, N) float32, rounded outwards so they contain the float64 input."""
-    verts = np.stack([np.asarray(v, np.float64) for v in (v0, v1, v2)])
-    if verts.ndim != 3 or verts.shape[2] != 3:
+    v0, v1, v2 = (np.asarray(v, np.float64) for v in (v0, v1, v2))
+    if not (v0.ndim == 2 and v0.shape[1] == 3 and v0.shape == v1.shape == v2.shape):
         raise ValueError("v0, v1, v2 must be (N, 3) arrays of the same shape")
-    if not np.isfinite(verts).all():
+    lo64 = np.minimum(np.minimum(v0, v1), v2).T
+    hi64 = np.maximum(np.maximum(v0, v1), v2).T
+    if not (np.isfinite(lo64).all() and np.isfinite(hi64).all()):
         raise ValueError("triangle vertices must be finite")
-    lo64 = verts.min(axis=0).T
-    hi64 = verts.max(axis=0).T
-    lo = lo64.astype(np.float32)
-    hi = hi64.astype(np.float32)
-    lo = np.where(lo > lo64, np.nextafter(lo, np.float32(-np.inf)), lo)
-    hi = np.where(hi < hi64, np.nextafter(hi, np.float32(np.inf)), hi)
-    return np.ascontiguousarray(lo), np.ascontiguousarray(hi)
+    return _round_down(lo64), -_round_down(-hi64)
+
+
+def _round_down(x64):
+    """float32 conversion rounded towards -inf.
+
+    Steps one ulp down through the integer bits where rounding went up (faster than
+    np.nextafter). A positive float moves down by bits - 1, a negative one (sign bit set, so a
+    negative int32) by bits + 1; rounding never goes up to +0.0, so that NaN case cannot occur.
+    """
+    x = np.ascontiguousarray(x64, np.float32)
+    bits = x.view(np.int32)
+    step = np.where(bits < 0, np.int32(1), np.int32(-1))
+    bits += step * (x > x64)
+    return x
 
 
 _SLOTS = (("left_lo", "left_hi"), ("right_lo", "right_hi"))
@@ -305,7 +353,7 @@ def _empty_nodes(n):
     nodes = np.zeros(n, layout.BVH_NODE)
     for lo_name, hi_name in _SLOTS:
         nodes[lo_name][:, :3] = np.inf
-        nodes[hi_name][:, :3] = -np.inf
+        nodes[hi_name][:, :3] = np.inf
         nodes[lo_name].view(np.int32)[:, 3] = -1
         nodes[hi_name].view(np.int32)[:, 3] = 0
     return nodes
@@ -350,7 +398,7 @@ def ray_triangle_distance(origins, directions, v0, v1, v2, t_min=T_MIN):
         u = _dot(s, p) * inv
         v = _dot(d, q) * inv
         t = _dot(e2, q) * inv
-    hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+        hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
     return np.where(hit, t, np.inf)
 
 

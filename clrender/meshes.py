@@ -55,13 +55,13 @@ def _normalized(v):
     return v / np.where(length > 0, length, 1.0)
 
 
-def sphere(center=(0, 0, 0), radius=1.0, subdivisions=4):
-    """Icosphere whose shading normals are the exact sphere normals."""
+def sphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
+    """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets."""
     import trimesh
 
     unit = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     v = _normalized(np.asarray(unit.vertices, dtype=float))
-    return Mesh(v * radius + np.asarray(center, dtype=float), np.asarray(unit.faces), v)
+    return Mesh(v * radius + np.asarray(center, dtype=float), np.asarray(unit.faces), v if smooth else None)
 
 
 def rectangle():

@@ -42,7 +42,7 @@ class Renderer:
         self.queue = cl.CommandQueue(self.context)
         self.features = scene_features(scene)
         self.arrays = build_scene_arrays(scene)
-        self.kernel = build_program(self.context, self.features).render_pass
+        self.kernel = cl.Kernel(build_program(self.context, self.features), "render_pass")
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         a = self.arrays

@@ -273,7 +273,8 @@ def _read_shape(node, material_names, base_dir):
     elif kind == "sphere":
         mesh = meshes.sphere(node.vector("center", [0, 0, 0]),
                              node.number("radius", 1.0, low=0, low_open=True),
-                             node.number("subdivisions", 4, low=0, high=7, integer=True))
+                             node.number("subdivisions", 4, low=0, high=7, integer=True),
+                             smooth=node.boolean("smooth", True))
     elif kind == "rectangle":
         mesh = meshes.rectangle()
     else:

@@ -1,0 +1,135 @@
+"""Command line: render, info, devices.
+
+Exit codes: 0 success, 1 bad input or failed build, 130 interrupted (the partial image is saved).
+"""
+import argparse
+import sys
+from pathlib import Path
+
+from .errors import KernelBuildError, SceneError
+
+
+def main(argv=None):
+    parser = _parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.run(args)
+    except (SceneError, KernelBuildError, ValueError, RuntimeError, OSError) as e:
+        print(f"clrender: error: {e}", file=sys.stderr)
+        return 1
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="clrender", description="OpenCL path tracer")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    render = commands.add_parser("render", help="render a scene to an image")
+    render.add_argument("scene", type=Path)
+    render.add_argument("-o", "--output", type=Path, required=True,
+                        help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB)")
+    render.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
+    render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
+    render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
+    render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
+    render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
+    render.add_argument("--quiet", action="store_true", help="no progress bar")
+    render.set_defaults(run=_render)
+
+    info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
+    info.add_argument("scene", type=Path)
+    info.set_defaults(run=_info)
+
+    devices = commands.add_parser("devices", help="list OpenCL platforms and devices")
+    devices.set_defaults(run=_devices)
+    return parser
+
+
+def _positive_int(text):
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _non_negative_int(text):
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _render(args):
+    from tqdm import tqdm
+
+    from .image import LDR_SUFFIXES, save_image
+    from .render import Renderer, RenderInterrupted
+    from .scene import load_scene
+
+    suffix = args.output.suffix.lower()
+    if suffix != ".exr" and suffix not in LDR_SUFFIXES:
+        raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
+    scene = load_scene(args.scene)
+    renderer = Renderer(scene, args.device)
+    spp = args.spp or scene.render.spp
+    bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
+
+    def progress(done, total, seconds):
+        bar.update(done - bar.n)
+        width, height = scene.camera.resolution
+        bar.set_postfix_str(f"{done * width * height / max(seconds, 1e-9) / 1e6:.2f} M samples/s")
+
+    try:
+        result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress)
+        status = 0
+    except RenderInterrupted as interrupted:
+        result = interrupted.result
+        status = 130
+    bar.close()
+    save_image(result.image, args.output, exposure=args.exposure)
+    print(f"{args.output}: {result.samples} spp in {result.seconds:.2f} s, "
+          f"{result.samples_per_second / 1e6:.2f} M samples/s on {renderer.device.name.strip()}"
+          + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
+          + (" (interrupted: partial image saved)" if status else ""), file=sys.stderr)
+    return status
+
+
+def _info(args):
+    from .arrays import build_scene_arrays
+    from .features import describe, scene_features
+    from .scene import load_scene
+
+    scene = load_scene(args.scene)
+    arrays = build_scene_arrays(scene)
+    lo, hi = scene.bounds()
+    width, height = scene.camera.resolution
+    print(f"scene:      {args.scene}")
+    print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
+    print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
+    print(f"shapes:     {len(scene.shapes)}")
+    print(f"triangles:  {len(arrays.triangles)}"
+          + (f" ({arrays.degenerate_triangles} degenerate dropped)" if arrays.degenerate_triangles else ""))
+    print(f"bvh:        {len(arrays.nodes)} nodes, depth {arrays.bvh_depth}")
+    print(f"emitters:   {len(arrays.emitters)} ({len(scene.lights)} lights + emissive triangles)")
+    print(f"bounds:     min {_fmt(lo)}  max {_fmt(hi)}")
+    print(f"features:   {describe(scene_features(scene))}")
+    return 0
+
+
+def _fmt(v):
+    return "(" + ", ".join(f"{x:.4g}" for x in v) + ")"
+
+
+def _devices(args):
+    from .device import choose_device, list_devices
+
+    default = choose_device()
+    for index, platform, device in list_devices():
+        mark = "*" if device.int_ptr == default.int_ptr else " "
+        print(f"{mark} {index}: {device.name.strip()} [{platform.name.strip()}, "
+              f"{device.version.strip()}, {device.max_compute_units} compute units]")
+    print("(* = default; choose with --device INDEX|cpu|gpu|NAME or CLRENDER_DEVICE)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

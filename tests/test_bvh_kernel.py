@@ -1,0 +1,77 @@
+"""The kernel's BVH traversal finds exactly the hits of a brute-force numpy intersector."""
+import numpy as np
+import pyopencl as cl
+import pytest
+
+import clrender
+from clrender import layout
+from clrender.bvh import build_bvh, intersect_brute_force
+from conftest import build_test_kernels, camera
+
+
+def triangle_soup(rng, count, spread=4.0, size=0.6):
+    v0 = rng.uniform(-spread, spread, (count, 3))
+    return v0, v0 + rng.normal(0, size, (count, 3)), v0 + rng.normal(0, size, (count, 3))
+
+
+def random_rays(rng, count):
+    origins = rng.uniform(-8, 8, (count, 3))
+    targets = rng.uniform(-3, 3, (count, 3))
+    directions = targets - origins
+    return origins, directions / np.linalg.norm(directions, axis=1, keepdims=True)
+
+
+def trace_on_device(context, queue, v0, v1, v2, origins, directions):
+    tree = build_bvh(v0, v1, v2)
+    order = tree.prim_order
+    triangles = np.zeros(max(len(v0), 1), layout.TRIANGLE)
+    triangles["v0"][:len(v0), :3] = v0[order]
+    triangles["e1"][:len(v0), :3] = (v1 - v0)[order]
+    triangles["e2"][:len(v0), :3] = (v2 - v0)[order]
+    rays = [np.zeros((len(origins), 4), np.float32) for _ in range(2)]
+    rays[0][:, :3], rays[1][:, :3] = origins, directions
+    mf = cl.mem_flags
+    inputs = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+              for x in (tree.nodes, triangles, *rays)]
+    t = np.empty(len(origins), np.float32)
+    slot = np.empty(len(origins), np.int32)
+    any_hit = np.empty(len(origins), np.int32)
+    outputs = [cl.Buffer(context, mf.WRITE_ONLY, x.nbytes) for x in (t, slot, any_hit)]
+    cl.Kernel(build_test_kernels(context), "trace_rays")(queue, (len(origins),), None, *inputs, *outputs)
+    for host, buffer in zip((t, slot, any_hit), outputs):
+        cl.enqueue_copy(queue, host, buffer)
+    triangle = np.append(order, -1)[slot]  # back to input indices; slot -1 (miss) stays -1
+    return t, triangle, any_hit.astype(bool)
+
+
+@pytest.mark.parametrize("count,seed", [(0, 1), (1, 2), (3, 3), (100, 4), (5000, 5)])
+def test_kernel_hits_equal_brute_force(context, queue, count, seed):
+    rng = np.random.default_rng(seed)
+    v0, v1, v2 = triangle_soup(rng, count)
+    origins, directions = random_rays(rng, 4000)
+    t, triangle, any_hit = trace_on_device(context, queue, v0, v1, v2, origins, directions)
+    if count:
+        ref_t, ref_triangle = intersect_brute_force(v0, v1, v2, origins, directions)
+    else:
+        ref_t, ref_triangle = np.full(len(origins), np.inf), np.full(len(origins), -1)
+    hit = ref_triangle >= 0
+    assert np.array_equal(triangle >= 0, hit)
+    assert np.array_equal(any_hit, hit)
+    np.testing.assert_allclose(t[hit], ref_t[hit], rtol=1e-4)
+    # Ties (two triangles at the same distance within float32) may resolve either way.
+    differs = triangle != ref_triangle
+    assert np.all(np.abs(t[differs] - ref_t[differs]) <= 1e-4 * ref_t[differs])
+    if count >= 100:
+        assert hit.mean() > 0.2  # the test rays do hit things
+
+
+def test_tiny_and_empty_scenes_render(device):
+    """Scenes whose BVH is a single leaf, or empty, must not read missing nodes or hang."""
+    materials = [{"name": "m", "type": "diffuse", "albedo": [0.5, 0.5, 0.5]}]
+    lights = [{"type": "environment", "radiance": 1.0}]
+    for shapes in ([], [{"type": "rectangle", "material": "m"}]):
+        scene = clrender.load_scene_dict({"camera": camera(resolution=(8, 8)), "materials": materials,
+                                          "shapes": shapes, "lights": lights})
+        result = clrender.Renderer(scene, device).render(spp=2)
+        assert result.discarded_samples == 0 and np.all(np.isfinite(result.image))
+        assert result.image.max() == 1.0

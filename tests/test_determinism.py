@@ -1,0 +1,40 @@
+"""Counter-based RNG: the image depends only on (scene, seed, spp), not on how it is launched."""
+import numpy as np
+
+import clrender
+
+SCENE = "scenes/cornell_box.json"
+
+
+def small_cornell_box():
+    scene = clrender.load_scene(SCENE)
+    scene.camera.resolution = (40, 30)
+    return scene
+
+
+def test_split_into_launches_gives_identical_image(device):
+    renderer = clrender.Renderer(small_cornell_box(), device)
+    whole = renderer.render(spp=12, seed=5, samples_per_pass=12)
+    ones = renderer.render(spp=12, seed=5, samples_per_pass=1)
+    uneven = renderer.render(spp=12, seed=5, samples_per_pass=5)
+    assert whole.samples == ones.samples == uneven.samples == 12
+    assert np.array_equal(whole.image, ones.image)
+    assert np.array_equal(whole.image, uneven.image)
+
+
+def test_work_group_size_does_not_change_the_image(device):
+    scene = small_cornell_box()
+    default = clrender.Renderer(scene, device).render(spp=4, seed=2).image
+    for local_size in [(8, 8), (16, 2), (1, 1)]:
+        image = clrender.Renderer(scene, device, local_size=local_size).render(spp=4, seed=2).image
+        assert np.array_equal(default, image), local_size
+
+
+def test_seed_changes_the_noise_but_not_the_expectation(device):
+    renderer = clrender.Renderer(small_cornell_box(), device)
+    a = renderer.render(spp=8, seed=1).image
+    b = renderer.render(spp=8, seed=2).image
+    assert not np.array_equal(a, b)
+    # Means over the image agree within the noise of two independent renders.
+    difference = (a - b).ravel()
+    assert abs(difference.mean()) < 5 * difference.std() / np.sqrt(difference.size)

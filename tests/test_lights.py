@@ -1,0 +1,118 @@
+"""Lights with closed-form answers: environment importance sampling, directional and point lights."""
+import numpy as np
+import pyopencl as cl
+import pytest
+
+import clrender
+from clrender.arrays import build_scene_arrays
+from conftest import build_test_kernels, camera, z_bound
+
+ALBEDO = 0.6
+
+
+def floor_scene(lights, resolution=(24, 24), fov=20):
+    """A small upward-facing diffuse square filling the view of a camera looking straight down."""
+    return {
+        "camera": camera(position=(0, 2, 0), look_at=(0, 0, 0), up=(0, 0, -1), fov=fov, resolution=resolution),
+        "materials": [{"name": "floor", "type": "diffuse", "albedo": [ALBEDO] * 3}],
+        "shapes": [{"type": "rectangle", "material": "floor", "transform": {"rotate": [-90, 0, 0]}}],
+        "lights": lights,
+        "render": {"max_depth": 4},
+    }
+
+
+def environment_image(height=16, width=32):
+    """A smooth sky with a small very bright patch (a 'sun'), as a lat-long image."""
+    v = (np.arange(height) + 0.5) / height
+    image = np.zeros((height, width, 3), np.float32)
+    image[...] = (0.2 + 0.8 * np.cos(v * np.pi).clip(0))[:, None, None] * np.array([0.6, 0.8, 1.0])
+    image[4, 10] = [400.0, 300.0, 200.0]
+    return image
+
+
+def upper_hemisphere_irradiance(image):
+    """Integral of L(w) cos(theta) over y > 0 for a piecewise-constant lat-long image, exactly:
+    a texel row [theta0, theta1] contributes delta_phi * (sin^2 theta1 - sin^2 theta0) / 2."""
+    height, width, _ = image.shape
+    theta = np.linspace(0, np.pi, height + 1)
+    upper = theta[1:] <= np.pi / 2 + 1e-12
+    weight = (np.sin(theta[1:]) ** 2 - np.sin(theta[:-1]) ** 2) / 2 * (2 * np.pi / width)
+    return np.einsum("hwc,h->c", image[upper], weight[upper])
+
+
+def test_environment_image_lighting_matches_the_integral(device, tmp_path):
+    image = environment_image()
+    clrender.save_image(image, tmp_path / "sky.exr")
+    scene = clrender.load_scene_dict(floor_scene([{"type": "environment", "file": "sky.exr"}]),
+                                     base_dir=tmp_path)
+    result = clrender.Renderer(scene, device).render(spp=64, seed=4)
+    assert result.discarded_samples == 0
+    expected = ALBEDO / np.pi * upper_hemisphere_irradiance(image)
+    for channel in range(3):
+        assert z_bound(result.image[..., channel], expected[channel]) < 5.0
+
+
+def test_environment_sampling_follows_its_pdf(context, queue, tmp_path):
+    # Chi-square of sampled texels against the tabulated probabilities, and the returned
+    # solid-angle pdf against the table at every sample.
+    image = environment_image()
+    clrender.save_image(image, tmp_path / "sky.exr")
+    scene = clrender.load_scene_dict(floor_scene([{"type": "environment", "file": "sky.exr"}]),
+                                     base_dir=tmp_path)
+    arrays = build_scene_arrays(scene)
+    renderer_params = clrender.Renderer.params.__get__(type("R", (), {"scene": scene, "arrays": arrays})())
+    params = renderer_params(0, 1, 1, 1, 0)
+    program = build_test_kernels(context, ENVIRONMENT=2)
+    count = 200_000
+    mf = cl.mem_flags
+    buffers = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+               for x in (params, arrays.env_texels, arrays.env_cdf)]
+    out = np.empty((count, 4), np.float32)
+    radiance = np.empty((count, 4), np.float32)
+    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+    radiance_buffer = cl.Buffer(context, mf.WRITE_ONLY, radiance.nbytes)
+    program.sample_environment(queue, (count,), None, *buffers, np.uint32(9), out_buffer, radiance_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    cl.enqueue_copy(queue, radiance, radiance_buffer)
+
+    height, width, _ = image.shape
+    d = out[:, :3].astype(float)
+    u = (np.arctan2(d[:, 0], -d[:, 2]) / (2 * np.pi) + 0.5) * width
+    v = np.arccos(np.clip(d[:, 1], -1, 1)) / np.pi * height
+    texel = np.clip(v.astype(int), 0, height - 1) * width + np.clip(u.astype(int), 0, width - 1)
+    sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
+    weights = (image @ np.array([0.2126, 0.7152, 0.0722]) * sin_theta[:, None]).ravel()
+    pmf = weights / weights.sum()
+    observed = np.bincount(texel, minlength=height * width)
+    expected = pmf * count
+    big = expected > 20
+    chi2 = np.sum((observed[big] - expected[big]) ** 2 / expected[big])
+    dof = big.sum() - 1
+    assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)  # chi-square mean dof, sd sqrt(2 dof)
+    # pdf_w * (2 pi^2 sin theta) is the (u, v) density, which equals pmf * texel count.
+    pdf_uv = out[:, 3] * 2 * np.pi ** 2 * np.sqrt(np.maximum(0, 1 - d[:, 1] ** 2))
+    np.testing.assert_allclose(pdf_uv, pmf[texel] * height * width, rtol=2e-3)
+    np.testing.assert_allclose(radiance[:, :3], image.reshape(-1, 3)[texel], rtol=1e-6)
+
+
+def test_directional_light_gives_exact_cosine_irradiance(device):
+    direction = np.array([0.3, -1.0, 0.2])
+    scene = clrender.load_scene_dict(floor_scene([{"type": "directional", "direction": direction.tolist(),
+                                                   "irradiance": [2.0, 3.0, 4.0]}]))
+    result = clrender.Renderer(scene, device).render(spp=4, seed=1)
+    cosine = -direction[1] / np.linalg.norm(direction)
+    expected = ALBEDO / np.pi * np.array([2.0, 3.0, 4.0]) * cosine
+    # No noise: the light is a delta and no other light exists.
+    np.testing.assert_allclose(result.image, np.broadcast_to(expected, result.image.shape), rtol=1e-5)
+
+
+def test_point_light_inverse_square(device):
+    intensity, height = 5.0, 0.75
+    scene = clrender.load_scene_dict(floor_scene([{"type": "point", "position": [0, height, 0],
+                                                   "intensity": intensity}], resolution=(33, 33), fov=10))
+    result = clrender.Renderer(scene, device).render(spp=4, seed=1)
+    centre = result.image[16, 16]
+    expected = ALBEDO / np.pi * intensity / height ** 2
+    # Within the centre pixel the distance to the light varies by < 1e-4 relative.
+    np.testing.assert_allclose(centre, expected, rtol=2e-4)
+    assert result.image[0, 0, 0] < centre[0]

@@ -1,0 +1,138 @@
+"""Scene loading: valid scenes load, invalid ones fail with errors naming the place."""
+import json
+
+import numpy as np
+import pytest
+
+import clrender
+from clrender.arrays import build_scene_arrays
+from clrender.features import scene_features
+from conftest import camera
+
+
+def base_scene(**overrides):
+    scene = {
+        "camera": camera(),
+        "materials": [{"name": "white", "type": "diffuse", "albedo": [0.5, 0.5, 0.5]},
+                      {"name": "lamp", "type": "emissive", "radiance": 4.0}],
+        "shapes": [{"type": "box", "material": "white"},
+                   {"type": "rectangle", "material": "lamp",
+                    "transform": {"translate": [0, 3, 0], "rotate": [90, 0, 0]}}],
+    }
+    scene.update(overrides)
+    return scene
+
+
+def error_of(data, tmp_path=None):
+    with pytest.raises(clrender.SceneError) as error:
+        clrender.load_scene_dict(data, base_dir=tmp_path or ".")
+    return str(error.value)
+
+
+def test_example_scenes_load():
+    scene = clrender.load_scene("scenes/cornell_box.json")
+    assert scene.camera.resolution == (256, 256)
+    assert [m.name for m in scene.materials] == ["white", "red", "green", "light"]
+    arrays = build_scene_arrays(scene)
+    assert len(arrays.triangles) == 36 and len(arrays.emitters) == 2
+
+
+@pytest.mark.parametrize("patch,where,message", [
+    (lambda s: s["materials"][0].update(type="plastic"), "materials[0].type", "valid: diffuse, emissive"),
+    (lambda s: s["materials"][0].update(albedo=[0.5, -1, 0.5]), "materials[0].albedo", "non-negative"),
+    (lambda s: s["materials"][0].update(albedo=[0.5, 0.5]), "materials[0].albedo", "list of 3 numbers"),
+    (lambda s: s["materials"][0].update(albedo=[2, 0, 0]), "materials[0].albedo", "<= 1"),
+    (lambda s: s["materials"][1].update(name="white"), "materials[1].name", "duplicate"),
+    (lambda s: s["materials"][0].update(colour=[1, 1, 1]), "materials[0].colour", "unknown field"),
+    (lambda s: s["shapes"][1].update(material="wite"), "shapes[1].material", "unknown material 'wite'"),
+    (lambda s: s["shapes"][0].update(type="cone"), "shapes[0].type", "valid: mesh, sphere, rectangle, box"),
+    (lambda s: s["shapes"].append({"type": "sphere", "material": "white", "radius": 0}),
+     "shapes[2].radius", "must be > 0"),
+    (lambda s: s["shapes"][0].update(transform={"scale": 0}), "shapes[0].transform", "singular"),
+    (lambda s: s["camera"].update(fov=180), "camera.fov", "<= 179"),
+    (lambda s: s["camera"].update(resolution=[0, 10]), "camera.resolution", "integers"),
+    (lambda s: s["camera"].update(look_at=[0, 0, 5]), "camera.look_at", "must differ"),
+    (lambda s: s.update(render={"spp": -1}), "render.spp", ">= 1"),
+    (lambda s: s.update(render={"max_depth": 2.5}), "render.max_depth", "integer"),
+    (lambda s: s.update(lights=[{"type": "spot"}]), "lights[0].type", "valid: environment, point, directional"),
+    (lambda s: s.update(lights=[{"type": "point", "position": [0, 1, 0], "intensity": -2}]),
+     "lights[0].intensity", "non-negative"),
+    (lambda s: s.update(lights=[{"type": "environment"}, {"type": "environment"}]), "lights", "at most one"),
+    (lambda s: s.pop("camera"), "camera", "is required"),
+])
+def test_invalid_fields_are_reported_with_their_place(patch, where, message):
+    data = base_scene()
+    patch(data)
+    text = error_of(data)
+    assert text.startswith(where + ":"), text
+    assert message in text, text
+
+
+def test_missing_mesh_file_names_the_path_tried(tmp_path):
+    data = base_scene(shapes=[{"type": "mesh", "file": "nowhere/bunny.obj", "material": "white"}])
+    text = error_of(data, tmp_path)
+    assert text.startswith("shapes[0].file: file not found")
+    assert str(tmp_path / "nowhere" / "bunny.obj") in text
+
+
+def test_malformed_mesh_file_is_reported(tmp_path):
+    (tmp_path / "bad.obj").write_text("this is not an obj file\n")
+    text = error_of(base_scene(shapes=[{"type": "mesh", "file": "bad.obj", "material": "white"}]), tmp_path)
+    assert text.startswith("shapes[0].file:")
+
+
+def test_invalid_json_reports_line_and_column(tmp_path):
+    path = tmp_path / "scene.json"
+    path.write_text('{\n  "camera": {,\n}')
+    with pytest.raises(clrender.SceneError, match=r"line 2 column"):
+        clrender.load_scene(path)
+
+
+def test_mesh_files_load_through_trimesh(tmp_path):
+    import trimesh
+
+    trimesh.creation.box(extents=(2, 2, 2)).export(tmp_path / "cube.ply")
+    trimesh.creation.icosphere(subdivisions=1).export(tmp_path / "ball.obj")
+    trimesh.creation.box().export(tmp_path / "part.stl")
+    trimesh.creation.box().export(tmp_path / "part.glb")
+    shapes = [{"type": "mesh", "file": name, "material": "white", "transform": {"translate": [3 * i, 0, 0]}}
+              for i, name in enumerate(["cube.ply", "ball.obj", "part.stl", "part.glb"])]
+    scene = clrender.load_scene_dict(base_scene(shapes=shapes), base_dir=tmp_path)
+    assert [len(s.mesh.faces) for s in scene.shapes] == [12, 80, 12, 12]
+    lo, hi = scene.bounds()
+    assert np.allclose(lo[0], -1) and hi[0] > 9
+
+
+def test_transform_moves_and_mirrors_keep_normals_outward():
+    data = base_scene(shapes=[{"type": "box", "material": "white",
+                               "transform": {"scale": [-1, 2, 1], "translate": [5, 0, 0]}}])
+    mesh = clrender.load_scene_dict(data).shapes[0].mesh
+    corners = mesh.vertices[mesh.faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    outward = corners.mean(axis=1) - mesh.vertices.mean(axis=0)
+    assert np.all(np.sum(normals * outward, axis=1) > 0)
+    assert np.allclose(mesh.vertices.mean(axis=0), [5, 0, 0])
+
+
+def test_features_follow_what_the_scene_contains():
+    assert scene_features(clrender.load_scene("scenes/cornell_box.json")) == {"ENVIRONMENT": 0, "DELTA_LIGHTS": 0}
+    with_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1}]))
+    assert scene_features(with_env)["ENVIRONMENT"] == 1
+    with_sun = clrender.load_scene_dict(base_scene(lights=[{"type": "directional", "direction": [0, -1, 0],
+                                                           "irradiance": 3}]))
+    assert scene_features(with_sun) == {"ENVIRONMENT": 0, "DELTA_LIGHTS": 1}
+
+
+def test_degenerate_triangles_are_dropped_and_counted(tmp_path):
+    path = tmp_path / "degenerate.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 1 1\n")
+    scene = clrender.load_scene_dict(base_scene(shapes=[{"type": "mesh", "file": "degenerate.obj",
+                                                         "material": "white"}]), base_dir=tmp_path)
+    arrays = build_scene_arrays(scene)
+    assert len(arrays.triangles) == 1 and arrays.degenerate_triangles == 2
+
+
+def test_scene_file_round_trip(tmp_path):
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(base_scene()))
+    assert clrender.load_scene(path).path == path
