@@ -21,7 +21,9 @@ _programs = {}  # in-memory cache: (context id, device, source hash, options) ->
 
 
 def kernel_dir():
-    return Path(str(resources.files("clrender.kernels")))
+    """kernels/ beside the package in a source checkout, else the installed package data."""
+    checkout = Path(__file__).resolve().parent.parent / "kernels"
+    return checkout if (checkout / "integrator.cl").is_file() else Path(str(resources.files("clrender.kernels")))
 
 
 def list_devices():
