@@ -12,9 +12,10 @@ typedef struct {
 
 // Slab test; returns the entry distance, or INFINITY when the box is missed. inv_dir may hold
 // infinities for axis-parallel rays; 0 * inf = NaN is avoided by fmin/fmax ignoring NaN.
-float intersect_box(float3 lo, float3 hi, float3 origin, float3 inv_dir, float t_max) {
-    float3 t0 = (lo - origin) * inv_dir;
-    float3 t1 = (hi - origin) * inv_dir;
+float intersect_box(float3 lo, float3 hi, float3 origin_scaled, float3 inv_dir, float t_max) {
+    // (lo - origin) * inv_dir as one fma per axis, with origin_scaled = origin * inv_dir.
+    float3 t0 = fma(lo, inv_dir, -origin_scaled);
+    float3 t1 = fma(hi, inv_dir, -origin_scaled);
     float3 tn = fmin(t0, t1), tf = fmax(t0, t1);
     float t_enter = fmax(fmax(tn.x, tn.y), fmax(tn.z, 0.0f));
     float t_exit = fmin(fmin(tf.x, tf.y), fmin(tf.z, t_max));
@@ -48,14 +49,16 @@ bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, 
 bool traverse_bvh(__global const BvhNode* nodes, __global const Triangle* triangles,
                   float3 origin, float3 dir, bool any_hit, Hit* hit) {
     float3 inv_dir = 1.0f / dir;
+    float3 origin_scaled = origin * inv_dir;
     int stack[BVH_STACK_SIZE];
+    float stack_t[BVH_STACK_SIZE];  // entry distances: a popped node farther than the hit is skipped
     int stack_size = 0;
     int node = 0;
     bool found = false;
     for (;;) {
         __global const BvhNode* n = nodes + node;
-        float t_left = intersect_box(n->left_lo.xyz, n->left_hi.xyz, origin, inv_dir, hit->t);
-        float t_right = intersect_box(n->right_lo.xyz, n->right_hi.xyz, origin, inv_dir, hit->t);
+        float t_left = intersect_box(n->left_lo.xyz, n->left_hi.xyz, origin_scaled, inv_dir, hit->t);
+        float t_right = intersect_box(n->right_lo.xyz, n->right_hi.xyz, origin_scaled, inv_dir, hit->t);
         int left_count = as_int(n->left_hi.w), right_count = as_int(n->right_hi.w);
         int left_index = as_int(n->left_lo.w), right_index = as_int(n->right_lo.w);
         // Leaf children are intersected at once; only interior children go on the stack.
@@ -74,6 +77,7 @@ bool traverse_bvh(__global const BvhNode* nodes, __global const Triangle* triang
         bool go_left = t_left < hit->t, go_right = t_right < hit->t;
         if (go_left && go_right) {
             bool left_first = t_left <= t_right;
+            stack_t[stack_size] = left_first ? t_right : t_left;
             stack[stack_size++] = left_first ? right_index : left_index;
             node = left_first ? left_index : right_index;
         } else if (go_left) {
@@ -81,11 +85,13 @@ bool traverse_bvh(__global const BvhNode* nodes, __global const Triangle* triang
         } else if (go_right) {
             node = right_index;
         } else {
-            if (stack_size == 0) break;
-            node = stack[--stack_size];
+            do {
+                if (stack_size == 0) return found;
+                --stack_size;
+            } while (stack_t[stack_size] >= hit->t);
+            node = stack[stack_size];
         }
     }
-    return found;
 }
 
 #endif
