@@ -1,0 +1,63 @@
+"""Kernel build times for a scene: cold (empty caches: compile from source, then the first launch,
+where PoCL generates the machine code) and warm (a new process would hit the caches: program
+binary from clrender's disk cache, kernel from PoCL's cache). Each measured in a fresh process.
+
+    python tools/bench_build.py [scenes/cornell_box.json] [--runs 3]
+"""
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PROBE = """
+import sys, time
+sys.path.insert(0, {root!r})
+import pyopencl as cl
+import clrender
+from clrender.device import build_program
+from clrender.features import scene_features
+scene = clrender.load_scene({scene!r})
+context = cl.Context([clrender.choose_device({device!r})])
+queue = cl.CommandQueue(context)
+start = time.perf_counter()
+program = build_program(context, scene_features(scene))
+built = time.perf_counter()
+renderer = clrender.Renderer(scene, context.devices[0])
+renderer.render(spp=1, max_depth=1)  # first launch: PoCL compiles the kernel for the device here
+launched = time.perf_counter()
+print(built - start, launched - start)
+"""
+
+
+def probe(scene, device, cache):
+    env = dict(os.environ, CLRENDER_CACHE_DIR=cache, POCL_CACHE_DIR=cache + "/pocl")
+    code = PROBE.format(root=str(ROOT), scene=str(scene), device=device)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    build, first_launch = map(float, out.stdout.split())
+    return build, first_launch
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("scene", nargs="?", default=str(ROOT / "scenes" / "cornell_box.json"))
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--device", default="cpu")
+    args = parser.parse_args()
+    cold, warm = [], []
+    for _ in range(args.runs):
+        with tempfile.TemporaryDirectory() as cache:
+            cold.append(probe(args.scene, args.device, cache))
+            warm.append(probe(args.scene, args.device, cache))
+    for label, runs in (("cold", cold), ("warm", warm)):
+        build = statistics.median(r[0] for r in runs)
+        total = statistics.median(r[1] for r in runs)
+        print(f"{label}: program build {build:.3f} s, build + first launch {total:.3f} s "
+              f"(median of {args.runs})")
+
+
+if __name__ == "__main__":
+    main()
