@@ -7,6 +7,7 @@
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
+#include "media/phase.h"
 
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
@@ -57,7 +58,7 @@ __kernel void trace_rays(__global const BvhNode* nodes, __global const Triangle*
 }
 
 // ----- sampling routines: directions and their pdfs, for chi-square tests -------------------
-__kernel void sample_directions(int routine, uint seed, __global float4* out) {
+__kernel void sample_directions(int routine, float g, uint seed, __global float4* out) {
     int i = get_global_id(0);
     Rng rng = rng_for_sample((uint)i, 0u, seed);
     float2 u = rng_float2(&rng);
@@ -66,9 +67,11 @@ __kernel void sample_directions(int routine, uint seed, __global float4* out) {
     if (routine == 0) {
         d = sample_cosine_hemisphere(u);
         pdf = sample_cosine_hemisphere_pdf_w(d.z);
-    } else {
+    } else if (routine == 1) {
         d = sample_uniform_sphere(u);
         pdf = UNIFORM_SPHERE_PDF_W;
+    } else {
+        d = sample_phase_hg((float3)(0.0f, 0.0f, 1.0f), g, u, &pdf);
     }
     out[i] = (float4)(d, pdf);
 }
