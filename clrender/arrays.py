@@ -4,7 +4,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import layout
-from .bvh import build_bvh
+from .bvh import build_bvh, intersect_brute_force
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -16,6 +16,8 @@ class SceneArrays:
     shading: np.ndarray
     info: np.ndarray
     materials: np.ndarray
+    media: np.ndarray
+    camera_medium: int          # medium index at the camera, -1 for none
     emitters: np.ndarray
     emitter_cdf: np.ndarray
     env_texels: np.ndarray      # (H*W, 4) float32; one dummy texel without an image
@@ -81,9 +83,13 @@ def build_scene_arrays(scene):
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
 
+    camera_medium = scene.camera_medium
+    if camera_medium is None:
+        camera_medium = _medium_at_camera(scene, v0, v1, v2, info)
     return SceneArrays(
         nodes=bvh.nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=_material_array(scene.materials),
+        media=_medium_array(scene.media), camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
@@ -92,7 +98,7 @@ def build_scene_arrays(scene):
 
 def _gather_triangles(scene):
     """Concatenate all shapes: corners, per-vertex normals, and the TriangleInfo columns
-    (material, object, emitter = -1, medium pair = -1) per triangle."""
+    (material, object, emitter = -1, packed media) per triangle."""
     v0, v1, v2, normals, info = [], [], [], [], []
     for object_id, shape in enumerate(scene.shapes):
         mesh = shape.mesh
@@ -105,7 +111,8 @@ def _gather_triangles(scene):
         else:
             flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
             normals.append(np.repeat(flat[:, None, :], 3, axis=1))
-        info.append(np.tile([shape.material, object_id, -1, -1], (len(mesh.faces), 1)))
+        media = layout.pack_media(shape.interior, shape.exterior)
+        info.append(np.tile([shape.material, object_id, -1, media], (len(mesh.faces), 1)))
     if not v0:
         empty = np.zeros((0, 3))
         return empty, empty, empty, np.zeros((0, 3, 3)), np.zeros((0, 4), np.int32)
@@ -150,10 +157,35 @@ def _info_array(info):
 def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
-        out[i]["kind"][0] = layout.MATERIAL_KINDS["diffuse"]
+        out[i]["kind"][0] = layout.MATERIAL_KINDS["interface" if m.type == "interface" else "diffuse"]
         out[i]["color"][:3] = m.albedo
         out[i]["emission"][:3] = m.emission
     return out
+
+
+def _medium_array(media):
+    out = np.zeros(max(len(media), 1), layout.MEDIUM)
+    for i, medium in enumerate(media):
+        out[i]["sigma_a"][:3] = medium.sigma_a
+        out[i]["sigma_s"][:3] = medium.sigma_s
+        out[i]["params"][0] = medium.g
+    return out
+
+
+def _medium_at_camera(scene, v0, v1, v2, info):
+    """The medium around the camera: the first surface along the view direction tells whether
+    the camera is behind its front face (inside the interior medium) or in front of it."""
+    if len(v0) == 0:
+        return scene.medium
+    direction = scene.camera.look_at - scene.camera.position
+    direction = direction / np.linalg.norm(direction)
+    _, hit = intersect_brute_force(v0, v1, v2, scene.camera.position[None], direction[None])
+    if hit[0] < 0:
+        return scene.medium
+    normal = np.cross(v1[hit[0]] - v0[hit[0]], v2[hit[0]] - v0[hit[0]])
+    packed = int(info[hit[0], 3])
+    interior, exterior = (packed & 0xFFFF) - 1, (packed >> 16) - 1
+    return interior if np.dot(normal, direction) > 0 else exterior
 
 
 def _cdf(weights):

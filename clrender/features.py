@@ -11,6 +11,7 @@ from .layout import ENVIRONMENT_MODES
 FEATURE_VALUES = {
     "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
     "DELTA_LIGHTS": (0, 1),
+    "MEDIA": (0, 1),
 }
 
 
@@ -24,7 +25,14 @@ def scene_features(scene):
     return {
         "ENVIRONMENT": env_mode,
         "DELTA_LIGHTS": int(any(light.type in ("point", "directional") for light in scene.lights)),
+        "MEDIA": int(_uses_media(scene)),
     }
+
+
+def _uses_media(scene):
+    """Media matter when some region holds one, or some surface is a pure medium boundary."""
+    return scene.medium >= 0 or any(s.interior >= 0 or s.exterior >= 0 for s in scene.shapes) or any(
+        m.type == "interface" for m in scene.materials)
 
 
 def all_feature_combinations():

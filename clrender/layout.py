@@ -24,7 +24,7 @@ TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
 
 # Per-triangle attributes: shading normals at the three vertices (w unused) and integer info.
 TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
-# info: x material index, y object id, z emitter index (-1 none), w medium pair (reserved, -1)
+# info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))
 
 # kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
@@ -33,6 +33,10 @@ MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4)
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
 
+# Homogeneous medium: coefficients per RGB channel (already multiplied by the scale), in 1/length.
+# params: x Henyey-Greenstein g.
+MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4))
+
 CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
 
 RENDER_PARAMS = np.dtype([
@@ -40,6 +44,7 @@ RENDER_PARAMS = np.dtype([
     ("frame", I4),         # width, height, first sample, samples in this pass
     ("config", I4),        # max depth, roulette depth, seed, emitter count
     ("environment", I4),   # emitter index, image width, image height
+    ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("scene_sphere", F4),  # centre, radius
 ])
 
@@ -50,15 +55,21 @@ STRUCTS = {
     "TriangleInfo": TRIANGLE_INFO,
     "Material": MATERIAL,
     "Emitter": EMITTER,
+    "Medium": MEDIUM,
     "Camera": CAMERA,
     "RenderParams": RENDER_PARAMS,
 }
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0}
+MATERIAL_KINDS = {"diffuse": 0, "interface": 4}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
+
+
+def pack_media(interior, exterior):
+    """TriangleInfo.w: the media inside (behind the front face) and outside, each + 1 (0 = none)."""
+    return (interior + 1) | ((exterior + 1) << 16)
 
 
 def c_constants():

@@ -24,6 +24,29 @@ class RenderResult:
         return self.samples * w * h / self.seconds if self.seconds > 0 else 0.0
 
 
+def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True):
+    """The RenderParams struct of one launch."""
+    camera = scene.camera
+    width, height = camera.resolution
+    forward = camera.look_at - camera.position
+    forward = forward / np.linalg.norm(forward)
+    right = np.cross(forward, camera.up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    tan_half = np.tan(np.radians(camera.fov) / 2)
+    p = np.zeros(1, layout.RENDER_PARAMS)
+    p["camera"]["origin"][0, :3] = camera.position
+    p["camera"]["forward"][0, :3] = forward
+    p["camera"]["right"][0, :3] = right * tan_half * width / height
+    p["camera"]["up"][0, :3] = up * tan_half
+    p["frame"] = (width, height, first_sample, samples)
+    p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
+    p["environment"] = (arrays.env_index, *arrays.env_size, 0)
+    p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
+    p["scene_sphere"] = arrays.scene_sphere
+    return p
+
+
 class RenderInterrupted(KeyboardInterrupt):
     """Ctrl-C during a render; `result` holds the image of the samples completed so far."""
 
@@ -35,7 +58,7 @@ class RenderInterrupted(KeyboardInterrupt):
 class Renderer:
     """A scene uploaded to one device with its specialised kernel, ready to render many times."""
 
-    def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25):
+    def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True):
         self.scene = scene
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
         self.context = cl.Context([self.device])
@@ -45,35 +68,16 @@ class Renderer:
         self.kernel = cl.Kernel(build_program(self.context, self.features), "render_pass")
         self.local_size = local_size
         self.pass_seconds = pass_seconds
+        self.spectral_mis = spectral_mis
         a = self.arrays
         self._buffers = [self._upload(x) for x in (
-            a.nodes, a.triangles, a.shading, a.info, a.materials, a.emitters, a.emitter_cdf,
-            a.env_texels, a.env_cdf)]
+            a.nodes, a.triangles, a.shading, a.info, a.materials, a.media, a.emitters,
+            a.emitter_cdf, a.env_texels, a.env_cdf)]
 
     def _upload(self, array):
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         data = array if array.size else np.zeros(1, array.dtype)
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
-
-    def params(self, first_sample, samples, max_depth, rr_depth, seed):
-        camera = self.scene.camera
-        width, height = camera.resolution
-        forward = camera.look_at - camera.position
-        forward /= np.linalg.norm(forward)
-        right = np.cross(forward, camera.up)
-        right /= np.linalg.norm(right)
-        up = np.cross(right, forward)
-        tan_half = np.tan(np.radians(camera.fov) / 2)
-        p = np.zeros(1, layout.RENDER_PARAMS)
-        p["camera"]["origin"][0, :3] = camera.position
-        p["camera"]["forward"][0, :3] = forward
-        p["camera"]["right"][0, :3] = right * tan_half * width / height
-        p["camera"]["up"][0, :3] = up * tan_half
-        p["frame"] = (width, height, first_sample, samples)
-        p["config"] = (max_depth, rr_depth, seed, len(self.arrays.emitters))
-        p["environment"] = (self.arrays.env_index, *self.arrays.env_size, 0)
-        p["scene_sphere"] = self.arrays.scene_sphere
-        return p
 
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
                samples_per_pass=None):
@@ -98,8 +102,9 @@ class Renderer:
         try:
             while done < spp:
                 count = min(per_pass, spp - done)
-                cl.enqueue_copy(self.queue, params_buffer,
-                                self.params(done, count, max_depth, rr_depth, seed))
+                params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
+                                       seed, self.spectral_mis)
+                cl.enqueue_copy(self.queue, params_buffer, params)
                 start = time.perf_counter()
                 self.kernel(self.queue, global_size, self.local_size, params_buffer,
                             *self._buffers, accum_buffer, discarded_buffer)

@@ -12,7 +12,7 @@ import numpy as np
 from . import meshes
 from .errors import SceneError
 
-MATERIAL_TYPES = ("diffuse", "emissive")
+MATERIAL_TYPES = ("diffuse", "emissive", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
 LIGHT_TYPES = ("environment", "point", "directional")
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
@@ -40,6 +40,21 @@ class Shape:
     name: str
     material: int              # index into Scene.materials
     mesh: meshes.Mesh
+    interior: int = -1         # medium behind the front faces (index into Scene.media; -1 none)
+    exterior: int = -1         # medium in front of the front faces
+
+
+@dataclass
+class Medium:
+    """Homogeneous participating medium; coefficients per RGB channel, scale applied."""
+    name: str
+    sigma_a: np.ndarray
+    sigma_s: np.ndarray
+    g: float = 0.0
+
+    @property
+    def sigma_t(self):
+        return self.sigma_a + self.sigma_s
 
 
 @dataclass
@@ -66,6 +81,9 @@ class Scene:
     shapes: list
     lights: list
     render: RenderSettings
+    media: list = field(default_factory=list)
+    medium: int = -1               # scene-wide medium around everything (-1: vacuum)
+    camera_medium: int = None      # medium at the camera; None: found by casting a ray
     path: Path = None
 
     @property
@@ -202,12 +220,21 @@ def load_scene_dict(data, base_dir="."):
     for i, name in enumerate(names):
         if names.index(name) != i:
             raise SceneError(f"materials[{i}].name", f"duplicate material name {name!r}")
-    shapes = [_read_shape(node, names, base_dir) for node in root.items("shapes")]
+    media = [_read_medium(node) for node in root.items("media")]
+    medium_names = [m.name for m in media]
+    for i, name in enumerate(medium_names):
+        if medium_names.index(name) != i:
+            raise SceneError(f"media[{i}].name", f"duplicate medium name {name!r}")
+    scene_medium = _medium_reference(root, "medium", medium_names)
+    shapes = [_read_shape(node, names, medium_names, scene_medium, base_dir) for node in root.items("shapes")]
     lights = [_read_light(node, base_dir) for node in root.items("lights")]
     if sum(light.type == "environment" for light in lights) > 1:
         raise SceneError("lights", "at most one environment light is allowed")
+    camera_medium = None
+    if "medium" in root.data["camera"]:
+        camera_medium = _medium_reference(_Node(root.data["camera"], "camera"), "medium", medium_names)
     root.finish()
-    return Scene(camera, materials, shapes, lights, render)
+    return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium)
 
 
 def _read_camera(node):
@@ -219,6 +246,7 @@ def _read_camera(node):
         fov=node.number("fov", 40.0, low=0, high=179, low_open=True),
         resolution=(width, height),
     )
+    node.read.add("medium")  # read with the media, which come later in the file
     forward = camera.look_at - camera.position
     if np.linalg.norm(forward) == 0:
         raise SceneError(node.at("look_at"), "must differ from camera.position")
@@ -255,14 +283,48 @@ def _read_material(node):
                             emission=node.vector("emission", [0, 0, 0], non_negative=True))
         if np.any(material.albedo > 1):
             raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {material.albedo.tolist()}")
-    else:
+    elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
                             emission=node.vector("radiance", non_negative=True, allow_scalar=True))
+    else:  # an index-matched boundary: only separates media
+        material = Material(name, kind, albedo=np.zeros(3))
     node.finish()
     return material
 
 
-def _read_shape(node, material_names, base_dir):
+def _medium_reference(node, key, medium_names):
+    """Index of the medium named by node[key], -1 when absent or null."""
+    name = node.raw(key, None)
+    if name is None:
+        return -1
+    if not isinstance(name, str) or name not in medium_names:
+        raise SceneError(node.at(key), f"unknown medium {name!r}; defined: {', '.join(medium_names) or 'none'}")
+    return medium_names.index(name)
+
+
+def _read_medium(node):
+    name = node.string("name")
+    if "sigma_t" in node.data or "albedo" in node.data:
+        if "sigma_a" in node.data or "sigma_s" in node.data:
+            raise SceneError(node.where, "give either sigma_a and sigma_s, or sigma_t and albedo")
+        sigma_t = node.vector("sigma_t", non_negative=True, allow_scalar=True)
+        albedo = node.vector("albedo", non_negative=True, allow_scalar=True)
+        if np.any(albedo > 1):
+            raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {albedo.tolist()}")
+        sigma_s = sigma_t * albedo
+        sigma_a = sigma_t - sigma_s
+    else:
+        sigma_a = node.vector("sigma_a", [0, 0, 0], non_negative=True, allow_scalar=True)
+        sigma_s = node.vector("sigma_s", [0, 0, 0], non_negative=True, allow_scalar=True)
+    scale = node.number("scale", 1.0, low=0)
+    g = node.number("g", 0.0)
+    if not -1 < g < 1:
+        raise SceneError(node.at("g"), f"must be in (-1, 1), got {g!r}")
+    node.finish()
+    return Medium(name, sigma_a * scale, sigma_s * scale, float(g))
+
+
+def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
     kind = node.string("type", choices=SHAPE_TYPES)
     material_name = node.string("material")
     if material_name not in material_names:
@@ -284,8 +346,10 @@ def _read_shape(node, material_names, base_dir):
     if node.boolean("flip_normals", False):
         mesh = meshes.flip(mesh)
     name = node.string("name", f"{kind}{node.where[node.where.index('['):]}")
+    interior = _medium_reference(node, "interior", medium_names) if "interior" in node.data else scene_medium
+    exterior = _medium_reference(node, "exterior", medium_names) if "exterior" in node.data else scene_medium
     node.finish()
-    return Shape(name, material_names.index(material_name), mesh)
+    return Shape(name, material_names.index(material_name), mesh, interior, exterior)
 
 
 def _read_mesh_file(node, base_dir):

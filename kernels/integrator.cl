@@ -11,6 +11,10 @@
 #include "lights.h"
 #include "materials/diffuse.h"
 #include "materials/bsdf.h"
+#if MEDIA
+#include "media/phase.h"
+#include "media/homogeneous.h"
+#endif
 #include "path.h"
 
 __kernel void render_pass(__constant RenderParams* params,
@@ -19,6 +23,7 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global const TriangleShading* shading,
                           __global const TriangleInfo* info,
                           __global const Material* materials,
+                          __global const Medium* media,
                           __global const Emitter* emitters,
                           __global const float* emitter_cdf,
                           __global const float4* env_texels,
@@ -28,8 +33,8 @@ __kernel void render_pass(__constant RenderParams* params,
     int x = get_global_id(0), y = get_global_id(1);
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;
-    Scene scene = {params, nodes, triangles, shading, info, materials, emitters, emitter_cdf,
-                   env_texels, env_cdf};
+    Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
+                   emitter_cdf, env_texels, env_cdf};
     int pixel = y * width + x;
     float4 sum = accumulator[pixel];
     int discarded = 0;

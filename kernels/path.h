@@ -1,9 +1,14 @@
-// Unidirectional path tracing: next-event estimation and BSDF sampling combined by MIS with the
-// power heuristic; Russian roulette on the throughput after the roulette depth.
-// Depth counts path vertices after the camera: depth 1 sees emitters directly, so max depth 1
-// renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
+// Unidirectional path tracing: next-event estimation and BSDF (or phase) sampling combined by MIS
+// with the power heuristic; Russian roulette on the throughput after the roulette depth.
+// Depth counts scattering vertices after the camera: depth 1 sees emitters directly, so max
+// depth 1 renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
+// Index-matched boundaries (MATERIAL_INTERFACE) only switch the current medium; they are not
+// path vertices.
 #ifndef CLRENDER_PATH_H
 #define CLRENDER_PATH_H
+
+// A path that keeps crossing null boundaries (e.g. coincident surfaces) must still end.
+#define MAX_NULL_CROSSINGS 1024
 
 // Radiance from the environment along an escaped ray; the MIS weight uses the pdf with which
 // the previous vertex sampled this direction.
@@ -19,28 +24,92 @@ float3 escaped_radiance(const Scene* scene, float3 dir, float prev_pdf_w, bool p
 #endif
 }
 
-float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp, float t,
-                        float3 dir, float prev_pdf_w, bool prev_delta) {
+// Emission at a surface hit from the previous vertex prev_p (null boundaries may lie between).
+float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
+                        float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {
     if (!sp->front_face || sp->emitter < 0) return (float3)(0.0f);
     float3 le = m->emission.xyz;
     if (prev_delta) return le;
     __global const Emitter* e = scene->emitters + sp->emitter;
     float light_pdf_w = emitter_selection_pmf(scene, sp->emitter) *
-                        triangle_emitter_pdf_w(e, t, -dot(dir, sp->ng));
+                        triangle_emitter_pdf_w(e, length(sp->p - prev_p), -dot(dir, sp->ng));
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
+#if MEDIA
+// The medium on the far side of the surface from where the ray arrived.
+int medium_beyond(const SurfacePoint* sp) {
+    return sp->front_face ? (sp->media & 0xFFFF) - 1 : (sp->media >> 16) - 1;
+}
+
+// Transmittance from origin towards a light dist away (INFINITY for distant lights), through
+// index-matched boundaries, analytic per homogeneous segment; 0 when anything else blocks it.
+float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float dist, int medium) {
+    float3 tr = (float3)(1.0f);
+    float3 target = origin + dir * dist;
+    for (int crossing = 0; crossing < MAX_NULL_CROSSINGS; ++crossing) {
+        float remaining = isinf(dist) ? INFINITY : dot(target - origin, dir);
+        Hit hit;
+        bool found = intersect_scene(scene, origin, dir, remaining * (1.0f - 1e-4f), &hit);
+        if (medium >= 0) tr *= transmittance(medium_sigma_t(scene->media + medium), found ? hit.t : remaining);
+        if (!found) return tr;
+        SurfacePoint sp = surface_point(scene, &hit, dir);
+        if (scene->materials[sp.material].kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
+        medium = medium_beyond(&sp);
+        origin = offset_ray_origin(sp.p, -sp.ng);
+    }
+    return (float3)(0.0f);
+}
+#endif
+
+// Fraction of light arriving along a shadow ray: 0/1 visibility, or transmittance with media.
+float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium) {
+#if MEDIA
+    return shadow_transmittance(scene, origin, dir, dist, medium);
+#else
+    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
+    return occluded(scene, origin, dir, dist * (1.0f - 1e-4f)) ? (float3)(0.0f) : (float3)(1.0f);
+#endif
+}
+
 float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                    Rng* rng) {
+                    int medium, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float3 f = eval_bsdf(m, sp, wo, ls.wi);
     if (is_black(f)) return (float3)(0.0f);
-    float3 origin = offset_ray_origin(sp->p, dot(ls.wi, sp->ng) > 0.0f ? sp->ng : -sp->ng);
-    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    if (occluded(scene, origin, ls.wi, ls.dist * (1.0f - 1e-4f))) return (float3)(0.0f);
+    bool same_side = dot(ls.wi, sp->ng) > 0.0f;
+    float3 origin = offset_ray_origin(sp->p, same_side ? sp->ng : -sp->ng);
+#if MEDIA
+    if (!same_side) medium = medium_beyond(sp);
+#endif
+    float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium);
+    if (is_black(tr)) return (float3)(0.0f);
     float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(m, sp, wo, ls.wi));
-    return f * ls.radiance * (weight / ls.pdf_w);
+    return f * tr * ls.radiance * (weight / ls.pdf_w);
+}
+
+#if MEDIA
+// Next-event estimation from a scattering point inside a medium; dir: the incoming travel direction.
+float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, Rng* rng) {
+    LightSample ls = sample_light(scene, p, rng);
+    if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
+    float phase = eval_phase_hg(dot(dir, ls.wi), medium_g(scene->media + medium));
+    float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium);
+    if (is_black(tr)) return (float3)(0.0f);
+    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, phase);
+    return tr * ls.radiance * (phase * weight / ls.pdf_w);
+}
+#endif
+
+// Survive with probability equal to the throughput, capped so that bright paths (e.g. in
+// high-albedo media) are never kept forever and weights stay bounded by 1 / 0.95.
+bool survive_roulette(float3* throughput, int depth, int rr_depth, Rng* rng) {
+    if (depth < rr_depth) return true;
+    float survive = fmin(max_component(*throughput), 0.95f);
+    if (rng_float(rng) >= survive) return false;
+    *throughput /= survive;
+    return true;
 }
 
 float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
@@ -48,37 +117,74 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
     int rr_depth = scene->params->config.y;
     float3 radiance = (float3)(0.0f);
     float3 throughput = (float3)(1.0f);
+    float3 prev_p = ray.origin;
     float prev_pdf_w = 0.0f;
     bool prev_delta = true;  // the camera ray sees emitters with full weight
-    for (int depth = 1; depth <= max_depth; ++depth) {
+#if MEDIA
+    int medium = scene->params->media.x;
+    bool spectral_mis = scene->params->media.y != 0;
+    int null_crossings = 0;
+#else
+    int medium = -1;
+#endif
+    int depth = 1;
+    while (depth <= max_depth) {
         Hit hit;
-        if (!intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit)) {
+        bool found = intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit);
+#if MEDIA
+        if (medium >= 0) {
+            __global const Medium* md = scene->media + medium;
+            MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
+            throughput *= event.weight;
+            if (event.scattered) {
+                if (depth == max_depth || is_black(throughput)) break;
+                float3 p = ray.origin + event.t * ray.direction;
+                radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, rng);
+                // HG is sampled exactly: phase / pdf = 1 leaves the throughput unchanged.
+                ray.direction = sample_phase_hg(ray.direction, medium_g(md), rng_float2(rng), &prev_pdf_w);
+                ray.origin = p;
+                prev_p = p;
+                prev_delta = false;
+                if (!survive_roulette(&throughput, depth, rr_depth, rng)) break;
+                ++depth;
+                continue;
+            }
+        }
+#endif
+        if (!found) {
             radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
         Material m = scene->materials[sp.material];
-        radiance += throughput * emitted_radiance(scene, &m, &sp, hit.t, ray.direction,
+#if MEDIA
+        if (m.kind.x == MATERIAL_INTERFACE) {
+            medium = medium_beyond(&sp);
+            ray.origin = offset_ray_origin(sp.p, -sp.ng);
+            if (++null_crossings > MAX_NULL_CROSSINGS) break;
+            continue;
+        }
+#endif
+        radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
         if (depth == max_depth) break;
         float3 wo = -ray.direction;
-        if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, rng);
+        if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, rng);
 
         BsdfSample bs = sample_bsdf(&m, &sp, wo, rng);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
         throughput *= bs.weight;
         prev_pdf_w = bs.pdf_w;
         prev_delta = bs.delta;
-        ray.origin = offset_ray_origin(sp.p, dot(bs.wi, sp.ng) > 0.0f ? sp.ng : -sp.ng);
+        prev_p = sp.p;
+        bool reflected = dot(bs.wi, sp.ng) > 0.0f;
+        ray.origin = offset_ray_origin(sp.p, reflected ? sp.ng : -sp.ng);
         ray.direction = bs.wi;
-
-        if (depth >= rr_depth) {
-            // Survive with probability equal to the throughput (capped so that bright
-            // paths are never killed and weights stay bounded by 1 / 0.95).
-            float survive = fmin(max_component(throughput), 0.95f);
-            if (rng_float(rng) >= survive) break;
-            throughput /= survive;
-        }
+#if MEDIA
+        if (!reflected) medium = medium_beyond(&sp);
+#endif
+        if (!survive_roulette(&throughput, depth, rr_depth, rng)) break;
+        ++depth;
     }
     return radiance;
 }

@@ -10,6 +10,7 @@ typedef struct {
     __global const TriangleShading* shading;
     __global const TriangleInfo* info;
     __global const Material* materials;
+    __global const Medium* media;
     __global const Emitter* emitters;
     __global const float* emitter_cdf;   // emitter count + 1 entries
     __global const float4* env_texels;   // environment image, row-major, top row first
@@ -24,6 +25,7 @@ typedef struct {
     int material;
     int object;
     int emitter;
+    int media;         // packed media behind / in front of the front face (TriangleInfo.w)
 } SurfacePoint;
 
 bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
@@ -56,6 +58,7 @@ SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
     sp.material = info.x;
     sp.object = info.y;
     sp.emitter = info.z;
+    sp.media = info.w;
     return sp;
 }
 

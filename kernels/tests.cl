@@ -14,7 +14,8 @@
 
 __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
                             __global TriangleShading* sh, __global TriangleInfo* info,
-                            __global Material* m, __global Emitter* e, __global Camera* c,
+                            __global Material* m, __global Emitter* e, __global Medium* md,
+                            __global Camera* c,
                             __global RenderParams* p, __global int* out) {
     int k = 0;
     out[k++] = sizeof(BvhNode);
@@ -32,12 +33,15 @@ __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
     out[k++] = sizeof(Emitter);
     out[k++] = OFFSET(e, kind); out[k++] = OFFSET(e, radiance); out[k++] = OFFSET(e, p0);
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
+    out[k++] = sizeof(Medium);
+    out[k++] = OFFSET(md, sigma_a); out[k++] = OFFSET(md, sigma_s); out[k++] = OFFSET(md, params);
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
     out[k++] = OFFSET(c, up);
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
-    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, scene_sphere);
+    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media);
+    out[k++] = OFFSET(p, scene_sphere);
 }
 
 // ----- BVH: closest hit per ray ------------------------------------------------------------

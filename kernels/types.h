@@ -10,7 +10,8 @@ typedef struct { float4 left_lo, left_hi, right_lo, right_hi; } BvhNode;
 
 typedef struct { float4 v0, e1, e2; } Triangle;
 typedef struct { float4 n0, n1, n2; } TriangleShading;
-// info: x material, y object id, z emitter index (-1: none), w medium pair (reserved)
+// info: x material, y object id, z emitter index (-1: none),
+// w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
 // kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
@@ -19,6 +20,9 @@ typedef struct { int4 kind; float4 color; float4 emission; float4 params; } Mate
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
 // radiance = intensity. Directional: p0 = unit direction towards the light, radiance = irradiance.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
+
+// Homogeneous medium, RGB coefficients in 1/length; params.x: Henyey-Greenstein g.
+typedef struct { float4 sigma_a; float4 sigma_s; float4 params; } Medium;
 
 // right/up are pre-scaled by tan(fov/2) (and the aspect ratio), so a pixel's direction is
 // forward + sx * right + sy * up with sx, sy in [-1, 1].
@@ -29,6 +33,7 @@ typedef struct {
     int4 frame;        // x width, y height, z first sample index of this pass, w samples in pass
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
     int4 environment;  // x emitter index (-1: none), y image width, z image height
+    int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
 } RenderParams;
 

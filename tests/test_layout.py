@@ -6,7 +6,7 @@ from clrender import layout
 from conftest import build_test_kernels
 
 ORDER = ["BvhNode", "Triangle", "TriangleShading", "TriangleInfo", "Material", "Emitter",
-         "Camera", "RenderParams"]
+         "Medium", "Camera", "RenderParams"]
 
 
 def expected_layout():

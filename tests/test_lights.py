@@ -5,6 +5,7 @@ import pytest
 
 import clrender
 from clrender.arrays import build_scene_arrays
+from clrender.render import render_params
 from conftest import build_test_kernels, camera, z_bound
 
 ALBEDO = 0.6
@@ -60,8 +61,7 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path):
     scene = clrender.load_scene_dict(floor_scene([{"type": "environment", "file": "sky.exr"}]),
                                      base_dir=tmp_path)
     arrays = build_scene_arrays(scene)
-    renderer_params = clrender.Renderer.params.__get__(type("R", (), {"scene": scene, "arrays": arrays})())
-    params = renderer_params(0, 1, 1, 1, 0)
+    params = render_params(scene, arrays, 0, 1, 1, 1, 0)
     program = build_test_kernels(context, ENVIRONMENT=2)
     count = 200_000
     mf = cl.mem_flags
