@@ -10,8 +10,7 @@ typedef struct {
     int triangle;   // index into the reordered triangle arrays, -1 for a miss
 } Hit;
 
-// Slab test; returns the entry distance, or INFINITY when the box is missed. inv_dir may hold
-// infinities for axis-parallel rays; 0 * inf = NaN is avoided by fmin/fmax ignoring NaN.
+// Slab test; returns the entry distance, or INFINITY when the box is missed.
 float intersect_box(float3 lo, float3 hi, float3 origin_scaled, float3 inv_dir, float t_max) {
     // (lo - origin) * inv_dir as one fma per axis, with origin_scaled = origin * inv_dir.
     float3 t0 = fma(lo, inv_dir, -origin_scaled);
@@ -48,7 +47,13 @@ bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, 
 // any_hit: stop at the first intersection (shadow rays).
 bool traverse_bvh(__global const BvhNode* nodes, __global const Triangle* triangles,
                   float3 origin, float3 dir, bool any_hit, Hit* hit) {
-    float3 inv_dir = 1.0f / dir;
+    // Zero direction components are replaced by a tiny value of the same sign: with an infinite
+    // inverse, origin * inv_dir is infinite too and the fma slab test below yields inf - inf =
+    // NaN or spurious infinities, losing boxes that axis-parallel rays do cross.
+    float3 safe_dir = (float3)(fabs(dir.x) > 1e-12f ? dir.x : copysign(1e-12f, dir.x),
+                               fabs(dir.y) > 1e-12f ? dir.y : copysign(1e-12f, dir.y),
+                               fabs(dir.z) > 1e-12f ? dir.z : copysign(1e-12f, dir.z));
+    float3 inv_dir = 1.0f / safe_dir;
     float3 origin_scaled = origin * inv_dir;
     int stack[BVH_STACK_SIZE];
     float stack_t[BVH_STACK_SIZE];  // entry distances: a popped node farther than the hit is skipped

@@ -65,6 +65,23 @@ def test_kernel_hits_equal_brute_force(context, queue, count, seed):
         assert hit.mean() > 0.2  # the test rays do hit things
 
 
+def test_axis_parallel_rays_find_their_hits(context, queue):
+    """Rays with zero (and negative zero) direction components: an infinite inverse direction
+    must not make the slab test lose boxes."""
+    rng = np.random.default_rng(9)
+    v0, v1, v2 = triangle_soup(rng, 2000)
+    axes = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1],
+                     [-0.0, 1, -0.0], [0.0, -0.0, -1], [0.6, 0.8, 0], [0, -0.6, 0.8]], float)
+    origins = np.repeat(rng.uniform(-5, 5, (400, 3)), len(axes), axis=0)
+    directions = np.tile(axes, (400, 1))
+    t, triangle, any_hit = trace_on_device(context, queue, v0, v1, v2, origins, directions)
+    ref_t, ref_triangle = intersect_brute_force(v0, v1, v2, origins, directions)
+    hit = ref_triangle >= 0
+    assert hit.mean() > 0.3
+    assert np.array_equal(triangle >= 0, hit) and np.array_equal(any_hit, hit)
+    np.testing.assert_allclose(t[hit], ref_t[hit], rtol=1e-4)
+
+
 def test_tiny_and_empty_scenes_render(device):
     """Scenes whose BVH is a single leaf, or empty, must not read missing nodes or hang."""
     materials = [{"name": "m", "type": "diffuse", "albedo": [0.5, 0.5, 0.5]}]
