@@ -22,6 +22,7 @@ class SceneArrays:
     env_cdf: np.ndarray
     env_index: int              # emitter index of the environment, -1 without one
     env_size: tuple             # (width, height) of the environment image, (0, 0) without one
+    first_light: int            # index of the first non-triangle emitter (lights follow triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
     bvh_depth: int
     degenerate_triangles: int   # zero-area triangles dropped at load
@@ -59,6 +60,7 @@ def build_scene_arrays(scene):
     lo, hi = scene.bounds()
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
     emitters, powers = _triangle_emitters(scene, v0, v1, v2, info)
+    first_light = len(emitters)
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
     light_emitters = []
     for light in scene.lights:
@@ -86,6 +88,7 @@ def build_scene_arrays(scene):
         info=_info_array(info), materials=_material_array(scene.materials),
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
+        first_light=first_light,
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
         degenerate_triangles=degenerate)
 
@@ -150,10 +153,20 @@ def _info_array(info):
 def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
-        out[i]["kind"][0] = layout.MATERIAL_KINDS["diffuse"]
+        out[i]["kind"][0] = layout.MATERIAL_KINDS["toon" if m.type == "toon" else "diffuse"]
         out[i]["color"][:3] = m.albedo
         out[i]["emission"][:3] = m.emission
+        if m.toon is not None:
+            _toon_fields(out[i], m.toon)
     return out
+
+
+def _toon_fields(record, toon):
+    """The toon_* fields of one Material record (meaning in layout.MATERIAL)."""
+    record["toon_shadow"] = (*toon.shadow_color, toon.shadow_factor)
+    record["toon_bands"] = (toon.bands, toon.softness, toon.highlight_size, toon.highlight_softness)
+    record["toon_highlight"] = (*toon.highlight_color, toon.rim_width)
+    record["toon_rim"] = (*toon.rim_color, toon.rim_threshold)
 
 
 def _cdf(weights):

@@ -11,6 +11,7 @@ from .layout import ENVIRONMENT_MODES
 FEATURE_VALUES = {
     "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
     "DELTA_LIGHTS": (0, 1),
+    "TOON": (0, 1),
 }
 
 
@@ -24,6 +25,8 @@ def scene_features(scene):
     return {
         "ENVIRONMENT": env_mode,
         "DELTA_LIGHTS": int(any(light.type in ("point", "directional") for light in scene.lights)),
+        # Only materials some shape uses: an unused toon material cannot be hit.
+        "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
     }
 
 

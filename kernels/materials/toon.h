@@ -1,0 +1,111 @@
+// Cel ("toon") shading inside the path tracer.
+//
+// A toon surface is shaded, not scattered: a path vertex that hits one adds
+// throughput * eval_toon_radiance(...) and the path ends (path.h). So a toon object looks the
+// same seen directly, in a mirror or through glass (only the throughput differs), and physical
+// surfaces next to it receive its toon radiance as indirect light; it still casts shadows.
+//
+// For one light arriving from direction L (unit) with irradiance E, the surface leaves
+//
+//     E / pi * [ color * (S + (1 - S) * band(N.L) * v)         diffuse tones
+//                + highlight_color * highlight(N.H) * [visible]  (only where the light is seen)
+//                + rim_color * rim(N.V) * v ]
+//
+// with S the shadow colour, v = 1 where the light is visible and the shadow factor where a
+// shadow ray is blocked or the light is behind the surface, H = normalize(L + V). Several
+// lights add up. Dividing by pi makes a fully lit toon point equal a Lambertian one of the same
+// colour lit at normal incidence, so toon and physical objects share one exposure; every term is
+// proportional to E, so the image stays linear in the light power.
+//
+// Which lights: point and directional lights are few and noiseless, so every one is evaluated
+// (deterministic, hard shadows). Area lights and the environment get one sample per vertex, as
+// next-event estimation draws it, with E = Le / pdf_w: an unbiased estimate of the integral of
+// the bracket over the light, converging with the samples per pixel (their shadows and band
+// edges are then soft by the light's extent, as they should be).
+#ifndef CLRENDER_TOON_H
+#define CLRENDER_TOON_H
+
+#if TOON
+
+// smoothstep(0, width, x). Width 0 is the crisp step x > 0 (no division by zero), so the
+// default band edge smoothstep(0, 0.01, N.L) and a zero softness both behave.
+float toon_step(float x, float width) {
+    if (!(width > 0.0f)) return x > 0.0f ? 1.0f : 0.0f;
+    float t = clamp(x / width, 0.0f, 1.0f);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+// Banded diffuse response in [0, 1]: edges at N.L = k / bands (k = 0 .. bands - 1), each a
+// smoothstep of width `softness`. With crisp edges the values are exactly 0, 1/n, ..., 1: the
+// shadow tone plus n lit tones. The count is divided once at the end so that level k is the
+// correctly rounded k / n, the same float wherever it occurs.
+float toon_band(float n_dot_l, int bands, float softness) {
+    float levels = 0.0f;
+    for (int k = 0; k < bands; ++k) levels += toon_step(n_dot_l - (float)k / (float)bands, softness);
+    return levels / (float)bands;
+}
+
+// Specular highlight: on where N.H exceeds 1 - size, reaching full strength `softness` later.
+float toon_highlight(const Material* m, float n_dot_h) {
+    float size = m->toon_bands.z;
+    return size > 0.0f ? toon_step(n_dot_h - (1.0f - size), m->toon_bands.w) : 0.0f;
+}
+
+// Rim light: on only where the view grazes the surface, N.V < threshold, reaching full
+// strength `width` below it. Threshold 0 switches it off.
+float toon_rim(const Material* m, float n_dot_v) {
+    return toon_step(m->toon_rim.w - n_dot_v, m->toon_highlight.w);
+}
+
+// The bracket of the formula above (everything but E / pi) for a light in direction wi.
+float3 toon_response(const Material* m, float3 n, float3 wo, float3 wi, bool visible) {
+    float v = visible ? 1.0f : m->toon_shadow.w;
+    float n_dot_l = dot(n, wi);
+    float band = toon_band(n_dot_l, (int)m->toon_bands.x, m->toon_bands.y);
+    float3 shadow = m->toon_shadow.xyz;
+    float3 tone = m->color.xyz * (shadow + (1.0f - shadow) * (band * v));
+    float3 h = wi + wo;
+    float h_len = length(h);
+    if (visible && n_dot_l > 0.0f && h_len > 0.0f)
+        tone += m->toon_highlight.xyz * toon_highlight(m, dot(n, h) / h_len);
+    tone += m->toon_rim.xyz * (toon_rim(m, dot(n, wo)) * v);
+    return tone;
+}
+
+// Hard shadows: one shadow ray to the light. A light below the geometric surface is shadowed
+// by the surface itself; no ray is needed to know it.
+bool toon_light_visible(const Scene* scene, const SurfacePoint* sp, float3 wi, float dist) {
+    if (dot(wi, sp->ng) <= 0.0f) return false;
+    float3 origin = offset_ray_origin(sp->p, sp->ng);
+    return !occluded(scene, origin, wi, dist * (1.0f - 1e-4f));
+}
+
+float3 toon_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                  float3 wi, float dist) {
+    return toon_response(m, sp->ns, wo, wi, toon_light_visible(scene, sp, wi, dist));
+}
+
+// Radiance leaving a toon surface towards wo (see the top of this file).
+float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
+                          float3 wo, Rng* rng) {
+    float3 radiance = (float3)(0.0f);
+#if DELTA_LIGHTS
+    // Point and directional lights follow the emissive triangles in the emitter array.
+    for (int i = scene->params->lights.x; i < scene->params->config.w; ++i) {
+        LightSample ls;
+        if (!delta_light_sample(scene->emitters + i, sp->p, 1.0f, &ls) || is_black(ls.radiance))
+            continue;
+        radiance += ls.radiance * toon_light(scene, m, sp, wo, ls.wi, ls.dist);
+    }
+#endif
+    // Area lights and the environment: one sample. A delta light drawn here was counted above
+    // and is skipped; the rest stays unbiased because each sample is divided by the probability
+    // of its own selection (the cost: a wasted sample with the probability of the delta lights).
+    LightSample ls = sample_light(scene, sp->p, rng);
+    if (!ls.delta && ls.pdf_w > 0.0f && !is_black(ls.radiance))
+        radiance += (ls.radiance / ls.pdf_w) * toon_light(scene, m, sp, wo, ls.wi, ls.dist);
+    return radiance * INV_PI_F;
+}
+
+#endif  // TOON
+#endif
