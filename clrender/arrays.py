@@ -73,7 +73,9 @@ def build_scene_arrays(scene):
                 env_size = (light.image.shape[1], light.image.shape[0])
             else:
                 mean = float(light.radiance.mean())
-            light_emitters.append(_emitter("environment", light.radiance))
+            environment = _emitter("environment", light.radiance)
+            environment["e1"][:, :3] = environment_mean_radiance(light)
+            light_emitters.append(environment)
             powers.append(4 * np.pi * np.pi * sphere[3] ** 2 * mean)
         elif light.type == "point":
             light_emitters.append(_emitter("point", light.radiance, p0=light.position))
@@ -178,6 +180,17 @@ def _cdf(weights):
     cdf = np.concatenate([[0.0], np.cumsum(weights) / weights.sum()])
     cdf[-1] = 1.0
     return cdf.astype(np.float32)
+
+
+def environment_mean_radiance(light):
+    """RGB radiance of an environment light averaged over the sphere of directions, exactly as
+    the kernel looks it up (piecewise constant per lat-long texel)."""
+    if light.image is None:
+        return np.asarray(light.radiance, dtype=float)
+    height, width, _ = light.image.shape
+    cos_theta = np.cos(np.linspace(0, np.pi, height + 1))
+    row_solid_angle = (cos_theta[:-1] - cos_theta[1:]) * (2 * np.pi / width)
+    return np.einsum("hwc,h->c", light.image.astype(float), row_solid_angle) / (4 * np.pi)
 
 
 def _environment_tables(image):

@@ -25,6 +25,7 @@ typedef struct {
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
 // radiance = intensity. Directional: p0 = unit direction towards the light, radiance = irradiance.
+// Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
 
 // right/up are pre-scaled by tan(fov/2) (and the aspect ratio), so a pixel's direction is

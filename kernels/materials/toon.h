@@ -21,7 +21,8 @@
 // (deterministic, hard shadows). Area lights and the environment get one sample per vertex, as
 // next-event estimation draws it, with E = Le / pdf_w: an unbiased estimate of the integral of
 // the bracket over the light, converging with the samples per pixel (their shadows and band
-// edges are then soft by the light's extent, as they should be).
+// edges are then soft by the light's extent, as they should be). The environment's shadow-tone
+// term does not depend on visibility and is added exactly instead of sampled.
 #ifndef CLRENDER_TOON_H
 #define CLRENDER_TOON_H
 
@@ -57,13 +58,16 @@ float toon_rim(const Material* m, float n_dot_v) {
     return toon_step(m->toon_rim.w - n_dot_v, m->toon_highlight.w);
 }
 
-// The bracket of the formula above (everything but E / pi) for a light in direction wi.
-float3 toon_response(const Material* m, float3 n, float3 wo, float3 wi, bool visible) {
+// The bracket of the formula above splits into the shadow tone color * S, which every light
+// adds whatever its visibility, and the lit part, which depends on the light's direction and
+// on whether it is seen.
+float3 toon_shadow_tone(const Material* m) { return m->color.xyz * m->toon_shadow.xyz; }
+
+float3 toon_lit_response(const Material* m, float3 n, float3 wo, float3 wi, bool visible) {
     float v = visible ? 1.0f : m->toon_shadow.w;
     float n_dot_l = dot(n, wi);
     float band = toon_band(n_dot_l, (int)m->toon_bands.x, m->toon_bands.y);
-    float3 shadow = m->toon_shadow.xyz;
-    float3 tone = m->color.xyz * (shadow + (1.0f - shadow) * (band * v));
+    float3 tone = m->color.xyz * (1.0f - m->toon_shadow.xyz) * (band * v);
     float3 h = wi + wo;
     float h_len = length(h);
     if (visible && n_dot_l > 0.0f && h_len > 0.0f)
@@ -80,14 +84,15 @@ bool toon_light_visible(const Scene* scene, const SurfacePoint* sp, float3 wi, f
     return !occluded(scene, origin, wi, dist * (1.0f - 1e-4f));
 }
 
-float3 toon_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                  float3 wi, float dist) {
-    return toon_response(m, sp->ns, wo, wi, toon_light_visible(scene, sp, wi, dist));
+float3 toon_lit(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                float3 wi, float dist) {
+    return toon_lit_response(m, sp->ns, wo, wi, toon_light_visible(scene, sp, wi, dist));
 }
 
 // Radiance leaving a toon surface towards wo (see the top of this file).
 float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
                           float3 wo, Rng* rng) {
+    float3 shadow_tone = toon_shadow_tone(m);
     float3 radiance = (float3)(0.0f);
 #if DELTA_LIGHTS
     // Point and directional lights follow the emissive triangles in the emitter array.
@@ -95,15 +100,29 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
         LightSample ls;
         if (!delta_light_sample(scene->emitters + i, sp->p, 1.0f, &ls) || is_black(ls.radiance))
             continue;
-        radiance += ls.radiance * toon_light(scene, m, sp, wo, ls.wi, ls.dist);
+        radiance += ls.radiance * (shadow_tone + toon_lit(scene, m, sp, wo, ls.wi, ls.dist));
     }
+#endif
+#if ENVIRONMENT != ENVIRONMENT_NONE
+    // The environment's share of the shadow tone needs no sampling: the integral of its radiance
+    // over the sphere is 4 pi times its mean (Emitter.e1), so only its lit part is sampled below.
+    int env = scene->params->environment.x;
+    if (env >= 0) radiance += (4.0f * PI_F) * scene->emitters[env].e1.xyz * shadow_tone;
 #endif
     // Area lights and the environment: one sample. A delta light drawn here was counted above
     // and is skipped; the rest stays unbiased because each sample is divided by the probability
     // of its own selection (the cost: a wasted sample with the probability of the delta lights).
     LightSample ls = sample_light(scene, sp->p, rng);
-    if (!ls.delta && ls.pdf_w > 0.0f && !is_black(ls.radiance))
-        radiance += (ls.radiance / ls.pdf_w) * toon_light(scene, m, sp, wo, ls.wi, ls.dist);
+    if (!ls.delta && ls.pdf_w > 0.0f && !is_black(ls.radiance)) {
+        float3 response = toon_lit(scene, m, sp, wo, ls.wi, ls.dist);
+#if ENVIRONMENT != ENVIRONMENT_NONE
+        bool environment_sample = ls.dist == INFINITY;
+#else
+        bool environment_sample = false;
+#endif
+        if (!environment_sample) response += shadow_tone;
+        radiance += (ls.radiance / ls.pdf_w) * response;
+    }
     return radiance * INV_PI_F;
 }
 
