@@ -23,8 +23,8 @@ def aux_dict(geometry, object_id, width, height):
 
 
 def edges(aux, depth_threshold=0.1, crease_angle=30.0):
-    """Boolean edge masks: (between (y, x) and (y, x+1): shape (H, W-1),
-    between (y, x) and (y+1, x): shape (H-1, W))."""
+    """Boolean edge masks (edge_x, edge_y): edge_x[y, x] between pixels (y, x) and (y, x + 1),
+    shape (H, W - 1); edge_y[y, x] between (y, x) and (y + 1, x), shape (H - 1, W)."""
     ids = aux["object_id"]
     hit = ids >= 0
     inverse_depth = np.where(hit, 1.0 / np.where(hit & (aux["depth"] > 0), aux["depth"], 1.0), 0.0)
