@@ -244,6 +244,33 @@ def test_uniform_environment_on_a_convex_toon_object():
         assert z_bound(result.image[covered][:, channel], color[channel] * le * factor) < 5.0
 
 
+def test_image_environment_on_a_toon_floor(tmp_path):
+    # An upward floor seen from above, crisp band: expectation color / pi * [S * (integral of Le
+    # over the sphere) + (1 - S) * (integral over the upper hemisphere)], both exact sums over
+    # the piecewise-constant lat-long texels.
+    from test_lights import environment_image
+
+    image = environment_image()
+    clrender.save_image(image, tmp_path / "sky.exr")
+    shadow, color = 0.3, np.array([0.8, 0.6, 0.4])
+    data = {
+        "camera": camera(position=(0, 2, 0), look_at=(0, 0, 0), up=(0, 0, -1), fov=20, resolution=(24, 24)),
+        "materials": [toon(color=color, shadow_color=shadow, softness=0.0)],
+        "shapes": [{"type": "rectangle", "material": "toon", "transform": {"rotate": [-90, 0, 0]}}],
+        "lights": [{"type": "environment", "file": "sky.exr"}],
+    }
+    result = clrender.Renderer(clrender.load_scene_dict(data, base_dir=tmp_path)).render(spp=64, seed=4)
+    assert result.discarded_samples == 0
+    height, width, _ = image.shape
+    cos_theta = np.cos(np.linspace(0, np.pi, height + 1))
+    texel_solid_angle = (cos_theta[:-1] - cos_theta[1:]) * 2 * np.pi / width
+    whole = np.einsum("hwc,h->c", image, texel_solid_angle)
+    upper = np.einsum("hwc,h->c", image[:height // 2], texel_solid_angle[:height // 2])
+    expected = color * INV_PI * (shadow * whole + (1 - shadow) * upper)
+    for channel in range(3):
+        assert z_bound(result.image[..., channel], expected[channel]) < 5.0
+
+
 # --------------------------------------------------------------------------------------------
 # Inside the path tracer: any vertex that hits toon adds throughput * toon radiance and stops
 # --------------------------------------------------------------------------------------------
@@ -365,3 +392,17 @@ def test_invalid_toon_fields_are_reported_with_their_place(patch, where, message
     text = str(error.value)
     assert text.startswith(where + ":"), text
     assert message in text, text
+
+
+@pytest.mark.parametrize("path,outlined", [("scenes/toon_cornell_box.json", True),
+                                           ("scenes/toon_character.json", True)])
+def test_example_toon_scenes_render(path, outlined):
+    scene = clrender.load_scene(path)
+    assert scene_features(scene)["TOON"] == 1
+    scene.camera.resolution = (32, 32)
+    result = clrender.Renderer(scene).render(spp=2, seed=1)
+    assert result.discarded_samples == 0
+    assert np.all(np.isfinite(result.image)) and result.image.max() > 0
+    assert (result.outline_alpha is not None) == outlined
+    toon_ids = [i for i, shape in enumerate(scene.shapes) if scene.materials[shape.material].type == "toon"]
+    assert np.isin(result.aux["object_id"], toon_ids).sum() > 20  # toon objects in view

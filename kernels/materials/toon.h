@@ -18,11 +18,11 @@
 // proportional to E, so the image stays linear in the light power.
 //
 // Which lights: point and directional lights are few and noiseless, so every one is evaluated
-// (deterministic, hard shadows). Area lights and the environment get one sample per vertex, as
-// next-event estimation draws it, with E = Le / pdf_w: an unbiased estimate of the integral of
-// the bracket over the light, converging with the samples per pixel (their shadows and band
-// edges are then soft by the light's extent, as they should be). The environment's shadow-tone
-// term does not depend on visibility and is added exactly instead of sampled.
+// (deterministic, hard shadows). Emissive triangles get one sample per vertex, as next-event
+// estimation draws it, and the environment one sample of its own, with E = Le / pdf_w: unbiased
+// estimates of the integral of the bracket over the light, converging with the samples per
+// pixel (shadows and band edges are then soft by the light's extent, as they should be). The
+// environment's shadow-tone term does not depend on visibility and is added exactly.
 #ifndef CLRENDER_TOON_H
 #define CLRENDER_TOON_H
 
@@ -89,6 +89,34 @@ float3 toon_lit(const Scene* scene, const Material* m, const SurfacePoint* sp, f
     return toon_lit_response(m, sp->ns, wo, wi, toon_light_visible(scene, sp, wi, dist));
 }
 
+#if ENVIRONMENT != ENVIRONMENT_NONE
+// The environment's part, with its own sample at every toon vertex. Its shadow tone ignores
+// visibility, so it is exact: the integral of the radiance over the sphere is 4 pi times its
+// mean (Emitter.e1). Only the lit part is sampled:
+//  - constant sky: a uniform direction and its opposite (antithetic pair, each of pdf
+//    1 / (4 pi)). The lit tone vanishes below the surface, so one of the two always lands where
+//    it lives and only visibility is left to vary; the lower one usually needs no shadow ray.
+//  - image: one direction importance-sampled from the image.
+float3 toon_environment(const Scene* scene, const Material* m, const SurfacePoint* sp,
+                        float3 wo, float3 shadow_tone, Rng* rng) {
+    int env = scene->params->environment.x;
+    if (env < 0) return (float3)(0.0f);
+    float3 radiance = (4.0f * PI_F) * scene->emitters[env].e1.xyz * shadow_tone;
+    float2 u = rng_float2(rng);
+#if ENVIRONMENT == ENVIRONMENT_CONSTANT
+    float3 wi = sample_uniform_sphere(u);
+    float3 lit = toon_lit(scene, m, sp, wo, wi, INFINITY) + toon_lit(scene, m, sp, wo, -wi, INFINITY);
+    radiance += environment_radiance(scene, wi) * (2.0f * PI_F) * lit;  // (1/2) / pdf
+#else
+    float3 wi = sample_environment_direction(scene, u);
+    float pdf_w = environment_pdf_w(scene, wi);
+    if (pdf_w > 0.0f)
+        radiance += environment_radiance(scene, wi) / pdf_w * toon_lit(scene, m, sp, wo, wi, INFINITY);
+#endif
+    return radiance;
+}
+#endif
+
 // Radiance leaving a toon surface towards wo (see the top of this file).
 float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
                           float3 wo, Rng* rng) {
@@ -104,24 +132,19 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
     }
 #endif
 #if ENVIRONMENT != ENVIRONMENT_NONE
-    // The environment's share of the shadow tone needs no sampling: the integral of its radiance
-    // over the sphere is 4 pi times its mean (Emitter.e1), so only its lit part is sampled below.
-    int env = scene->params->environment.x;
-    if (env >= 0) radiance += (4.0f * PI_F) * scene->emitters[env].e1.xyz * shadow_tone;
+    radiance += toon_environment(scene, m, sp, wo, shadow_tone, rng);
 #endif
-    // Area lights and the environment: one sample. A delta light drawn here was counted above
-    // and is skipped; the rest stays unbiased because each sample is divided by the probability
-    // of its own selection (the cost: a wasted sample with the probability of the delta lights).
-    LightSample ls = sample_light(scene, sp->p, rng);
-    if (!ls.delta && ls.pdf_w > 0.0f && !is_black(ls.radiance)) {
-        float3 response = toon_lit(scene, m, sp, wo, ls.wi, ls.dist);
-#if ENVIRONMENT != ENVIRONMENT_NONE
-        bool environment_sample = ls.dist == INFINITY;
-#else
-        bool environment_sample = false;
-#endif
-        if (!environment_sample) response += shadow_tone;
-        radiance += (ls.radiance / ls.pdf_w) * response;
+    // Emissive triangles (they come first in the emitter array): one sample as next-event
+    // estimation draws it. Other emitters drawn here were counted above and are skipped (a
+    // triangle sample is the only kind that is not delta and lies at a finite distance); the
+    // estimate stays unbiased because each sample is divided by the probability of its own
+    // selection. The cost: a wasted draw with the probability of the other lights.
+    if (scene->params->lights.x > 0) {
+        LightSample ls = sample_light(scene, sp->p, rng);
+        bool triangle = !ls.delta && ls.dist < INFINITY;
+        if (triangle && ls.pdf_w > 0.0f && !is_black(ls.radiance))
+            radiance += (ls.radiance / ls.pdf_w) *
+                        (shadow_tone + toon_lit(scene, m, sp, wo, ls.wi, ls.dist));
     }
     return radiance * INV_PI_F;
 }
