@@ -306,28 +306,25 @@ def _unit_color(node, key, default):
 
 
 def _read_toon(node):
+    """Toon parameters; `highlight` and `rim` are optional sub-objects (docs/toon-notes.md)."""
     d = Toon()
+    highlight = node.child("highlight", {})
+    rim = node.child("rim", {})
     toon = Toon(
         shadow_color=_unit_color(node, "shadow_color", d.shadow_color.tolist()),
         shadow_factor=float(node.number("shadow_factor", d.shadow_factor, low=0, high=1)),
         bands=node.number("bands", d.bands, low=1, high=MAX_TOON_BANDS, integer=True),
         softness=float(node.number("softness", d.softness, low=0, high=1)),
+        highlight_size=float(highlight.number("size", d.highlight_size, low=0, high=1)),
+        highlight_softness=float(highlight.number("softness", d.highlight_softness, low=0, high=1)),
+        highlight_color=highlight.vector("color", d.highlight_color.tolist(), non_negative=True,
+                                         allow_scalar=True),
+        rim_threshold=float(rim.number("threshold", d.rim_threshold, low=0, high=1)),
+        rim_width=float(rim.number("width", d.rim_width, low=0, high=1)),
+        rim_color=rim.vector("color", d.rim_color.tolist(), non_negative=True, allow_scalar=True),
     )
-    if "highlight" in node.data:
-        highlight = node.child("highlight")
-        toon.highlight_size = float(highlight.number("size", d.highlight_size, low=0, high=1))
-        toon.highlight_softness = float(highlight.number("softness", d.highlight_softness, low=0, high=1))
-        toon.highlight_color = highlight.vector("color", d.highlight_color.tolist(), non_negative=True,
-                                                allow_scalar=True)
-        highlight.finish()
-    if "rim" in node.data:
-        rim = node.child("rim")
-        toon.rim_threshold = float(rim.number("threshold", d.rim_threshold, low=0, high=1))
-        toon.rim_width = float(rim.number("width", d.rim_width, low=0, high=1))
-        toon.rim_color = rim.vector("color", d.rim_color.tolist(), non_negative=True, allow_scalar=True)
-        rim.finish()
-    node.raw("highlight", None)
-    node.raw("rim", None)
+    highlight.finish()
+    rim.finish()
     return toon
 
 
