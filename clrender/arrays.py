@@ -24,6 +24,7 @@ class SceneArrays:
     env_cdf: np.ndarray
     env_index: int              # emitter index of the environment, -1 without one
     env_size: tuple             # (width, height) of the environment image, (0, 0) without one
+    first_light: int            # index of the first non-triangle emitter (lights follow triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
     bvh_depth: int
     degenerate_triangles: int   # zero-area triangles dropped at load
@@ -61,6 +62,7 @@ def build_scene_arrays(scene):
     lo, hi = scene.bounds()
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
     emitters, powers = _triangle_emitters(scene, v0, v1, v2, info)
+    first_light = len(emitters)
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
     light_emitters = []
     for light in scene.lights:
@@ -73,7 +75,9 @@ def build_scene_arrays(scene):
                 env_size = (light.image.shape[1], light.image.shape[0])
             else:
                 mean = float(light.radiance.mean())
-            light_emitters.append(_emitter("environment", light.radiance))
+            environment = _emitter("environment", light.radiance)
+            environment["e1"][:, :3] = environment_mean_radiance(light)
+            light_emitters.append(environment)
             powers.append(4 * np.pi * np.pi * sphere[3] ** 2 * mean)
         elif light.type == "point":
             light_emitters.append(_emitter("point", light.radiance, p0=light.position))
@@ -92,6 +96,7 @@ def build_scene_arrays(scene):
         media=_medium_array(scene.media), camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
+        first_light=first_light,
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
         degenerate_triangles=degenerate)
 
@@ -157,9 +162,11 @@ def _info_array(info):
 def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
-        out[i]["kind"][0] = layout.MATERIAL_KINDS["interface" if m.type == "interface" else "diffuse"]
+        out[i]["kind"][0] = layout.MATERIAL_KINDS[m.type if m.type in ("interface", "toon") else "diffuse"]
         out[i]["color"][:3] = m.albedo
         out[i]["emission"][:3] = m.emission
+        if m.toon is not None:
+            _toon_fields(out[i], m.toon)
     return out
 
 
@@ -188,6 +195,14 @@ def _medium_at_camera(scene, v0, v1, v2, info):
     return interior if np.dot(normal, direction) > 0 else exterior
 
 
+def _toon_fields(record, toon):
+    """The toon_* fields of one Material record (meaning in layout.MATERIAL)."""
+    record["toon_shadow"] = (*toon.shadow_color, toon.shadow_factor)
+    record["toon_bands"] = (toon.bands, toon.softness, toon.highlight_size, toon.highlight_softness)
+    record["toon_highlight"] = (*toon.highlight_color, toon.rim_width)
+    record["toon_rim"] = (*toon.rim_color, toon.rim_threshold)
+
+
 def _cdf(weights):
     """Normalised CDF with len(weights) + 1 entries, ending exactly at 1 (uniform if all zero)."""
     if len(weights) == 0:
@@ -197,6 +212,17 @@ def _cdf(weights):
     cdf = np.concatenate([[0.0], np.cumsum(weights) / weights.sum()])
     cdf[-1] = 1.0
     return cdf.astype(np.float32)
+
+
+def environment_mean_radiance(light):
+    """RGB radiance of an environment light averaged over the sphere of directions, exactly as
+    the kernel looks it up (piecewise constant per lat-long texel)."""
+    if light.image is None:
+        return np.asarray(light.radiance, dtype=float)
+    height, width, _ = light.image.shape
+    cos_theta = np.cos(np.linspace(0, np.pi, height + 1))
+    row_solid_angle = (cos_theta[:-1] - cos_theta[1:]) * (2 * np.pi / width)
+    return np.einsum("hwc,h->c", light.image.astype(float), row_solid_angle) / (4 * np.pi)
 
 
 def _environment_tables(image):

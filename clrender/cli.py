@@ -112,6 +112,9 @@ def _info(args):
     print(f"emitters:   {len(arrays.emitters)} ({len(scene.lights)} lights + emissive triangles)")
     print(f"bounds:     min {_fmt(lo)}  max {_fmt(hi)}")
     print(f"features:   {describe(scene_features(scene))}")
+    o = scene.outlines
+    print("outlines:   " + (f"width {o.width:g} px, depth threshold {o.depth_threshold:g}, "
+                            f"crease angle {o.crease_angle:g} deg" if o.enabled else "off"))
     return 0
 
 

@@ -12,6 +12,7 @@ FEATURE_VALUES = {
     "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
     "DELTA_LIGHTS": (0, 1),
     "MEDIA": (0, 1),
+    "TOON": (0, 1),
 }
 
 
@@ -26,6 +27,8 @@ def scene_features(scene):
         "ENVIRONMENT": env_mode,
         "DELTA_LIGHTS": int(any(light.type in ("point", "directional") for light in scene.lights)),
         "MEDIA": int(_uses_media(scene)),
+        # Only materials some shape uses: an unused toon material cannot be hit.
+        "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
     }
 
 

@@ -27,8 +27,13 @@ TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
 # info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))
 
-# kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
-MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4))
+# kind: x MATERIAL_*; color: albedo or tint (toon: base color); params: x ior inside, y ior outside,
+# z roughness. The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
+# toon_shadow: rgb shadow colour (fraction of the lit tone kept where unlit), w shadow factor;
+# toon_bands: x band count, y band softness, z highlight size, w highlight softness;
+# toon_highlight: rgb highlight colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
+MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4),
+                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4))
 
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
@@ -46,6 +51,7 @@ RENDER_PARAMS = np.dtype([
     ("environment", I4),   # emitter index, image width, image height
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("scene_sphere", F4),  # centre, radius
+    ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
 ])
 
 STRUCTS = {
@@ -62,7 +68,7 @@ STRUCTS = {
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0, "interface": 4}
+MATERIAL_KINDS = {"diffuse": 0, "toon": 1, "interface": 4}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 

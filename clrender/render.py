@@ -6,6 +6,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import layout
+from .outlines import apply_outlines, aux_dict
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device
 from .features import scene_features
@@ -13,10 +14,15 @@ from .features import scene_features
 
 @dataclass
 class RenderResult:
-    image: np.ndarray            # linear float32 (H, W, 3)
+    image: np.ndarray            # linear float32 (H, W, 3), with the scene's outlines if enabled
     samples: int                 # samples per pixel actually taken
     seconds: float               # kernel time (launches and waits), excluding set-up
     discarded_samples: int       # non-finite samples dropped (counted as black)
+    # First surface through each pixel centre: depth (H, W) float32 along the camera axis,
+    # normal (H, W, 3) float32 unit shading normal facing the camera, object_id (H, W) int32
+    # shape index; where the ray escapes: depth 0, normal 0, object_id -1.
+    aux: dict = None
+    outline_alpha: np.ndarray = None   # (H, W) ink coverage composited into image, or None
 
     @property
     def samples_per_second(self):
@@ -44,6 +50,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["environment"] = (arrays.env_index, *arrays.env_size, 0)
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     p["scene_sphere"] = arrays.scene_sphere
+    p["lights"] = (arrays.first_light, 0, 0, 0)
     return p
 
 
@@ -95,6 +102,9 @@ class Renderer:
         accum_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=accumulator)
         discarded = np.zeros(1, np.int32)
         discarded_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=discarded)
+        # Written by the launch holding sample 0 (every render starts there).
+        aux_buffers = (cl.Buffer(self.context, mf.WRITE_ONLY, height * width * 16),
+                       cl.Buffer(self.context, mf.WRITE_ONLY, height * width * 4))
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
         global_size = self._global_size(width, height)
 
@@ -107,7 +117,7 @@ class Renderer:
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 start = time.perf_counter()
                 self.kernel(self.queue, global_size, self.local_size, params_buffer,
-                            *self._buffers, accum_buffer, discarded_buffer)
+                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers)
                 self.queue.finish()
                 elapsed = time.perf_counter() - start
                 seconds += elapsed
@@ -118,8 +128,9 @@ class Renderer:
                     progress(done, spp, seconds)
         except KeyboardInterrupt:
             self.queue.finish()
-            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, seconds)) from None
-        return self._result(accum_buffer, discarded_buffer, seconds)
+            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers,
+                                                 seconds)) from None
+        return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds)
 
     def _global_size(self, width, height):
         if self.local_size is None:
@@ -133,18 +144,25 @@ class Renderer:
         target = int(count * self.pass_seconds / elapsed)
         return max(1, min(target, count * 4))
 
-    def _result(self, accum_buffer, discarded_buffer, seconds):
+    def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds):
         width, height = self.scene.camera.resolution
         accumulator = np.empty((height * width, 4), np.float32)
         discarded = np.empty(1, np.int32)
+        geometry = np.empty((height * width, 4), np.float32)
+        object_id = np.empty(height * width, np.int32)
         cl.enqueue_copy(self.queue, accumulator, accum_buffer)
         cl.enqueue_copy(self.queue, discarded, discarded_buffer)
+        cl.enqueue_copy(self.queue, geometry, aux_buffers[0])
+        cl.enqueue_copy(self.queue, object_id, aux_buffers[1])
         # The w channel counts the samples each pixel received, so an interrupted render is
         # normalised exactly by what was done.
         counts = accumulator[:, 3:4]
         image = np.where(counts > 0, accumulator[:, :3] / np.maximum(counts, 1), 0.0)
-        return RenderResult(image.reshape(height, width, 3).astype(np.float32),
-                            int(counts.min()) if counts.size else 0, seconds, int(discarded[0]))
+        image = image.reshape(height, width, 3).astype(np.float32)
+        aux = aux_dict(geometry, object_id, width, height)
+        image, alpha = apply_outlines(image, aux, self.scene.outlines)
+        return RenderResult(image, int(counts.min()) if counts.size else 0, seconds,
+                            int(discarded[0]), aux=aux, outline_alpha=alpha)
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None):

@@ -12,9 +12,10 @@ import numpy as np
 from . import meshes
 from .errors import SceneError
 
-MATERIAL_TYPES = ("diffuse", "emissive", "interface")
+MATERIAL_TYPES = ("diffuse", "emissive", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
 LIGHT_TYPES = ("environment", "point", "directional")
+MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
 
 
@@ -28,11 +29,30 @@ class Camera:
 
 
 @dataclass
+class Toon:
+    """Cel-shading parameters of a `toon` material (docs/toon-notes.md; kernels/materials/toon.h).
+
+    Per light the surface shows color x (shadow_color + (1 - shadow_color) x band x visibility),
+    plus highlight and rim, all scaled by the light's irradiance / pi."""
+    shadow_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.3))
+    shadow_factor: float = 0.1       # visibility of a light from points it does not reach
+    bands: int = 1                   # lit tones above the shadow tone (1: classic two-tone)
+    softness: float = 0.01           # smoothstep width of each band edge, in N.L
+    highlight_size: float = 0.02     # highlight where N.H > 1 - size (0: none)
+    highlight_softness: float = 0.005
+    highlight_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    rim_threshold: float = 0.0       # rim where N.V < threshold (0: none)
+    rim_width: float = 0.05
+    rim_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+
+@dataclass
 class Material:
     name: str
     type: str
-    albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))
+    albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))  # toon: base color
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    toon: Toon = None                # set for type "toon" only
 
 
 @dataclass
@@ -75,6 +95,16 @@ class RenderSettings:
 
 
 @dataclass
+class Outlines:
+    """Ink outlines drawn from the auxiliary buffers (clrender/outlines.py)."""
+    enabled: bool = False
+    width: float = 1.5               # line width in pixels
+    color: np.ndarray = field(default_factory=lambda: np.zeros(3))  # linear RGB ink
+    depth_threshold: float = 0.1     # relative depth jump (beyond the surface's slope) = silhouette
+    crease_angle: float = 30.0       # degrees between neighbouring normals = crease (180: none)
+
+
+@dataclass
 class Scene:
     camera: Camera
     materials: list
@@ -85,6 +115,7 @@ class Scene:
     medium: int = -1               # scene-wide medium around everything (-1: vacuum)
     camera_medium: int = None      # medium at the camera; None: found by casting a ray
     path: Path = None
+    outlines: Outlines = field(default_factory=Outlines)
 
     @property
     def environment(self):
@@ -233,8 +264,10 @@ def load_scene_dict(data, base_dir="."):
     camera_medium = None
     if "medium" in root.data["camera"]:
         camera_medium = _medium_reference(_Node(root.data["camera"], "camera"), "medium", medium_names)
+    outlines = _read_outlines(root.child("outlines")) if "outlines" in data else Outlines()
     root.finish()
-    return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium)
+    return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium,
+                 outlines=outlines)
 
 
 def _read_camera(node):
@@ -283,6 +316,9 @@ def _read_material(node):
                             emission=node.vector("emission", [0, 0, 0], non_negative=True))
         if np.any(material.albedo > 1):
             raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {material.albedo.tolist()}")
+    elif kind == "toon":
+        material = Material(name, kind, albedo=_unit_color(node, "color", [0.8, 0.8, 0.8]),
+                            toon=_read_toon(node))
     elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
                             emission=node.vector("radiance", non_negative=True, allow_scalar=True))
@@ -290,6 +326,52 @@ def _read_material(node):
         material = Material(name, kind, albedo=np.zeros(3))
     node.finish()
     return material
+
+
+def _unit_color(node, key, default):
+    """An RGB colour with every channel in [0, 1]."""
+    color = node.vector(key, default, non_negative=True, allow_scalar=True)
+    if np.any(color > 1):
+        raise SceneError(node.at(key), f"must be <= 1 per channel, got {color.tolist()}")
+    return color
+
+
+def _read_toon(node):
+    """Toon parameters; `highlight` and `rim` are optional sub-objects (docs/toon-notes.md)."""
+    d = Toon()
+    highlight = node.child("highlight", {})
+    rim = node.child("rim", {})
+    toon = Toon(
+        shadow_color=_unit_color(node, "shadow_color", d.shadow_color.tolist()),
+        shadow_factor=float(node.number("shadow_factor", d.shadow_factor, low=0, high=1)),
+        bands=node.number("bands", d.bands, low=1, high=MAX_TOON_BANDS, integer=True),
+        softness=float(node.number("softness", d.softness, low=0, high=1)),
+        highlight_size=float(highlight.number("size", d.highlight_size, low=0, high=1)),
+        highlight_softness=float(highlight.number("softness", d.highlight_softness, low=0, high=1)),
+        highlight_color=highlight.vector("color", d.highlight_color.tolist(), non_negative=True,
+                                         allow_scalar=True),
+        rim_threshold=float(rim.number("threshold", d.rim_threshold, low=0, high=1)),
+        rim_width=float(rim.number("width", d.rim_width, low=0, high=1)),
+        rim_color=rim.vector("color", d.rim_color.tolist(), non_negative=True, allow_scalar=True),
+    )
+    highlight.finish()
+    rim.finish()
+    return toon
+
+
+def _read_outlines(node):
+    d = Outlines()
+    outlines = Outlines(
+        enabled=node.boolean("enabled", True),
+        width=float(node.number("width", d.width, low=0, high=16, low_open=True)),
+        color=node.vector("color", d.color.tolist(), non_negative=True, allow_scalar=True),
+        depth_threshold=float(node.number("depth_threshold", d.depth_threshold, low=0, low_open=True)),
+        crease_angle=float(node.number("crease_angle", d.crease_angle, low=0, high=180, low_open=True)),
+    )
+    node.finish()
+    return outlines
+
+
 
 
 def _medium_reference(node, key, medium_names):

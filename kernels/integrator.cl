@@ -11,11 +11,13 @@
 #include "lights.h"
 #include "materials/diffuse.h"
 #include "materials/bsdf.h"
+#include "materials/toon.h"
 #if MEDIA
 #include "media/phase.h"
 #include "media/homogeneous.h"
 #endif
 #include "path.h"
+#include "aux_buffers.h"
 
 __kernel void render_pass(__constant RenderParams* params,
                           __global const BvhNode* nodes,
@@ -29,13 +31,16 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global const float4* env_texels,
                           __global const float* env_cdf,
                           __global float4* accumulator,
-                          __global int* discarded_samples) {
+                          __global int* discarded_samples,
+                          __global float4* aux_geometry,
+                          __global int* aux_object) {
     int x = get_global_id(0), y = get_global_id(1);
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
                    emitter_cdf, env_texels, env_cdf};
     int pixel = y * width + x;
+    if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
     float4 sum = accumulator[pixel];
     int discarded = 0;
     int first = params->frame.z;

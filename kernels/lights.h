@@ -73,6 +73,32 @@ float triangle_emitter_pdf_w(__global const Emitter* e, float dist, float cos_li
     return cos_light > 0.0f ? dist * dist / (cos_light * e->p0.w) : 0.0f;
 }
 
+// ----- point and directional lights ----------------------------------------------------------
+#if DELTA_LIGHTS
+// The light arriving at p from a point or directional emitter, with pdf_w = pmf (the
+// probability of having chosen it). Returns false for other kinds or a point light at p.
+bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSample* ls) {
+    int kind = e->kind.x;
+    if (kind == EMITTER_POINT) {
+        float3 d = e->p0.xyz - p;
+        float dist2 = dot(d, d);
+        if (!(dist2 > 0.0f)) return false;
+        ls->dist = sqrt(dist2);
+        ls->wi = d / ls->dist;
+        ls->radiance = e->radiance.xyz / dist2;
+    } else if (kind == EMITTER_DIRECTIONAL) {
+        ls->wi = e->p0.xyz;
+        ls->dist = INFINITY;
+        ls->radiance = e->radiance.xyz;
+    } else {
+        return false;
+    }
+    ls->pdf_w = pmf;
+    ls->delta = true;
+    return true;
+}
+#endif
+
 // ----- one sample --------------------------------------------------------------------------
 LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     LightSample ls;
@@ -109,20 +135,8 @@ LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     }
 #endif
 #if DELTA_LIGHTS
-    else if (kind == EMITTER_POINT) {
-        float3 d = e->p0.xyz - p;
-        float dist2 = dot(d, d);
-        if (!(dist2 > 0.0f)) return ls;
-        ls.dist = sqrt(dist2);
-        ls.wi = d / ls.dist;
-        ls.radiance = e->radiance.xyz / dist2;
-        ls.pdf_w = pmf;
-        ls.delta = true;
-    } else if (kind == EMITTER_DIRECTIONAL) {
-        ls.wi = e->p0.xyz;
-        ls.radiance = e->radiance.xyz;
-        ls.pdf_w = pmf;
-        ls.delta = true;
+    else if (kind == EMITTER_POINT || kind == EMITTER_DIRECTIONAL) {
+        delta_light_sample(e, p, pmf, &ls);
     }
 #endif
     return ls;

@@ -169,6 +169,15 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
                                                   prev_pdf_w, prev_delta);
         if (depth == max_depth) break;
         float3 wo = -ray.direction;
+#if TOON
+        // Any vertex, not only the camera's: a toon surface seen in a mirror, through glass or
+        // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
+        // counts as direct lighting, hence after the max-depth test), and the path ends.
+        if (m.kind.x == MATERIAL_TOON) {
+            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, rng);
+            break;
+        }
+#endif
         if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, rng);
 
         BsdfSample bs = sample_bsdf(&m, &sp, wo, rng);

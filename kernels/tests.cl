@@ -29,7 +29,8 @@ __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
     out[k++] = OFFSET(info, info);
     out[k++] = sizeof(Material);
     out[k++] = OFFSET(m, kind); out[k++] = OFFSET(m, color); out[k++] = OFFSET(m, emission);
-    out[k++] = OFFSET(m, params);
+    out[k++] = OFFSET(m, params); out[k++] = OFFSET(m, toon_shadow); out[k++] = OFFSET(m, toon_bands);
+    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim);
     out[k++] = sizeof(Emitter);
     out[k++] = OFFSET(e, kind); out[k++] = OFFSET(e, radiance); out[k++] = OFFSET(e, p0);
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
@@ -41,7 +42,7 @@ __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media);
-    out[k++] = OFFSET(p, scene_sphere);
+    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights);
 }
 
 // ----- BVH: closest hit per ray ------------------------------------------------------------

@@ -14,11 +14,19 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
-// kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
-typedef struct { int4 kind; float4 color; float4 emission; float4 params; } Material;
+// kind: x MATERIAL_*; color: albedo or tint (toon: base colour); params: x ior inside,
+// y ior outside, z roughness. toon_* are read by MATERIAL_TOON only (materials/toon.h):
+// toon_shadow: rgb shadow colour, w shadow factor; toon_bands: x bands, y band softness,
+// z highlight size, w highlight softness; toon_highlight: rgb colour, w rim width;
+// toon_rim: rgb rim colour, w rim threshold (on N.V).
+typedef struct {
+    int4 kind; float4 color; float4 emission; float4 params;
+    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim;
+} Material;
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
 // radiance = intensity. Directional: p0 = unit direction towards the light, radiance = irradiance.
+// Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
 
 // Homogeneous medium, RGB coefficients in 1/length; params.x: Henyey-Greenstein g.
@@ -35,6 +43,7 @@ typedef struct {
     int4 environment;  // x emitter index (-1: none), y image width, z image height
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
+    int4 lights;       // x index of the first non-triangle emitter (lights follow the triangles)
 } RenderParams;
 
 #endif
