@@ -82,11 +82,8 @@ def test_scattering_sphere_in_furnace_vanishes(device, g):
         assert z_bound(result.image[..., c], 1.0) < 5.0
 
 
-def chord_lengths(scene, samples_per_axis=8):
-    """For each pixel, the mean over a sub-pixel grid of the length of the camera ray inside the
-    (convex) mesh, found with the brute-force intersector: entry, then exit."""
-    mesh = scene.shapes[0].mesh
-    v = mesh.vertices[mesh.faces]
+def subpixel_rays(scene, samples_per_axis):
+    """Camera rays through a regular sub-pixel grid: unit directions (H, W, samples, 3)."""
     cam = scene.camera
     width, height = cam.resolution
     forward = (cam.look_at - cam.position) / np.linalg.norm(cam.look_at - cam.position)
@@ -100,16 +97,28 @@ def chord_lengths(scene, samples_per_axis=8):
     sx = 2 * (px[..., None] + jx.ravel()) / width - 1
     sy = 1 - 2 * (py[..., None] + jy.ravel()) / height
     d = forward + sx[..., None] * right * tan_half * width / height + sy[..., None] * up * tan_half
-    d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).reshape(-1, 3)
-    origins = np.broadcast_to(cam.position, d.shape)
-    t_in, hit = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], origins, d)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def chord_lengths(scene, samples_per_axis=8, camera_inside=False):
+    """Per pixel and sub-pixel ray, the path length inside the (convex) mesh, found with the
+    brute-force intersector: entry then exit, or only the exit for a camera inside."""
+    mesh = scene.shapes[0].mesh
+    v = mesh.vertices[mesh.faces]
+    directions = subpixel_rays(scene, samples_per_axis)
+    shape = directions.shape[:-1]
+    d = directions.reshape(-1, 3)
+    origins = np.broadcast_to(scene.camera.position, d.shape)
+    t_first, hit = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], origins, d)
+    if camera_inside:
+        return t_first.reshape(shape)
     inside = hit >= 0
     lengths = np.zeros(len(d))
     if np.any(inside):
-        start = origins[inside] + d[inside] * (t_in[inside, None] + 1e-5)
+        start = origins[inside] + d[inside] * (t_first[inside, None] + 1e-5)
         t_out, _ = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], start, d[inside])
         lengths[inside] = t_out + 1e-5
-    return lengths.reshape(height, width, -1)
+    return lengths.reshape(shape)
 
 
 def test_pure_absorber_matches_exp_of_chord_length(device):
@@ -138,33 +147,10 @@ def test_camera_inside_an_absorbing_medium(device):
         camera_args={"position": (0.1, 0.2, 0.0), "look_at": (0, 0, -1), "resolution": (12, 12), "fov": 40}))
     result = clrender.Renderer(scene, device).render(spp=64, seed=2)
     assert clrender.Renderer(scene, device).arrays.camera_medium == 0
-    # Distance from the camera to the sphere wall along each sub-pixel ray (camera inside: the
-    # first hit is the exit).
-    mesh = scene.shapes[0].mesh
-    v = mesh.vertices[mesh.faces]
-    chords = chord_lengths_from_inside(scene, v)
+    chords = chord_lengths(scene, samples_per_axis=6, camera_inside=True)
     expected = np.exp(-sigma_a * chords).mean(axis=2)
     assert z_bound(result.image[..., 0] - expected, 0.0) < 5.0
     assert abs(result.image.mean() - np.exp(-sigma_a * 2.0)) < 0.1  # sanity: about exp(-0.7 * 2)
-
-
-def chord_lengths_from_inside(scene, v, samples_per_axis=6):
-    cam = scene.camera
-    width, height = cam.resolution
-    forward = (cam.look_at - cam.position) / np.linalg.norm(cam.look_at - cam.position)
-    right = np.cross(forward, cam.up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    tan_half = np.tan(np.radians(cam.fov) / 2)
-    offsets = (np.arange(samples_per_axis) + 0.5) / samples_per_axis
-    jx, jy = np.meshgrid(offsets, offsets)
-    px, py = np.meshgrid(np.arange(width), np.arange(height))
-    sx = 2 * (px[..., None] + jx.ravel()) / width - 1
-    sy = 1 - 2 * (py[..., None] + jy.ravel()) / height
-    d = forward + sx[..., None] * right * tan_half * width / height + sy[..., None] * up * tan_half
-    d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).reshape(-1, 3)
-    t, _ = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], np.broadcast_to(cam.position, d.shape), d)
-    return t.reshape(height, width, -1)
 
 
 @pytest.mark.parametrize("medium,render", [
