@@ -2,11 +2,14 @@
 
 The kernel source is assembled on the host: #include "x.h" lines are expanded (each file once)
 with #line markers so compiler messages name the right file, and the layout enumerations are
-prepended. The assembled text is therefore the complete input, and its hash keys the cache.
+prepended. The assembled text is therefore the complete input: its hash, with the device, driver and
+options, keys an in-memory cache and a disk cache of program binaries ($CLRENDER_CACHE_DIR,
+default ~/.cache/clrender).
 """
 import hashlib
 import os
 import re
+import tempfile
 from importlib import resources
 from pathlib import Path
 
@@ -17,7 +20,7 @@ from .errors import KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
-_programs = {}  # in-memory cache: (context id, device, source hash, options) -> Program
+_programs = {}  # in-memory cache: (context id, key of device, source and options) -> Program
 
 
 def kernel_dir():
@@ -97,18 +100,48 @@ def cache_dir():
 
 
 def build_program(context, features, entry="integrator.cl"):
-    """Build (or fetch from the memory and disk caches) the program for `features`."""
+    """Build the program for `features`, or fetch it from the memory or disk cache."""
     source = kernel_source(entry)
     options = f"{BUILD_OPTIONS} {define_options(features)}"
     device = context.devices[0]
-    key = (id(context), device.int_ptr, hashlib.sha256(source.encode()).hexdigest(), options)
-    program = _programs.get(key)
+    identity = "\n".join([device.platform.name, device.platform.version, device.name,
+                          device.driver_version, options, source])
+    key = hashlib.sha256(identity.encode()).hexdigest()
+    program = _programs.get((id(context), key))
     if program is None:
-        program = cl.Program(context, source)
-        try:
-            # pyopencl keeps built binaries on disk, keyed by device, source and options.
-            program.build(options=options, cache_dir=cache_dir())
-        except cl.RuntimeError as e:
-            raise KernelBuildError(f"kernel build failed for {entry} with {options}:\n{e}") from None
-        _programs[key] = program
+        program = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
+        _programs[(id(context), key)] = program
+    return program
+
+
+def _binary_path(key):
+    return Path(cache_dir()) / f"{key}.bin"
+
+
+def _load_binary(context, key, options):
+    path = _binary_path(key)
+    if not path.is_file():
+        return None
+    try:
+        program = cl.Program(context, context.devices, [path.read_bytes()])
+        return program.build(options=options)
+    except cl.Error:
+        return None  # a stale or foreign binary (driver update): rebuild from source
+
+
+def _build_from_source(context, source, options, key, entry):
+    try:
+        program = cl.Program(context, source).build(options=options)
+    except cl.RuntimeError as e:
+        raise KernelBuildError(f"kernel build failed for {entry} with {options}:\n{e}") from None
+    binary = program.get_info(cl.program_info.BINARIES)[0]
+    path = _binary_path(key)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key}.")
+        with os.fdopen(fd, "wb") as f:
+            f.write(binary)
+        os.replace(tmp, path)
+    except OSError:
+        pass  # an unwritable cache only costs the next process a rebuild
     return program
