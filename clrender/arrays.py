@@ -23,6 +23,8 @@ class SceneArrays:
     env_index: int              # emitter index of the environment, -1 without one
     env_size: tuple             # (width, height) of the environment image, (0, 0) without one
     scene_sphere: np.ndarray    # centre xyz, radius
+    specular_albedo: np.ndarray  # float32 energy-compensation tables, filled on the device
+    table_materials: list       # indices of the materials that own tables (params.w >= 0)
     bvh_depth: int
     degenerate_triangles: int   # zero-area triangles dropped at load
 
@@ -80,14 +82,17 @@ def build_scene_arrays(scene):
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
+    materials = _material_array(scene.materials)
+    table_size, table_materials = _assign_albedo_tables(materials)
 
     return SceneArrays(
         nodes=bvh.nodes, triangles=triangles, shading=shading,
-        info=_info_array(info), materials=_material_array(scene.materials),
+        info=_info_array(info), materials=materials,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
-        degenerate_triangles=degenerate)
+        degenerate_triangles=degenerate,
+        specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials)
 
 
 def _gather_triangles(scene):
@@ -150,10 +155,41 @@ def _info_array(info):
 def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
-        out[i]["kind"][0] = layout.MATERIAL_KINDS["diffuse"]
-        out[i]["color"][:3] = m.albedo
+        kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
+        out[i]["kind"][0] = layout.MATERIAL_KINDS[kind]
         out[i]["emission"][:3] = m.emission
+        if kind == "diffuse":
+            out[i]["color"][:3] = m.albedo
+        else:
+            out[i]["color"][:3] = m.tint
+            out[i]["params"][:3] = (m.ior, m.exterior_ior, m.roughness)
     return out
+
+
+def needs_albedo_table(material):
+    """Whether a Material record is a rough specular lobe, compensated by tables; mirrors
+    material_is_delta in kernels/materials/bsdf.h (float32 alpha against MICROFACET_MIN_ALPHA)."""
+    kind = int(material["kind"][0])
+    if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
+        return False
+    ior, exterior, roughness = material["params"][:3]
+    if kind == layout.MATERIAL_KINDS["dielectric"] and ior == exterior:
+        return False  # index-matched: the interface is skipped, rough or not
+    return bool(roughness * roughness >= np.float32(1e-3))
+
+
+def _assign_albedo_tables(materials):
+    """Give each rough specular material its table slots in params.w (a dielectric needs two:
+    wo outside and wo inside); returns the total size and the owners."""
+    size, owners = 0, []
+    for i in range(len(materials)):
+        materials[i]["params"][3] = -1.0
+        if needs_albedo_table(materials[i]):
+            materials[i]["params"][3] = size
+            sides = 2 if materials[i]["kind"][0] == layout.MATERIAL_KINDS["dielectric"] else 1
+            size += sides * layout.ALBEDO_TABLE_SIZE
+            owners.append(i)
+    return size, owners
 
 
 def _cdf(weights):

@@ -11,7 +11,12 @@ from .layout import ENVIRONMENT_MODES
 FEATURE_VALUES = {
     "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
     "DELTA_LIGHTS": (0, 1),
+    # Specular materials: smooth and rough dielectrics and conductors (one feature for both:
+    # they share the microfacet code, and every feature doubles the combinations to build).
+    "DIELECTRIC": (0, 1),
 }
+
+SPECULAR_MATERIALS = ("dielectric", "conductor")
 
 
 def scene_features(scene):
@@ -24,6 +29,9 @@ def scene_features(scene):
     return {
         "ENVIRONMENT": env_mode,
         "DELTA_LIGHTS": int(any(light.type in ("point", "directional") for light in scene.lights)),
+        # Only materials that some shape uses: an unused glass definition costs no kernel code.
+        "DIELECTRIC": int(any(scene.materials[shape.material].type in SPECULAR_MATERIALS
+                              for shape in scene.shapes)),
     }
 
 

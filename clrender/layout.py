@@ -27,7 +27,9 @@ TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
 # info: x material index, y object id, z emitter index (-1 none), w medium pair (reserved, -1)
 TRIANGLE_INFO = _struct(("info", I4))
 
-# kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
+# kind: x MATERIAL_*; color: albedo (diffuse) or tint (dielectric: transmission, conductor:
+# reflectance); params: x ior inside, y ior outside, z roughness (dielectric and conductor),
+# w offset of the material's energy-compensation tables in Scene.specular_albedo (-1: none)
 MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4))
 
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
@@ -56,15 +58,21 @@ STRUCTS = {
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0}
+MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 
 
+# Entries per energy-compensation table of a rough specular material (kernels/materials/energy.h);
+# Material.params.w holds the offset of the material's tables, -1 for none.
+ALBEDO_TABLE_SIZE = 64
+
+
 def c_constants():
-    """The enumerations above as C #define lines."""
+    """The enumerations and sizes above as C #define lines."""
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
+    lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     return "\n".join(lines) + "\n"

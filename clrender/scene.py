@@ -12,7 +12,7 @@ import numpy as np
 from . import meshes
 from .errors import SceneError
 
-MATERIAL_TYPES = ("diffuse", "emissive")
+MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
 LIGHT_TYPES = ("environment", "point", "directional")
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
@@ -33,6 +33,11 @@ class Material:
     type: str
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # dielectric and conductor (docs/dielectric-notes.md)
+    tint: np.ndarray = field(default_factory=lambda: np.ones(3))
+    ior: float = 1.5            # index of refraction inside (the side the normals point away from)
+    exterior_ior: float = 1.0   # index of refraction outside
+    roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
 
 
 @dataclass
@@ -255,11 +260,26 @@ def _read_material(node):
                             emission=node.vector("emission", [0, 0, 0], non_negative=True))
         if np.any(material.albedo > 1):
             raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {material.albedo.tolist()}")
-    else:
+    elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
                             emission=node.vector("radiance", non_negative=True, allow_scalar=True))
+    else:
+        material = Material(name, kind, albedo=np.zeros(3),
+                            tint=_unit_color(node, "tint"),
+                            roughness=node.number("roughness", 0.0, low=0, high=1))
+        if kind == "dielectric":
+            material.ior = node.number("ior", 1.5, low=0, low_open=True)
+            material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
     node.finish()
     return material
+
+
+def _unit_color(node, key):
+    """An RGB factor in [0, 1] per channel (a scalar means grey), default white."""
+    color = node.vector(key, [1.0, 1.0, 1.0], non_negative=True, allow_scalar=True)
+    if np.any(color > 1):
+        raise SceneError(node.at(key), f"must be <= 1 per channel, got {color.tolist()}")
+    return color
 
 
 def _read_shape(node, material_names, base_dir):

@@ -9,7 +9,12 @@
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
+#include "materials/bsdf_sample.h"
 #include "materials/diffuse.h"
+#include "materials/microfacet.h"
+#include "materials/dielectric.h"
+#include "materials/conductor.h"
+#include "materials/energy.h"
 #include "materials/bsdf.h"
 #include "path.h"
 
@@ -23,13 +28,14 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global const float* emitter_cdf,
                           __global const float4* env_texels,
                           __global const float* env_cdf,
+                          __global const float* specular_albedo,
                           __global float4* accumulator,
                           __global int* discarded_samples) {
     int x = get_global_id(0), y = get_global_id(1);
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, emitters, emitter_cdf,
-                   env_texels, env_cdf};
+                   env_texels, env_cdf, specular_albedo};
     int pixel = y * width + x;
     float4 sum = accumulator[pixel];
     int discarded = 0;

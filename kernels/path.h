@@ -34,9 +34,9 @@ float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* s
                     Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
-    float3 f = eval_bsdf(m, sp, wo, ls.wi);
+    float3 f = eval_bsdf(scene, m, sp, wo, ls.wi);
     if (is_black(f)) return (float3)(0.0f);
-    float3 origin = offset_ray_origin(sp->p, dot(ls.wi, sp->ng) > 0.0f ? sp->ng : -sp->ng);
+    float3 origin = spawn_ray_origin(sp, ls.wi);
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
     if (occluded(scene, origin, ls.wi, ls.dist * (1.0f - 1e-4f))) return (float3)(0.0f);
     float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(m, sp, wo, ls.wi));
@@ -50,6 +50,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
     float3 throughput = (float3)(1.0f);
     float prev_pdf_w = 0.0f;
     bool prev_delta = true;  // the camera ray sees emitters with full weight
+    // Product of eta^2 over the refractions so far: throughput * eta_scale is the throughput
+    // without the radiance scaling of refraction (see materials/dielectric.h), which roulette
+    // must use, or it would kill paths for being inside glass (pbrt-v4's etaScale).
+    float eta_scale = 1.0f;
     for (int depth = 1; depth <= max_depth; ++depth) {
         Hit hit;
         if (!intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit)) {
@@ -64,18 +68,19 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         float3 wo = -ray.direction;
         if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, rng);
 
-        BsdfSample bs = sample_bsdf(&m, &sp, wo, rng);
+        BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
         throughput *= bs.weight;
         prev_pdf_w = bs.pdf_w;
         prev_delta = bs.delta;
-        ray.origin = offset_ray_origin(sp.p, dot(bs.wi, sp.ng) > 0.0f ? sp.ng : -sp.ng);
+        eta_scale *= bs.eta * bs.eta;
+        ray.origin = spawn_ray_origin(&sp, bs.wi);
         ray.direction = bs.wi;
 
         if (depth >= rr_depth) {
-            // Survive with probability equal to the throughput (capped so that bright
-            // paths are never killed and weights stay bounded by 1 / 0.95).
-            float survive = fmin(max_component(throughput), 0.95f);
+            // Survive with probability equal to the throughput, without the eta^2 radiance
+            // scaling (capped so that bright paths are never killed).
+            float survive = fmin(max_component(throughput) * eta_scale, 0.95f);
             if (rng_float(rng) >= survive) break;
             throughput /= survive;
         }

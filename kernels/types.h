@@ -13,7 +13,9 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // info: x material, y object id, z emitter index (-1: none), w medium pair (reserved)
 typedef struct { int4 info; } TriangleInfo;
 
-// kind: x MATERIAL_*; color: albedo or tint; params: x ior inside, y ior outside, z roughness
+// kind: x MATERIAL_*; color: albedo (diffuse) or tint (dielectric: transmission, conductor:
+// reflectance); params: x ior inside, y ior outside, z roughness (dielectric and conductor),
+// w offset of the material's energy-compensation tables in Scene.specular_albedo (-1: none)
 typedef struct { int4 kind; float4 color; float4 emission; float4 params; } Material;
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
