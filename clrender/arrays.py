@@ -51,6 +51,11 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info = v0[order], v1[order], v2[order], normals[order], info[order]
 
     triangles = np.zeros(len(v0), layout.TRIANGLE)
+    # Edges are differences of the float32 corners, not rounded float64 differences: then
+    # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
+    # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
+    # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
+    v0, v1, v2 = (v.astype(np.float32) for v in (v0, v1, v2))
     triangles["v0"][:, :3] = v0
     triangles["e1"][:, :3] = v1 - v0
     triangles["e2"][:, :3] = v2 - v0

@@ -170,3 +170,30 @@ __kernel void sample_vndf_values(float alpha, __global const float4* wo, uint se
     out[i] = (float4)(h, sample_ggx_vndf_pdf(n, wo[i].xyz, h, alpha));
 }
 #endif
+
+// ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
+// geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
+// sign picks the side), and report both hits: (first triangle, second triangle, second t).
+__kernel void spawn_from_hits(__global const BvhNode* nodes, __global const Triangle* triangles,
+                              __global const TriangleShading* shading,
+                              __global const TriangleInfo* info, __global const float4* origins,
+                              __global const float4* directions, __global const float4* leave,
+                              __global float4* out) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.nodes = nodes;
+    scene.triangles = triangles;
+    scene.shading = shading;
+    scene.info = info;
+    out[i] = (float4)(-1.0f, -1.0f, INFINITY, 0.0f);
+    Hit hit;
+    if (!intersect_scene(&scene, origins[i].xyz, directions[i].xyz, INFINITY, &hit)) return;
+    SurfacePoint sp = surface_point(&scene, &hit, directions[i].xyz);
+    float3 t, b;
+    make_basis(sp.ng, &t, &b);
+    float3 dir = normalize(leave[i].x * t + leave[i].y * b + leave[i].z * sp.ng);
+    Hit next;
+    bool found = intersect_scene(&scene, spawn_ray_origin(&sp, dir), dir, INFINITY, &next);
+    out[i] = (float4)((float)hit.triangle, found ? (float)next.triangle : -1.0f, next.t,
+                      sp.front_face ? 1.0f : 0.0f);
+}
