@@ -16,14 +16,22 @@
 #define CLRENDER_DIELECTRIC_H
 #if DIELECTRIC
 
+// cos of the transmitted angle, from Snell's law written as cos_t^2 = (eta^2 - 1 + cos_i^2) / eta^2
+// rather than 1 - sin_t^2: near grazing 1 - (1 - cos_i^2) cancels to a few ulps, and at eta = 1
+// this form gives cos_t = cos_i exactly. Negative: total internal reflection.
+float cos_transmitted(float cos_i, float eta) {
+    float g2 = eta * eta - 1.0f + cos_i * cos_i;
+    return g2 > 0.0f ? sqrt(g2) / eta : -1.0f;
+}
+
 // Unpolarised Fresnel reflectance of a dielectric interface, cos_i in [0, 1] on the incident
-// side (pbrt-v4 FrDielectric). Past the critical angle it is exactly 1 (total internal
-// reflection). Both denominators are > 0 whenever sin^2(theta_t) < 1, since then cos_t > 0.
+// side (Born and Wolf; pbrt-v4 FrDielectric), exact, not Schlick's approximation. Past the
+// critical angle it is exactly 1 (total internal reflection). Both denominators are > 0 where
+// there is a transmitted ray, since then cos_t > 0.
 float fresnel_dielectric(float cos_i, float eta) {
     cos_i = clamp(cos_i, 0.0f, 1.0f);
-    float sin2_t = (1.0f - cos_i * cos_i) / (eta * eta);
-    if (sin2_t >= 1.0f) return 1.0f;
-    float cos_t = sqrt(1.0f - sin2_t);
+    float cos_t = cos_transmitted(cos_i, eta);
+    if (cos_t <= 0.0f) return 1.0f;
     float r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     float r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     return 0.5f * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
@@ -32,12 +40,11 @@ float fresnel_dielectric(float cos_i, float eta) {
 float3 reflect(float3 wo, float3 n) { return normalize(2.0f * dot(wo, n) * n - wo); }
 
 // Snell's law: the transmitted direction for wo on n's side, false under total internal
-// reflection. sin^2 is clamped because 1 - cos^2 can round below zero at normal incidence.
+// reflection.
 bool refract(float3 wo, float3 n, float eta, float3* wt) {
-    float cos_i = dot(n, wo);
-    float sin2_t = fmax(0.0f, 1.0f - cos_i * cos_i) / (eta * eta);
-    if (sin2_t >= 1.0f) return false;
-    float cos_t = sqrt(1.0f - sin2_t);
+    float cos_i = clamp(dot(n, wo), 0.0f, 1.0f);
+    float cos_t = cos_transmitted(cos_i, eta);
+    if (cos_t <= 0.0f) return false;
     *wt = normalize(-wo / eta + (cos_i / eta - cos_t) * n);
     return true;
 }
