@@ -612,7 +612,7 @@ def moved(scene, scale=1.0, offset=0.0):
 def test_glass_cornell_box_renders_the_same_at_any_scale_and_place(device, scale, offset):
     # Self-intersection and lost shadow rays show as a darker image or black speckles. Ray
     # offsets are relative to the magnitudes a hit point was computed from (math.h, scene.h).
-    # Waechter and Binder's fixed 256-ulp offset failed the 'far' case (block z = 7).
+    # Waechter and Binder's fixed 256-ulp offset, used before, fails the 'far' case (z = 7.7).
     reference = clrender.Renderer(small_cornell("scenes/cornell_glass.json"), device).render(spp=64, seed=1)
     scene = moved(small_cornell("scenes/cornell_glass.json"), scale, offset)
     result = clrender.Renderer(scene, device).render(spp=64, seed=2)
