@@ -88,7 +88,8 @@ def build_scene_arrays(scene):
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
     materials = _material_array(scene.materials)
-    table_size, table_materials = _assign_albedo_tables(materials)
+    used = {shape.material for shape in scene.shapes}
+    table_size, table_materials = _assign_albedo_tables(materials, used)
 
     return SceneArrays(
         nodes=bvh.nodes, triangles=triangles, shading=shading,
@@ -183,13 +184,14 @@ def needs_albedo_table(material):
     return bool(roughness * roughness >= np.float32(1e-3))
 
 
-def _assign_albedo_tables(materials):
-    """Give each rough specular material its table slots in params.w (a dielectric needs two:
-    wo outside and wo inside); returns the total size and the owners."""
+def _assign_albedo_tables(materials, used):
+    """Give each rough specular material that a shape uses its table slots in params.w (a
+    dielectric needs two: wo outside and wo inside); returns the total size and the owners.
+    Unused materials get none: the kernel of a scene without specular shapes has no table code."""
     size, owners = 0, []
     for i in range(len(materials)):
         materials[i]["params"][3] = -1.0
-        if needs_albedo_table(materials[i]):
+        if i in used and needs_albedo_table(materials[i]):
             materials[i]["params"][3] = size
             sides = 2 if materials[i]["kind"][0] == layout.MATERIAL_KINDS["dielectric"] else 1
             size += sides * layout.ALBEDO_TABLE_SIZE

@@ -145,6 +145,18 @@ def test_dielectric_and_conductor_fields_reach_the_material_records():
     assert records["params"][:, 3].tolist() == [-1, 0, 2 * size, -1]
 
 
+def test_unused_rough_glass_needs_neither_the_feature_nor_tables(device):
+    scene = clrender.load_scene_dict({
+        "camera": camera(resolution=(8, 8)),
+        "materials": [{"name": "white", "type": "diffuse"},
+                      {"name": "frosted", "type": "dielectric", "roughness": 0.5}],
+        "shapes": [{"type": "sphere", "material": "white", "subdivisions": 1}],
+        "lights": [{"type": "environment", "radiance": 1.0}]})
+    renderer = clrender.Renderer(scene, device)
+    assert renderer.features["DIELECTRIC"] == 0 and renderer.arrays.table_materials == []
+    assert renderer.render(spp=2).discarded_samples == 0
+
+
 @pytest.mark.parametrize("field,value,message", [
     ("ior", 0, "materials[0].ior: must be > 0"),
     ("ior", -1.5, "materials[0].ior: must be > 0"),
