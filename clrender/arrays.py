@@ -26,6 +26,8 @@ class SceneArrays:
     env_size: tuple             # (width, height) of the environment image, (0, 0) without one
     first_light: int            # index of the first non-triangle emitter (lights follow triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
+    specular_albedo: np.ndarray  # float32 energy-compensation tables, filled on the device
+    table_materials: list       # indices of the materials that own tables (params.w >= 0)
     bvh_depth: int
     degenerate_triangles: int   # zero-area triangles dropped at load
 
@@ -52,6 +54,11 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info = v0[order], v1[order], v2[order], normals[order], info[order]
 
     triangles = np.zeros(len(v0), layout.TRIANGLE)
+    # Edges are differences of the float32 corners, not rounded float64 differences: then
+    # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
+    # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
+    # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
+    v0, v1, v2 = (v.astype(np.float32) for v in (v0, v1, v2))
     triangles["v0"][:, :3] = v0
     triangles["e1"][:, :3] = v1 - v0
     triangles["e2"][:, :3] = v2 - v0
@@ -86,19 +93,23 @@ def build_scene_arrays(scene):
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
+    materials = _material_array(scene.materials)
+    used = {shape.material for shape in scene.shapes}
+    table_size, table_materials = _assign_albedo_tables(materials, used)
 
     camera_medium = scene.camera_medium
     if camera_medium is None:
         camera_medium = _medium_at_camera(scene, v0, v1, v2, info)
     return SceneArrays(
         nodes=bvh.nodes, triangles=triangles, shading=shading,
-        info=_info_array(info), materials=_material_array(scene.materials),
+        info=_info_array(info), materials=materials,
         media=_medium_array(scene.media), camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         first_light=first_light,
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
-        degenerate_triangles=degenerate)
+        degenerate_triangles=degenerate,
+        specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials)
 
 
 def _gather_triangles(scene):
@@ -162,12 +173,44 @@ def _info_array(info):
 def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
-        out[i]["kind"][0] = layout.MATERIAL_KINDS[m.type if m.type in ("interface", "toon") else "diffuse"]
-        out[i]["color"][:3] = m.albedo
+        kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
+        out[i]["kind"][0] = layout.MATERIAL_KINDS[kind]
         out[i]["emission"][:3] = m.emission
+        if kind in ("dielectric", "conductor"):
+            out[i]["color"][:3] = m.tint
+            out[i]["params"][:3] = (m.ior, m.exterior_ior, m.roughness)
+        else:
+            out[i]["color"][:3] = m.albedo
         if m.toon is not None:
             _toon_fields(out[i], m.toon)
     return out
+
+
+def needs_albedo_table(material):
+    """Whether a Material record is a rough specular lobe, compensated by tables; mirrors
+    material_is_delta in kernels/materials/bsdf.h (float32 alpha against MICROFACET_MIN_ALPHA)."""
+    kind = int(material["kind"][0])
+    if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
+        return False
+    ior, exterior, roughness = material["params"][:3]
+    if kind == layout.MATERIAL_KINDS["dielectric"] and ior == exterior:
+        return False  # index-matched: the interface is skipped, rough or not
+    return bool(roughness * roughness >= np.float32(1e-3))
+
+
+def _assign_albedo_tables(materials, used):
+    """Give each rough specular material that a shape uses its table slots in params.w (a
+    dielectric needs two: wo outside and wo inside); returns the total size and the owners.
+    Unused materials get none: the kernel of a scene without specular shapes has no table code."""
+    size, owners = 0, []
+    for i in range(len(materials)):
+        materials[i]["params"][3] = -1.0
+        if i in used and needs_albedo_table(materials[i]):
+            materials[i]["params"][3] = size
+            sides = 2 if materials[i]["kind"][0] == layout.MATERIAL_KINDS["dielectric"] else 1
+            size += sides * layout.ALBEDO_TABLE_SIZE
+            owners.append(i)
+    return size, owners
 
 
 def _medium_array(media):

@@ -13,7 +13,12 @@ FEATURE_VALUES = {
     "DELTA_LIGHTS": (0, 1),
     "MEDIA": (0, 1),
     "TOON": (0, 1),
+    # Specular materials: smooth and rough dielectrics and conductors (one feature for both:
+    # they share the microfacet code, and every feature doubles the combinations to build).
+    "DIELECTRIC": (0, 1),
 }
+
+SPECULAR_MATERIALS = ("dielectric", "conductor")
 
 
 def scene_features(scene):
@@ -29,6 +34,9 @@ def scene_features(scene):
         "MEDIA": int(_uses_media(scene)),
         # Only materials some shape uses: an unused toon material cannot be hit.
         "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
+        # Only materials that some shape uses: an unused glass definition costs no kernel code.
+        "DIELECTRIC": int(any(scene.materials[shape.material].type in SPECULAR_MATERIALS
+                              for shape in scene.shapes)),
     }
 
 

@@ -27,8 +27,10 @@ TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
 # info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))
 
-# kind: x MATERIAL_*; color: albedo or tint (toon: base color); params: x ior inside, y ior outside,
-# z roughness. The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
+# kind: x MATERIAL_*; color: albedo (diffuse), tint (dielectric: transmission, conductor:
+# reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
+# and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
+# (-1: none). The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
 # toon_shadow: rgb shadow colour (fraction of the lit tone kept where unlit), w shadow factor;
 # toon_bands: x band count, y band softness, z highlight size, w highlight softness;
 # toon_highlight: rgb highlight colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
@@ -68,7 +70,7 @@ STRUCTS = {
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0, "toon": 1, "interface": 4}
+MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 
@@ -78,10 +80,16 @@ def pack_media(interior, exterior):
     return (interior + 1) | ((exterior + 1) << 16)
 
 
+# Entries per energy-compensation table of a rough specular material (kernels/materials/energy.h);
+# Material.params.w holds the offset of the material's tables, -1 for none.
+ALBEDO_TABLE_SIZE = 64
+
+
 def c_constants():
-    """The enumerations above as C #define lines."""
+    """The enumerations and sizes above as C #define lines."""
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
+    lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     return "\n".join(lines) + "\n"

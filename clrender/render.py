@@ -9,6 +9,7 @@ from . import layout
 from .outlines import apply_outlines, aux_dict
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device
+from .energy import fill_albedo_tables
 from .features import scene_features
 
 
@@ -80,6 +81,8 @@ class Renderer:
         self._buffers = [self._upload(x) for x in (
             a.nodes, a.triangles, a.shading, a.info, a.materials, a.media, a.emitters,
             a.emitter_cdf, a.env_texels, a.env_cdf)]
+        fill_albedo_tables(self.queue, build_program(self.context, self.features), a)
+        self._buffers.append(self._upload(a.specular_albedo))
 
     def _upload(self, array):
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR

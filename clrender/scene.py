@@ -12,7 +12,7 @@ import numpy as np
 from . import meshes
 from .errors import SceneError
 
-MATERIAL_TYPES = ("diffuse", "emissive", "toon", "interface")
+MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
 LIGHT_TYPES = ("environment", "point", "directional")
 MAX_TOON_BANDS = 32
@@ -53,6 +53,11 @@ class Material:
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))  # toon: base color
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     toon: Toon = None                # set for type "toon" only
+    # dielectric and conductor (docs/dielectric-notes.md)
+    tint: np.ndarray = field(default_factory=lambda: np.ones(3))
+    ior: float = 1.5            # index of refraction inside (the side the normals point away from)
+    exterior_ior: float = 1.0   # index of refraction outside
+    roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
 
 
 @dataclass
@@ -322,15 +327,22 @@ def _read_material(node):
     elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
                             emission=node.vector("radiance", non_negative=True, allow_scalar=True))
+    elif kind in ("dielectric", "conductor"):
+        material = Material(name, kind, albedo=np.zeros(3),
+                            tint=_unit_color(node, "tint"),
+                            roughness=node.number("roughness", 0.0, low=0, high=1))
+        if kind == "dielectric":
+            material.ior = node.number("ior", 1.5, low=0, low_open=True)
+            material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
     else:  # an index-matched boundary: only separates media
         material = Material(name, kind, albedo=np.zeros(3))
     node.finish()
     return material
 
 
-def _unit_color(node, key, default):
-    """An RGB colour with every channel in [0, 1]."""
-    color = node.vector(key, default, non_negative=True, allow_scalar=True)
+def _unit_color(node, key, default=(1.0, 1.0, 1.0)):
+    """An RGB factor with every channel in [0, 1] (a scalar means grey)."""
+    color = node.vector(key, list(default), non_negative=True, allow_scalar=True)
     if np.any(color > 1):
         raise SceneError(node.at(key), f"must be <= 1 per channel, got {color.tolist()}")
     return color

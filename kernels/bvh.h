@@ -10,15 +10,18 @@ typedef struct {
     int triangle;   // index into the reordered triangle arrays, -1 for a miss
 } Hit;
 
-// Slab test; returns the entry distance, or INFINITY when the box is missed.
-float intersect_box(float3 lo, float3 hi, float3 origin_scaled, float3 inv_dir, float t_max) {
-    // (lo - origin) * inv_dir as one fma per axis, with origin_scaled = origin * inv_dir.
-    float3 t0 = fma(lo, inv_dir, -origin_scaled);
-    float3 t1 = fma(hi, inv_dir, -origin_scaled);
+// Slab test; returns the entry distance, or INFINITY when the box is missed. (lo - origin) is
+// computed before scaling: the shorter fma(lo, inv_dir, -origin * inv_dir) rounds relative to
+// |origin|, which far from the world origin exceeds the distance to boxes just ahead and loses
+// them. The exit distance is widened by 2 gamma(3) so rounding never rejects a box the ray
+// crosses (pbrt-v4, sec. 6.8.2).
+float intersect_box(float3 lo, float3 hi, float3 origin, float3 inv_dir, float t_max) {
+    float3 t0 = (lo - origin) * inv_dir;
+    float3 t1 = (hi - origin) * inv_dir;
     float3 tn = fmin(t0, t1), tf = fmax(t0, t1);
     float t_enter = fmax(fmax(tn.x, tn.y), fmax(tn.z, 0.0f));
-    float t_exit = fmin(fmin(tf.x, tf.y), fmin(tf.z, t_max));
-    return t_enter <= t_exit ? t_enter : INFINITY;
+    float t_exit = fmin(fmin(tf.x, tf.y), tf.z) * (1.0f + 2.0f * 3.0f * FLT_EPSILON);
+    return t_enter <= fmin(t_exit, t_max) ? t_enter : INFINITY;
 }
 
 // Moller-Trumbore, two-sided. Returns true and updates *hit if closer than hit->t.
@@ -47,14 +50,13 @@ bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, 
 // any_hit: stop at the first intersection (shadow rays).
 bool traverse_bvh(__global const BvhNode* nodes, __global const Triangle* triangles,
                   float3 origin, float3 dir, bool any_hit, Hit* hit) {
-    // Zero direction components are replaced by a tiny value of the same sign: with an infinite
-    // inverse, origin * inv_dir is infinite too and the fma slab test below yields inf - inf =
-    // NaN or spurious infinities, losing boxes that axis-parallel rays do cross.
+    // Zero direction components are replaced by a tiny value of the same sign: an infinite
+    // inverse would give 0 * inf = NaN for a box face through the origin, and the NaN would
+    // decide the slab test by accident.
     float3 safe_dir = (float3)(fabs(dir.x) > 1e-12f ? dir.x : copysign(1e-12f, dir.x),
                                fabs(dir.y) > 1e-12f ? dir.y : copysign(1e-12f, dir.y),
                                fabs(dir.z) > 1e-12f ? dir.z : copysign(1e-12f, dir.z));
     float3 inv_dir = 1.0f / safe_dir;
-    float3 origin_scaled = origin * inv_dir;
     int stack[BVH_STACK_SIZE];
     float stack_t[BVH_STACK_SIZE];  // entry distances: a popped node farther than the hit is skipped
     int stack_size = 0;
@@ -62,8 +64,8 @@ bool traverse_bvh(__global const BvhNode* nodes, __global const Triangle* triang
     bool found = false;
     for (;;) {
         __global const BvhNode* n = nodes + node;
-        float t_left = intersect_box(n->left_lo.xyz, n->left_hi.xyz, origin_scaled, inv_dir, hit->t);
-        float t_right = intersect_box(n->right_lo.xyz, n->right_hi.xyz, origin_scaled, inv_dir, hit->t);
+        float t_left = intersect_box(n->left_lo.xyz, n->left_hi.xyz, origin, inv_dir, hit->t);
+        float t_right = intersect_box(n->right_lo.xyz, n->right_hi.xyz, origin, inv_dir, hit->t);
         int left_count = as_int(n->left_hi.w), right_count = as_int(n->right_hi.w);
         int left_index = as_int(n->left_lo.w), right_index = as_int(n->right_lo.w);
         // Leaf children are intersected at once; only interior children go on the stack.

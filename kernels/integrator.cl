@@ -9,7 +9,12 @@
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
+#include "materials/bsdf_sample.h"
 #include "materials/diffuse.h"
+#include "materials/microfacet.h"
+#include "materials/dielectric.h"
+#include "materials/conductor.h"
+#include "materials/energy.h"
 #include "materials/bsdf.h"
 #include "materials/toon.h"
 #if MEDIA
@@ -30,6 +35,7 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global const float* emitter_cdf,
                           __global const float4* env_texels,
                           __global const float* env_cdf,
+                          __global const float* specular_albedo,
                           __global float4* accumulator,
                           __global int* discarded_samples,
                           __global float4* aux_geometry,
@@ -38,7 +44,7 @@ __kernel void render_pass(__constant RenderParams* params,
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
-                   emitter_cdf, env_texels, env_cdf};
+                   emitter_cdf, env_texels, env_cdf, specular_albedo};
     int pixel = y * width + x;
     if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
     float4 sum = accumulator[pixel];

@@ -117,13 +117,20 @@ LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     int kind = e->kind.x;
     if (kind == EMITTER_TRIANGLE) {
         float2 b = sample_triangle(u);
+        float3 n_light = normalize(cross(e->e1.xyz, e->e2.xyz));
         float3 q = e->p0.xyz + b.x * e->e1.xyz + b.y * e->e2.xyz;
+        // q is off the light's plane by up to its rounding error, which far from the origin
+        // exceeds the shadow ray's relative margin: move it off the plane towards p by that
+        // bound (as spawned rays are, scene.h), so the shadow ray stops before the light.
+        float3 magnitude = fabs(e->p0.xyz) + fabs(e->e1.xyz) + fabs(e->e2.xyz);
+        q = offset_ray_origin(q, dot(p - q, n_light) > 0.0f ? n_light : -n_light,
+                              SURFACE_ERROR_EPS * dot(fabs(n_light), magnitude));
         float3 d = q - p;
         float dist = length(d);
         if (!(dist > 0.0f)) return ls;
         ls.wi = d / dist;
         ls.dist = dist;
-        float cos_light = -dot(ls.wi, normalize(cross(e->e1.xyz, e->e2.xyz)));
+        float cos_light = -dot(ls.wi, n_light);
         ls.pdf_w = pmf * triangle_emitter_pdf_w(e, dist, cos_light);
         ls.radiance = ls.pdf_w > 0.0f ? e->radiance.xyz : (float3)(0.0f);
     }

@@ -43,21 +43,23 @@ void sincos_2pi(float u, float* s, float* c) {
     *c = ((quadrant + 1) & 2) ? -cv : cv;
 }
 
-// Offset a ray origin off a surface by a few ulps of its own magnitude, so that spawned rays do
-// not re-hit their surface at any scale or distance from the origin (Waechter and Binder,
-// "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6).
-// n is the geometric normal on the side the ray leaves from.
-float3 offset_ray_origin(float3 p, float3 n) {
-    const float origin = 1.0f / 32.0f;
-    const float float_scale = 1.0f / 65536.0f;
-    const float int_scale = 256.0f;
-    int3 of = convert_int3(int_scale * n);
-    float3 p_int = (float3)(as_float(as_int(p.x) + (p.x < 0.0f ? -of.x : of.x)),
-                            as_float(as_int(p.y) + (p.y < 0.0f ? -of.y : of.y)),
-                            as_float(as_int(p.z) + (p.z < 0.0f ? -of.z : of.z)));
-    return (float3)(fabs(p.x) < origin ? p.x + float_scale * n.x : p_int.x,
-                    fabs(p.y) < origin ? p.y + float_scale * n.y : p_int.y,
-                    fabs(p.z) < origin ? p.z + float_scale * n.z : p_int.z);
+// Offset a ray origin off a surface so that the spawned ray cannot re-hit it, at any scale and
+// any distance from the world origin (pbrt-v4 OffsetRayOrigin; Pharr, Jakob and Humphreys,
+// "Physically Based Rendering", 4th ed., sec. 6.8.6). n: unit geometric normal on the side the
+// new ray leaves towards (the far side for refraction); err: a bound on the error of p along n
+// (SurfacePoint.p_error), so the offset is relative to the magnitudes p was computed from. The
+// final step to the next float away from p keeps rounding of p + offset from undoing it.
+// Waechter and Binder's fixed 256-ulp step (Ray Tracing Gems ch. 6) was used before: it is 0.25
+// world units at 1e4 from the origin and a fixed 1.5e-5 near it, neither relative to the scene.
+float offset_component(float p, float offset) {
+    return offset > 0.0f ? nextafter(p, INFINITY) : offset < 0.0f ? nextafter(p, -INFINITY) : p;
+}
+
+float3 offset_ray_origin(float3 p, float3 n, float err) {
+    float3 offset = err * n;
+    float3 q = p + offset;
+    return (float3)(offset_component(q.x, offset.x), offset_component(q.y, offset.y),
+                    offset_component(q.z, offset.z));
 }
 
 #endif

@@ -56,7 +56,7 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
         SurfacePoint sp = surface_point(scene, &hit, dir);
         if (scene->materials[sp.material].kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
         medium = medium_beyond(&sp);
-        origin = offset_ray_origin(sp.p, -sp.ng);
+        origin = spawn_ray_origin(&sp, dir);
     }
     return (float3)(0.0f);
 }
@@ -76,10 +76,10 @@ float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* s
                     int medium, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
-    float3 f = eval_bsdf(m, sp, wo, ls.wi);
+    float3 f = eval_bsdf(scene, m, sp, wo, ls.wi);
     if (is_black(f)) return (float3)(0.0f);
     bool same_side = dot(ls.wi, sp->ng) > 0.0f;
-    float3 origin = offset_ray_origin(sp->p, same_side ? sp->ng : -sp->ng);
+    float3 origin = spawn_ray_origin(sp, ls.wi);
 #if MEDIA
     if (!same_side) medium = medium_beyond(sp);
 #endif
@@ -102,11 +102,12 @@ float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medi
 }
 #endif
 
-// Survive with probability equal to the throughput, capped so that bright paths (e.g. in
-// high-albedo media) are never kept forever and weights stay bounded by 1 / 0.95.
-bool survive_roulette(float3* throughput, int depth, int rr_depth, Rng* rng) {
+// Survive with probability equal to the throughput without the eta^2 radiance scaling of
+// refraction, capped so that bright paths (e.g. in high-albedo media) are never kept forever
+// and weights stay bounded by 1 / 0.95.
+bool survive_roulette(float3* throughput, float eta_scale, int depth, int rr_depth, Rng* rng) {
     if (depth < rr_depth) return true;
-    float survive = fmin(max_component(*throughput), 0.95f);
+    float survive = fmin(max_component(*throughput) * eta_scale, 0.95f);
     if (rng_float(rng) >= survive) return false;
     *throughput /= survive;
     return true;
@@ -120,6 +121,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
     float3 prev_p = ray.origin;
     float prev_pdf_w = 0.0f;
     bool prev_delta = true;  // the camera ray sees emitters with full weight
+    // Product of eta^2 over the refractions so far: throughput * eta_scale is the throughput
+    // without the radiance scaling of refraction (see materials/dielectric.h), which roulette
+    // must use, or it would kill paths for being inside glass (pbrt-v4's etaScale).
+    float eta_scale = 1.0f;
 #if MEDIA
     int medium = scene->params->media.x;
     bool spectral_mis = scene->params->media.y != 0;
@@ -145,7 +150,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
                 ray.origin = p;
                 prev_p = p;
                 prev_delta = false;
-                if (!survive_roulette(&throughput, depth, rr_depth, rng)) break;
+                if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
                 ++depth;
                 continue;
             }
@@ -160,7 +165,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #if MEDIA
         if (m.kind.x == MATERIAL_INTERFACE) {
             medium = medium_beyond(&sp);
-            ray.origin = offset_ray_origin(sp.p, -sp.ng);
+            ray.origin = spawn_ray_origin(&sp, ray.direction);
             if (++null_crossings > MAX_NULL_CROSSINGS) break;
             continue;
         }
@@ -180,19 +185,19 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #endif
         if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, rng);
 
-        BsdfSample bs = sample_bsdf(&m, &sp, wo, rng);
+        BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
         throughput *= bs.weight;
         prev_pdf_w = bs.pdf_w;
         prev_delta = bs.delta;
         prev_p = sp.p;
-        bool reflected = dot(bs.wi, sp.ng) > 0.0f;
-        ray.origin = offset_ray_origin(sp.p, reflected ? sp.ng : -sp.ng);
+        eta_scale *= bs.eta * bs.eta;
+        ray.origin = spawn_ray_origin(&sp, bs.wi);
         ray.direction = bs.wi;
 #if MEDIA
-        if (!reflected) medium = medium_beyond(&sp);
+        if (dot(bs.wi, sp.ng) < 0.0f) medium = medium_beyond(&sp);
 #endif
-        if (!survive_roulette(&throughput, depth, rr_depth, rng)) break;
+        if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
         ++depth;
     }
     return radiance;

@@ -15,12 +15,14 @@ typedef struct {
     __global const float* emitter_cdf;   // emitter count + 1 entries
     __global const float4* env_texels;   // environment image, row-major, top row first
     __global const float* env_cdf;       // marginal (height + 1) then conditional rows (width + 1)
+    __global const float* specular_albedo;  // energy-compensation tables (materials/energy.h)
 } Scene;
 
 typedef struct {
     float3 p;          // position, from barycentrics (more accurate than origin + t * dir)
     float3 ng;         // unit geometric normal, on the side the ray came from
     float3 ns;         // unit shading normal, on the same side as ng
+    float p_error;     // bound on the rounding error of p along ng (world units)
     bool front_face;   // ray arrived on the side the triangle winding faces
     int material;
     int object;
@@ -41,6 +43,8 @@ bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
     return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit);
 }
 
+#define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
+
 SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
     __global const Triangle* tri = scene->triangles + hit->triangle;
     __global const TriangleShading* sh = scene->shading + hit->triangle;
@@ -49,6 +53,13 @@ SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
     SurfacePoint sp;
     sp.p = tri->v0.xyz + hit->b1 * tri->e1.xyz + hit->b2 * tri->e2.xyz;
     float3 ng = normalize(cross(tri->e1.xyz, tri->e2.xyz));
+    // p is rounded relative to |v0| + |e1| + |e2| per component, and the intersector's distance
+    // to the plane of a ray starting on the triangle is rounded relative to the same sizes (its
+    // origin - v0 spans the triangle). SURFACE_ERROR_EPS times that bounds both: in
+    // tests/test_dielectric.py (rays spawned at scales 1e-3 to 1e3, up to 3e7 from the origin,
+    // down to 1e-4 from grazing) 1 FLT_EPSILON already suffices; 4 leaves a margin.
+    float3 magnitude = fabs(tri->v0.xyz) + fabs(tri->e1.xyz) + fabs(tri->e2.xyz);
+    sp.p_error = SURFACE_ERROR_EPS * dot(fabs(ng), magnitude);
     sp.front_face = dot(ng, dir) < 0.0f;
     sp.ng = sp.front_face ? ng : -ng;
     float3 ns = b0 * sh->n0.xyz + hit->b1 * sh->n1.xyz + hit->b2 * sh->n2.xyz;
@@ -60,6 +71,12 @@ SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
     sp.emitter = info.z;
     sp.media = info.w;
     return sp;
+}
+
+// Origin of a ray leaving sp in direction dir: offset to the side dir goes (through the surface
+// for transmission).
+float3 spawn_ray_origin(const SurfacePoint* sp, float3 dir) {
+    return offset_ray_origin(sp->p, dot(dir, sp->ng) > 0.0f ? sp->ng : -sp->ng, sp->p_error);
 }
 
 float emitter_selection_pmf(const Scene* scene, int emitter) {

@@ -7,6 +7,13 @@
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
+#include "materials/bsdf_sample.h"
+#include "materials/diffuse.h"
+#include "materials/microfacet.h"
+#include "materials/dielectric.h"
+#include "materials/conductor.h"
+#include "materials/energy.h"
+#include "materials/bsdf.h"
 #include "media/phase.h"
 
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
@@ -96,3 +103,105 @@ __kernel void sample_environment(__constant RenderParams* params, __global const
     radiance[i] = (float4)(environment_radiance(&scene, d), 0.0f);
 }
 #endif
+
+// ----- materials: the BSDF dispatch at a surface point whose normals are +z ----------------
+// front_face: whether wo is on the side the surface's winding faces (entering a dielectric).
+SurfacePoint test_surface_point(int front_face, float3 ns) {
+    SurfacePoint sp;
+    sp.p = (float3)(0.0f);
+    sp.ng = (float3)(0.0f, 0.0f, 1.0f);
+    sp.ns = normalize(ns);
+    sp.p_error = 0.0f;
+    sp.front_face = front_face != 0;
+    sp.material = 0;
+    sp.object = 0;
+    sp.emitter = -1;
+    return sp;
+}
+
+// One sample of sample_bsdf per work-item, for wo[i]: (wi, pdf_w) and (weight, eta * (delta ? -1 : 1)).
+// albedo: the material's energy-compensation tables (or one unused float).
+__kernel void sample_bsdf_values(__global const Material* material, __global const float* albedo,
+                                 int front_face, float4 ns, __global const float4* wo, uint seed,
+                                 __global float4* out_wi, __global float4* out_weight) {
+    int i = get_global_id(0);
+    Material m = *material;
+    Scene scene;
+    scene.specular_albedo = albedo;
+    SurfacePoint sp = test_surface_point(front_face, ns.xyz);
+    Rng rng = rng_for_sample((uint)i, 1u, seed);
+    BsdfSample bs = sample_bsdf(&scene, &m, &sp, wo[i].xyz, &rng);
+    out_wi[i] = (float4)(bs.wi, bs.pdf_w);
+    out_weight[i] = (float4)(bs.weight, bs.delta ? -bs.eta : bs.eta);
+}
+
+// eval_bsdf (f * |cos|) and sample_bsdf_pdf for pairs (wo[i], wi[i]).
+__kernel void eval_bsdf_values(__global const Material* material, __global const float* albedo,
+                               int front_face, float4 ns, __global const float4* wo,
+                               __global const float4* wi, __global float4* out) {
+    int i = get_global_id(0);
+    Material m = *material;
+    Scene scene;
+    scene.specular_albedo = albedo;
+    SurfacePoint sp = test_surface_point(front_face, ns.xyz);
+    out[i] = (float4)(eval_bsdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz),
+                      sample_bsdf_pdf(&m, &sp, wo[i].xyz, wi[i].xyz));
+}
+
+#if DIELECTRIC
+// fresnel_dielectric(cos_i, eta) and refract(wo, +z, eta): (F, wt.xyz), wt = 0 under TIR.
+__kernel void fresnel_refract_values(__global const float2* cos_eta, __global float4* out) {
+    int i = get_global_id(0);
+    float cos_i = cos_eta[i].x, eta = cos_eta[i].y;
+    float3 wo = (float3)(sqrt(fmax(0.0f, 1.0f - cos_i * cos_i)), 0.0f, cos_i);
+    float3 wt = (float3)(0.0f);
+    if (!refract(wo, (float3)(0.0f, 0.0f, 1.0f), eta, &wt)) wt = (float3)(0.0f);
+    out[i] = (float4)(fresnel_dielectric(cos_i, eta), wt);
+}
+
+// GGX around +z: D(h), G1(cos_o), and the visible-normal density of h seen from wo.
+__kernel void microfacet_values(float alpha, __global const float4* wo, __global const float4* h,
+                                __global float4* out) {
+    int i = get_global_id(0);
+    float3 n = (float3)(0.0f, 0.0f, 1.0f);
+    out[i] = (float4)(ggx_d(n, h[i].xyz, alpha), ggx_g1(wo[i].z, alpha),
+                      sample_ggx_vndf_pdf(n, wo[i].xyz, h[i].xyz, alpha), 0.0f);
+}
+
+// Visible normals sampled for wo[i].
+__kernel void sample_vndf_values(float alpha, __global const float4* wo, uint seed,
+                                 __global float4* out) {
+    int i = get_global_id(0);
+    Rng rng = rng_for_sample((uint)i, 2u, seed);
+    float3 n = (float3)(0.0f, 0.0f, 1.0f);
+    float3 h = sample_ggx_vndf(n, wo[i].xyz, alpha, rng_float2(&rng));
+    out[i] = (float4)(h, sample_ggx_vndf_pdf(n, wo[i].xyz, h, alpha));
+}
+#endif
+
+// ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
+// geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
+// sign picks the side), and report both hits: (first triangle, second triangle, second t).
+__kernel void spawn_from_hits(__global const BvhNode* nodes, __global const Triangle* triangles,
+                              __global const TriangleShading* shading,
+                              __global const TriangleInfo* info, __global const float4* origins,
+                              __global const float4* directions, __global const float4* leave,
+                              __global float4* out) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.nodes = nodes;
+    scene.triangles = triangles;
+    scene.shading = shading;
+    scene.info = info;
+    out[i] = (float4)(-1.0f, -1.0f, INFINITY, 0.0f);
+    Hit hit;
+    if (!intersect_scene(&scene, origins[i].xyz, directions[i].xyz, INFINITY, &hit)) return;
+    SurfacePoint sp = surface_point(&scene, &hit, directions[i].xyz);
+    float3 t, b;
+    make_basis(sp.ng, &t, &b);
+    float3 dir = normalize(leave[i].x * t + leave[i].y * b + leave[i].z * sp.ng);
+    Hit next;
+    bool found = intersect_scene(&scene, spawn_ray_origin(&sp, dir), dir, INFINITY, &next);
+    out[i] = (float4)((float)hit.triangle, found ? (float)next.triangle : -1.0f, next.t,
+                      sp.front_face ? 1.0f : 0.0f);
+}

@@ -14,11 +14,12 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
-// kind: x MATERIAL_*; color: albedo or tint (toon: base colour); params: x ior inside,
-// y ior outside, z roughness. toon_* are read by MATERIAL_TOON only (materials/toon.h):
-// toon_shadow: rgb shadow colour, w shadow factor; toon_bands: x bands, y band softness,
-// z highlight size, w highlight softness; toon_highlight: rgb colour, w rim width;
-// toon_rim: rgb rim colour, w rim threshold (on N.V).
+// kind: x MATERIAL_*; color: albedo (diffuse), tint (dielectric: transmission, conductor:
+// reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
+// and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
+// (-1: none). toon_* are read by MATERIAL_TOON only (materials/toon.h): toon_shadow: rgb shadow
+// colour, w shadow factor; toon_bands: x bands, y band softness, z highlight size, w highlight
+// softness; toon_highlight: rgb colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
 typedef struct {
     int4 kind; float4 color; float4 emission; float4 params;
     float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim;

@@ -1,27 +1,129 @@
 // Dispatch over material kinds. Only the kinds compiled in by feature defines appear here.
+// eval_bsdf returns f * |cos| and may be non-zero on either side of the surface (transmission);
+// sample_bsdf_pdf is the solid-angle density of sample_bsdf, 0 for delta lobes. The scene
+// supplies the energy-compensation tables of rough lobes (materials/energy.h).
 #ifndef CLRENDER_BSDF_H
 #define CLRENDER_BSDF_H
 
-typedef struct {
-    float3 wi;
-    float3 weight;   // f * |cos| / pdf_w
-    float pdf_w;     // 0: no sample (the path ends)
-    bool delta;
-} BsdfSample;
+#if DIELECTRIC
+// Roughness is perceptual; GGX's width is its square (Burley 2012), so that roughness 0.5 looks
+// half way between a mirror and a matte surface.
+float material_alpha(const Material* m) { return m->params.z * m->params.z; }
 
-bool material_is_delta(const Material* m) { return false; }
+// Entering or leaving is decided by the geometric normal and the ray (sp->front_face, i.e. the
+// triangle's winding faces the ray): the relative index is inverted on the way out.
+float material_eta(const Material* m, const SurfacePoint* sp) {
+    return sp->front_face ? m->params.x / m->params.y : m->params.y / m->params.x;
+}
 
-float3 eval_bsdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+// The normal the specular models use: the shading normal, unless wo is below its tangent plane
+// (interpolated normals bend away from the facet near silhouettes); then the facet's.
+float3 specular_normal(const SurfacePoint* sp, float3 wo) {
+    return dot(wo, sp->ns) > 0.0f ? sp->ns : sp->ng;
+}
+
+// Energy compensation of a rough lobe at this wo (materials/energy.h); 1 for smooth lobes,
+// whose material has no table (params.w < 0).
+float3 specular_energy_scale(const Scene* scene, const Material* m, const SurfacePoint* sp,
+                             float cos_o) {
+    int offset = (int)m->params.w;
+    if (offset < 0) return (float3)(1.0f);
+    bool dielectric = m->kind.x == MATERIAL_DIELECTRIC;
+    int side = dielectric && !sp->front_face ? ALBEDO_TABLE_SIZE : 0;
+    float e = lookup_albedo(scene->specular_albedo + offset + side, cos_o);
+    if (!(e > 0.0f)) return (float3)(1.0f);
+    return dielectric ? (float3)(1.0f / e) : 1.0f + m->color.xyz * ((1.0f - e) / e);
+}
+
+// A glossy lobe counts only where the geometric and the shading normal put wi on the same side,
+// as eval_diffuse does; otherwise light would leak through the facet.
+bool sides_agree(float a, float b) { return (a > 0.0f && b > 0.0f) || (a < 0.0f && b < 0.0f); }
+#endif
+
+bool is_specular_material(const Material* m) {
+    return m->kind.x == MATERIAL_DIELECTRIC || m->kind.x == MATERIAL_CONDUCTOR;
+}
+
+bool material_is_delta(const Material* m) {
+#if DIELECTRIC
+    if (m->kind.x == MATERIAL_DIELECTRIC)
+        return microfacet_is_smooth(material_alpha(m)) || m->params.x == m->params.y;
+    if (m->kind.x == MATERIAL_CONDUCTOR) return microfacet_is_smooth(material_alpha(m));
+#endif
+    return false;
+}
+
+float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                 float3 wi) {
+#if DIELECTRIC
+    if (is_specular_material(m)) {
+        // A delta lobe has no finite value for a direction chosen elsewhere (light sampling).
+        if (material_is_delta(m)) return (float3)(0.0f);
+        float3 n = specular_normal(sp, wo);
+        if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return (float3)(0.0f);
+        float3 f = m->kind.x == MATERIAL_DIELECTRIC
+            ? eval_dielectric(m->color.xyz, material_eta(m, sp), material_alpha(m), n, wo, wi)
+            : eval_conductor(m->color.xyz, material_alpha(m), n, wo, wi);
+        return f * specular_energy_scale(scene, m, sp, dot(n, wo));
+    }
+#endif
     return eval_diffuse(m->color.xyz, sp, wi);
 }
 
 float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+#if DIELECTRIC
+    if (is_specular_material(m)) {
+        if (material_is_delta(m)) return 0.0f;
+        float3 n = specular_normal(sp, wo);
+        if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return 0.0f;
+        if (m->kind.x == MATERIAL_DIELECTRIC)
+            return sample_dielectric_pdf(material_eta(m, sp), material_alpha(m), n, wo, wi);
+        return sample_conductor_pdf(material_alpha(m), n, wo, wi);
+    }
+#endif
     return sample_diffuse_pdf(sp, wi);
 }
 
-BsdfSample sample_bsdf(const Material* m, const SurfacePoint* sp, float3 wo, Rng* rng) {
-    BsdfSample bs;
-    bs.delta = false;
+#if DIELECTRIC
+// Dielectrics and conductors, with the random numbers as arguments (for the tests' kernels).
+// Glossy lobes: the weight is eval / pdf of the sampled direction, the same two functions that
+// next-event estimation and MIS use, so both strategies agree by construction.
+BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp,
+                                float3 wo, float rnl, float2 rn) {
+    float3 n = specular_normal(sp, wo);
+    float alpha = material_alpha(m);
+    bool dielectric = m->kind.x == MATERIAL_DIELECTRIC;
+    float eta = dielectric ? material_eta(m, sp) : 1.0f;
+    if (material_is_delta(m)) {
+        if (!dielectric) return sample_conductor_delta(m->color.xyz, n, sp->ng, wo);
+        // Index-matched: exactly eta = 1, whichever way the division rounds.
+        return sample_dielectric_delta(m->color.xyz, m->params.x == m->params.y ? 1.0f : eta, n,
+                                       sp->ng, wo, rnl);
+    }
+    BsdfSample bs = bsdf_sample_none();
+    float3 wi = dielectric ? sample_dielectric(eta, alpha, n, wo, rnl, rn) : sample_conductor(alpha, n, wo, rn);
+    if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return bs;  // also rejects the zero vector
+    float pdf_w = dielectric ? sample_dielectric_pdf(eta, alpha, n, wo, wi) : sample_conductor_pdf(alpha, n, wo, wi);
+    if (!(pdf_w > 0.0f)) return bs;
+    float3 f = dielectric ? eval_dielectric(m->color.xyz, eta, alpha, n, wo, wi)
+                          : eval_conductor(m->color.xyz, alpha, n, wo, wi);
+    bs.wi = wi;
+    bs.pdf_w = pdf_w;
+    bs.weight = f * specular_energy_scale(scene, m, sp, dot(n, wo)) / pdf_w;
+    bs.eta = dot(wi, sp->ng) < 0.0f ? eta : 1.0f;
+    return bs;
+}
+#endif
+
+BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                       Rng* rng) {
+#if DIELECTRIC
+    if (is_specular_material(m)) {
+        float rnl = rng_float(rng);
+        return sample_specular_bsdf(scene, m, sp, wo, rnl, rng_float2(rng));
+    }
+#endif
+    BsdfSample bs = bsdf_sample_none();
     bs.wi = sample_diffuse(sp, rng_float2(rng));
     bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
     // For cosine sampling f * cos / pdf is the albedo itself; dividing would only add rounding.

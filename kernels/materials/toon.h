@@ -80,8 +80,7 @@ float3 toon_lit_response(const Material* m, float3 n, float3 wo, float3 wi, bool
 // by the surface itself; no ray is needed to know it.
 bool toon_light_visible(const Scene* scene, const SurfacePoint* sp, float3 wi, float dist) {
     if (dot(wi, sp->ng) <= 0.0f) return false;
-    float3 origin = offset_ray_origin(sp->p, sp->ng);
-    return !occluded(scene, origin, wi, dist * (1.0f - 1e-4f));
+    return !occluded(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f));
 }
 
 float3 toon_lit(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
