@@ -30,7 +30,7 @@ class Camera:
 
 @dataclass
 class Toon:
-    """Cel-shading parameters of a `toon` material (docs/toon-notes.md; kernels/materials/toon.h).
+    """Cel-shading parameters of a `toon` material (docs/materials-toon.md; kernels/materials/toon.h).
 
     Per light the surface shows color x (shadow_color + (1 - shadow_color) x band x visibility),
     plus highlight and rim, all scaled by the light's irradiance / pi."""
@@ -53,7 +53,7 @@ class Material:
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.8))  # toon: base color
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     toon: Toon = None                # set for type "toon" only
-    # dielectric and conductor (docs/dielectric-notes.md)
+    # dielectric and conductor (docs/materials-dielectric.md)
     tint: np.ndarray = field(default_factory=lambda: np.ones(3))
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
@@ -349,7 +349,7 @@ def _unit_color(node, key, default=(1.0, 1.0, 1.0)):
 
 
 def _read_toon(node):
-    """Toon parameters; `highlight` and `rim` are optional sub-objects (docs/toon-notes.md)."""
+    """Toon parameters; `highlight` and `rim` are optional sub-objects (docs/materials-toon.md)."""
     d = Toon()
     highlight = node.child("highlight", {})
     rim = node.child("rim", {})
