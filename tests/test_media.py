@@ -187,3 +187,43 @@ def test_scene_wide_fog_attenuates_a_directly_seen_light(device):
     result = clrender.Renderer(scene, device).render(spp=64, seed=3)
     # Grey medium: each sample is 3 * (passes ? 1 : 0); path lengths vary < 0.1% over the view.
     assert z_bound(result.image, 3.0 * np.exp(-sigma_t * 4.0)) < 5.0
+
+
+@pytest.mark.parametrize("roughness", [0.0, 0.4])
+def test_glass_filled_with_a_scattering_medium_vanishes_in_a_furnace(device, roughness):
+    # A lossless medium behind a lossless dielectric boundary: refraction changes the medium
+    # (the glass's interior), roulette must ignore the eta^2 radiance scale, and the whole
+    # object must still vanish in a uniform environment.
+    data = medium_scene({"sigma_t": [1.5, 0.8, 3.0], "albedo": 1.0, "g": 0.5},
+                        {"type": "sphere", "radius": 1.0, "subdivisions": 3},
+                        camera_args={"resolution": (16, 16), "fov": 25},
+                        render={"max_depth": 1000, "rr_depth": 5})
+    data["materials"] = [{"name": "boundary", "type": "dielectric", "ior": 1.5, "roughness": roughness}]
+    scene = clrender.load_scene_dict(data)
+    assert scene_features(scene)["MEDIA"] == 1 and scene_features(scene)["DIELECTRIC"] == 1
+    result = clrender.Renderer(scene, device).render(spp=32, seed=12)
+    assert result.discarded_samples == 0
+    for c in range(3):
+        assert z_bound(result.image[..., c], 1.0) < 5.0
+
+
+def test_absorbing_glass_follows_beer_lambert_through_a_slab(device):
+    # A camera looking perpendicularly through a glass slab filled with an absorber, in front of a
+    # uniform background: transmitted radiance = (1 - R)^2 exp(-sigma_a d) / (1 - R^2 exp(-2 sigma_a d))
+    # summing the inter-reflections inside the slab (R: normal-incidence Fresnel reflectance);
+    # the 1/eta^2 radiance scale cancels between entering and leaving.
+    sigma_a, thickness, ior = np.array([0.2, 1.0, 4.0]), 0.5, 1.5
+    data = medium_scene({"sigma_a": sigma_a.tolist()}, SLAB,
+                        camera_args={"fov": 3, "resolution": (16, 16)}, render={"max_depth": 64, "rr_depth": 64})
+    data["materials"] = [{"name": "boundary", "type": "dielectric", "ior": ior}]
+    result = clrender.Renderer(clrender.load_scene_dict(data), device).render(spp=64, seed=4)
+    reflectance = ((ior - 1) / (ior + 1)) ** 2
+    transmittance = np.exp(-sigma_a * thickness)
+    expected = (1 - reflectance) ** 2 * transmittance / (1 - reflectance ** 2 * transmittance ** 2)
+    # Camera rays and the background reflected by the front face also reach the camera:
+    # a perpendicular reflection sends the ray back to the uniform background, which adds
+    # R + (1 - R)^2 R T^2 / (1 - R^2 T^2) (the light reflected once or after inner bounces).
+    expected += reflectance + (1 - reflectance) ** 2 * reflectance * transmittance ** 2 / (
+        1 - reflectance ** 2 * transmittance ** 2)
+    for c in range(3):
+        assert z_bound(result.image[..., c], expected[c]) < 5.0, (c, result.image[..., c].mean(), expected[c])
