@@ -28,6 +28,8 @@ def _parser():
     render.add_argument("-o", "--output", type=Path, required=True,
                         help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB)")
     render.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
+    render.add_argument("--time", type=float, metavar="SECONDS",
+                        help="render for this long (kernel time); with --spp, whichever comes first")
     render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
     render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
     render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
@@ -70,7 +72,7 @@ def _render(args):
         raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
     scene = load_scene(args.scene)
     renderer = Renderer(scene, args.device)
-    spp = args.spp or scene.render.spp
+    spp = args.spp or (None if args.time else scene.render.spp)
     bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
 
     def progress(done, total, seconds):
@@ -79,7 +81,8 @@ def _render(args):
         bar.set_postfix_str(f"{done * width * height / max(seconds, 1e-9) / 1e6:.2f} M samples/s")
 
     try:
-        result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress)
+        result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
+                                 time_limit=args.time)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result

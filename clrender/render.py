@@ -31,6 +31,9 @@ class RenderResult:
         return self.samples * w * h / self.seconds if self.seconds > 0 else 0.0
 
 
+MAX_SPP = 2 ** 31 - 1   # sample indices are int32 in the kernel
+
+
 def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True):
     """The RenderParams struct of one launch."""
     camera = scene.camera
@@ -90,12 +93,14 @@ class Renderer:
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
 
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
-               samples_per_pass=None):
+               samples_per_pass=None, time_limit=None):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
         after every launch. Samples per launch adapt to `pass_seconds` unless fixed by
-        `samples_per_pass`; the image does not depend on the split."""
+        `samples_per_pass`; the image does not depend on the split. With `time_limit` (seconds of
+        kernel time) rendering stops after the launch that reaches it, or at `spp` if given."""
         settings = self.scene.render
-        spp = settings.spp if spp is None else spp
+        if spp is None:
+            spp = MAX_SPP if time_limit is not None else settings.spp
         seed = settings.seed if seed is None else seed
         max_depth = settings.max_depth if max_depth is None else max_depth
         rr_depth = settings.rr_depth if rr_depth is None else rr_depth
@@ -113,7 +118,7 @@ class Renderer:
 
         done, per_pass, seconds = 0, samples_per_pass or 1, 0.0
         try:
-            while done < spp:
+            while done < spp and (time_limit is None or seconds < time_limit):
                 count = min(per_pass, spp - done)
                 params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
                                        seed, self.spectral_mis)

@@ -38,3 +38,11 @@ def test_seed_changes_the_noise_but_not_the_expectation(device):
     # Means over the image agree within the noise of two independent renders.
     difference = (a - b).ravel()
     assert abs(difference.mean()) < 5 * difference.std() / np.sqrt(difference.size)
+
+
+def test_time_limited_render_stops_after_the_limit(device):
+    renderer = clrender.Renderer(small_cornell_box(), device, pass_seconds=0.05)
+    result = renderer.render(time_limit=0.3, seed=3)
+    assert result.seconds >= 0.3 and result.samples >= 1
+    # The samples taken are the first ones of the fixed sequence: an spp render agrees exactly.
+    assert np.array_equal(result.image, renderer.render(spp=result.samples, seed=3).image)

@@ -36,16 +36,15 @@ def reference(scene, spp, device):
 
 def equal_time_render(scene, device, spectral_mis, seconds, seed):
     renderer = clrender.Renderer(scene, device, spectral_mis=spectral_mis)
-    probe = renderer.render(spp=4, seed=seed + 99)
-    spp = max(1, int(seconds * probe.samples_per_second / (scene.camera.resolution[0] ** 2)))
-    return renderer.render(spp=spp, seed=seed)
+    renderer.render(spp=1, seed=seed + 99)  # warm-up: kernel compilation
+    return renderer.render(seed=seed, time_limit=seconds)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=20.0)
-    parser.add_argument("--reference-spp", type=int, default=4096)
-    parser.add_argument("--resolution", type=int, default=128)
+    parser.add_argument("--reference-spp", type=int, default=8192)
+    parser.add_argument("--resolution", type=int, default=96)
     parser.add_argument("--device")
     args = parser.parse_args()
     device = clrender.choose_device(args.device)
