@@ -38,17 +38,12 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     """The RenderParams struct of one launch."""
     camera = scene.camera
     width, height = camera.resolution
-    forward = camera.look_at - camera.position
-    forward = forward / np.linalg.norm(forward)
-    right = np.cross(forward, camera.up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    tan_half = np.tan(np.radians(camera.fov) / 2)
+    forward, right, up = camera.basis()
     p = np.zeros(1, layout.RENDER_PARAMS)
     p["camera"]["origin"][0, :3] = camera.position
     p["camera"]["forward"][0, :3] = forward
-    p["camera"]["right"][0, :3] = right * tan_half * width / height
-    p["camera"]["up"][0, :3] = up * tan_half
+    p["camera"]["right"][0, :3] = right
+    p["camera"]["up"][0, :3] = up
     p["frame"] = (width, height, first_sample, samples)
     p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
     p["environment"] = (arrays.env_index, *arrays.env_size, 0)

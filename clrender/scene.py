@@ -27,6 +27,27 @@ class Camera:
     fov: float                 # vertical field of view, degrees
     resolution: tuple          # (width, height)
 
+    def basis(self):
+        """(forward, right, up): the unit view direction, and the image's right and up axes
+        scaled so that forward + sx * right + sy * up, sx and sy in [-1, 1], spans the image."""
+        forward = self.look_at - self.position
+        forward = forward / np.linalg.norm(forward)
+        right = np.cross(forward, self.up)
+        right = right / np.linalg.norm(right)
+        up = np.cross(right, forward)
+        tan_half = np.tan(np.radians(self.fov) / 2)
+        width, height = self.resolution
+        return forward, right * tan_half * width / height, up * tan_half
+
+    def pixel_directions(self, x, y):
+        """Unit directions through image positions (x, y) in pixels (0, 0 = top-left corner)."""
+        forward, right, up = self.basis()
+        width, height = self.resolution
+        sx = 2 * np.asarray(x, float) / width - 1
+        sy = 1 - 2 * np.asarray(y, float) / height
+        d = forward + sx[..., None] * right + sy[..., None] * up
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
 
 @dataclass
 class Toon:
@@ -121,6 +142,22 @@ class Scene:
     camera_medium: int = None      # medium at the camera; None: found by casting a ray
     path: Path = None
     outlines: Outlines = field(default_factory=Outlines)
+
+    def transform(self, matrix):
+        """Move everything (shapes, camera, point and directional lights) by an affine 4x4 matrix."""
+        linear, offset = matrix[:3, :3], matrix[:3, 3]
+        for shape in self.shapes:
+            shape.mesh = meshes.apply_transform(shape.mesh, matrix)
+        self.camera.position = linear @ self.camera.position + offset
+        self.camera.look_at = linear @ self.camera.look_at + offset
+        self.camera.up = linear @ self.camera.up
+        for light in self.lights:
+            if light.position is not None:
+                light.position = linear @ light.position + offset
+            if light.direction is not None:
+                light.direction = linear @ light.direction
+                light.direction /= np.linalg.norm(light.direction)
+        return self
 
     @property
     def environment(self):

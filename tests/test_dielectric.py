@@ -611,12 +611,7 @@ def test_index_matched_sphere_vanishes_in_the_cornell_box(device):
 
 def moved(scene, scale=1.0, offset=0.0):
     """The same scene scaled about the origin, then translated by (offset, offset, offset)."""
-    matrix = meshes.transform_matrix(translate=[offset] * 3, scale=[scale] * 3)
-    for shape in scene.shapes:
-        shape.mesh = meshes.apply_transform(shape.mesh, matrix)
-    scene.camera.position = scene.camera.position * scale + offset
-    scene.camera.look_at = scene.camera.look_at * scale + offset
-    return scene
+    return scene.transform(meshes.transform_matrix(translate=[offset] * 3, scale=[scale] * 3))
 
 
 @pytest.mark.parametrize("scale,offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 1e4), (1e-3, 1.0)],

@@ -84,20 +84,11 @@ def test_scattering_sphere_in_furnace_vanishes(device, g):
 
 def subpixel_rays(scene, samples_per_axis):
     """Camera rays through a regular sub-pixel grid: unit directions (H, W, samples, 3)."""
-    cam = scene.camera
-    width, height = cam.resolution
-    forward = (cam.look_at - cam.position) / np.linalg.norm(cam.look_at - cam.position)
-    right = np.cross(forward, cam.up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    tan_half = np.tan(np.radians(cam.fov) / 2)
+    width, height = scene.camera.resolution
     offsets = (np.arange(samples_per_axis) + 0.5) / samples_per_axis
     jx, jy = np.meshgrid(offsets, offsets)
     px, py = np.meshgrid(np.arange(width), np.arange(height))
-    sx = 2 * (px[..., None] + jx.ravel()) / width - 1
-    sy = 1 - 2 * (py[..., None] + jy.ravel()) / height
-    d = forward + sx[..., None] * right * tan_half * width / height + sy[..., None] * up * tan_half
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return scene.camera.pixel_directions(px[..., None] + jx.ravel(), py[..., None] + jy.ravel())
 
 
 def chord_lengths(scene, samples_per_axis=8, camera_inside=False):

@@ -47,16 +47,9 @@ def centre_points(scene, aux):
     unit directions back to the camera."""
     c = scene.camera
     width, height = c.resolution
-    forward = (c.look_at - c.position) / np.linalg.norm(c.look_at - c.position)
-    right = np.cross(forward, c.up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    tan_half = np.tan(np.radians(c.fov) / 2)
-    sx = 2 * (np.arange(width) + 0.5) / width - 1
-    sy = 1 - 2 * (np.arange(height) + 0.5) / height
-    d = (forward + sx[None, :, None] * right * tan_half * width / height
-         + sy[:, None, None] * up * tan_half)
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    px, py = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    d = c.pixel_directions(px, py)
+    forward = c.basis()[0]
     t = aux["depth"][..., None] / (d @ forward)[..., None]
     points = c.position + d * t
     return points, -d

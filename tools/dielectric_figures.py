@@ -60,12 +60,7 @@ def scale_check(spp, device):
     def moved(scale, offset):
         scene = clrender.load_scene(os.path.join(ROOT, "scenes", "cornell_glass.json"))
         scene.camera.resolution = (64, 64)
-        matrix = meshes.transform_matrix(translate=[offset] * 3, scale=[scale] * 3)
-        for shape in scene.shapes:
-            shape.mesh = meshes.apply_transform(shape.mesh, matrix)
-        scene.camera.position = scene.camera.position * scale + offset
-        scene.camera.look_at = scene.camera.look_at * scale + offset
-        return scene
+        return scene.transform(meshes.transform_matrix(translate=[offset] * 3, scale=[scale] * 3))
 
     reference = clrender.Renderer(moved(1.0, 0.0), device).render(spp=spp, seed=1).image
     for label, scale, offset in [("unmoved, other seed", 1.0, 0.0), ("x 1e-3", 1e-3, 0.0),
