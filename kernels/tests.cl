@@ -36,12 +36,14 @@ __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
     out[k++] = sizeof(Medium);
     out[k++] = OFFSET(md, sigma_a); out[k++] = OFFSET(md, sigma_s); out[k++] = OFFSET(md, params);
+    out[k++] = OFFSET(md, grid); out[k++] = OFFSET(md, resolution);
+    out[k++] = OFFSET(md, majorant_resolution); out[k++] = OFFSET(md, to_voxel);
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
     out[k++] = OFFSET(c, up);
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
-    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media);
+    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights);
 }
 
