@@ -91,9 +91,19 @@ class Renderer:
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
         a = self.arrays
-        self._buffers = [self._upload(x) for x in (
-            a.nodes, a.triangles, a.shading, a.info, a.materials, a.media, a.emitters,
-            a.emitter_cdf, a.env_texels, a.env_cdf, a.grid_data, a.majorant_data)]
+        self._buffers = [self._upload(getattr(a, name)) for name in self.ARRAYS]
+
+    # The scene arrays passed to the kernel, in argument order after the RenderParams.
+    ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
+              "emitter_cdf", "env_texels", "env_cdf", "grid_data", "majorant_data")
+
+    def update_array(self, name, array):
+        """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an
+        edited density grid (`grid_data`, with its `majorant_data`) between renders."""
+        index = self.ARRAYS.index(name)
+        array = np.asarray(array, dtype=getattr(self.arrays, name).dtype)
+        setattr(self.arrays, name, array)
+        self._buffers[index] = self._upload(array)
 
     def _upload(self, array):
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
