@@ -192,14 +192,20 @@ def fbm(resolution, rng, base_cells=3, octaves=4):
 
 
 def noise_cloud(resolution, seed=0):
-    """A cumulus-like cloud: an ellipsoid, flatter at the bottom, whose surface is eroded and
-    billowed by fractal noise; dense core (about 1), wispy edges, empty corners."""
+    """A cumulus-like cloud: a union of a dozen soft blobs (a flat base, billows on top) whose
+    surface is eroded by fractal noise; dense core (about 1), wispy edges, empty corners."""
     rng = np.random.default_rng(seed)
     x, y, z = voxel_centres(resolution)
-    dy = np.where(y < 0.45, (y - 0.45) / 0.22, (y - 0.45) / 0.42)   # flat base, domed top
-    r = np.sqrt(((x - 0.5) / 0.42) ** 2 + dy ** 2 + ((z - 0.5) / 0.42) ** 2)
-    noise = fbm(resolution, rng)
-    density = (1.0 - r) * 2.2 + (noise - 0.5) * 2.4
+    shape = np.full_like(x, -1.0)
+    for _ in range(12):
+        cx, cz = rng.uniform(0.3, 0.7, 2)
+        cy = rng.uniform(0.35, 0.55)
+        radius = rng.uniform(0.12, 0.22)
+        r = np.sqrt((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / radius
+        shape = np.maximum(shape, 1.0 - r)
+    shape -= np.clip((0.3 - y) / 0.08, 0, None)       # a flat base
+    noise = fbm(resolution, rng, base_cells=4, octaves=4)
+    density = 3.0 * (shape + 0.35 * (noise - 0.5))
     return np.clip(density, 0.0, 1.0).astype(np.float32)
 
 
