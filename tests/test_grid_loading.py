@@ -127,6 +127,9 @@ def test_features_follow_the_volume_method_and_combinations_stay_valid():
     assert scene_features(clrender.load_scene("scenes/smoke_cornell_box.json"))["GRID_MEDIA"] == 0
     with pytest.raises(ValueError, match="unknown volume method"):
         scene_features(scene, "magic")
+    for step in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="step must be a positive number"):
+            clrender.Renderer(scene, step=step)
     combinations = list(all_feature_combinations())
     assert all(c["MEDIA"] == 1 for c in combinations if c["GRID_MEDIA"])
     assert len(combinations) == 48   # kept small: every one is compiled by test_compile.py

@@ -295,6 +295,21 @@ def test_ratio_tracking_through_a_thick_cloud_matches_quadrature(context, queue,
             assert z_bound(estimates[:, c], expected[c]) < 5.0, (k, c, estimates[:, c].mean(), expected[c])
 
 
+@pytest.mark.parametrize("kind", ["homogeneous", "constant_grid"])
+def test_shadow_rays_through_constant_media_are_exact(context, queue, kind):
+    # Where the majorant equals the minorant (every homogeneous medium; constant blocks of a grid)
+    # residual ratio tracking has no tentative collision: the estimate is exp(-sigma_t d) itself,
+    # without variance, as the analytic transmittance of scenes without grid media.
+    sigma_t = np.array([0.5, 1.0, 3.0])
+    medium = {"name": "m", "sigma_a": (sigma_t / 2).tolist(), "sigma_s": (sigma_t / 2).tolist()}
+    if kind == "constant_grid":
+        medium.update(constant_grid())
+    kernels = MediaKernels(context, queue, clrender.load_scene_dict(box_scene(medium)), "null")
+    estimates = kernels.transmittance((-0.9, -0.2, 0.1), (1.0, 0.0, 0.0), 1.7, 256)
+    assert np.all(estimates[:, 3] == 0)
+    assert np.allclose(estimates[:, :3], np.exp(-sigma_t * 1.7), rtol=1e-5, atol=0)
+
+
 def test_delta_tracking_passes_with_the_transmittance_per_channel(context, queue):
     # Passing probability of the mixture over heroes, times the chain weight, estimates T_c.
     kernels = MediaKernels(context, queue, gradient_scene(), "null")
