@@ -17,6 +17,8 @@ class SceneArrays:
     info: np.ndarray
     materials: np.ndarray
     media: np.ndarray
+    grid_data: np.ndarray       # float32 voxels of every grid medium, concatenated (one dummy without)
+    majorant_data: np.ndarray   # float32 (max, min) per majorant block of every grid, concatenated
     camera_medium: int          # medium index at the camera, -1 for none
     emitters: np.ndarray
     emitter_cdf: np.ndarray
@@ -100,10 +102,11 @@ def build_scene_arrays(scene):
     camera_medium = scene.camera_medium
     if camera_medium is None:
         camera_medium = _medium_at_camera(scene, v0, v1, v2, info)
+    media, grid_data, majorant_data = _medium_array(scene.media)
     return SceneArrays(
         nodes=bvh.nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
-        media=_medium_array(scene.media), camera_medium=camera_medium,
+        media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         first_light=first_light,
@@ -214,12 +217,32 @@ def _assign_albedo_tables(materials, used):
 
 
 def _medium_array(media):
+    """Medium records, and the voxel and majorant buffers that grid media index into."""
     out = np.zeros(max(len(media), 1), layout.MEDIUM)
+    voxels, majorants = [], []
+    voxel_count = cell_count = 0
     for i, medium in enumerate(media):
         out[i]["sigma_a"][:3] = medium.sigma_a
         out[i]["sigma_s"][:3] = medium.sigma_s
         out[i]["params"][0] = medium.g
-    return out
+        out[i]["grid"][0] = layout.MEDIUM_KINDS[medium.type]
+        if medium.grid is None:
+            continue
+        grid = medium.grid
+        high, low = grid.majorants()
+        out[i]["grid"][1:] = (voxel_count, cell_count, grid.block)
+        out[i]["resolution"][:3] = grid.resolution
+        out[i]["majorant_resolution"][:3] = high.shape[::-1]
+        out[i]["to_voxel"] = grid.world_to_voxel()
+        voxels.append(grid.density.ravel())
+        majorants.append(np.stack([high.ravel(), low.ravel()], axis=1).ravel())
+        voxel_count += grid.density.size
+        cell_count += high.size
+    if voxel_count + cell_count * 2 >= 2**31:
+        raise ValueError("grid media too large: more than 2^31 floats in all")
+    grid_data = np.concatenate(voxels).astype(np.float32) if voxels else np.zeros(1, np.float32)
+    majorant_data = np.concatenate(majorants).astype(np.float32) if majorants else np.zeros(2, np.float32)
+    return out, grid_data, majorant_data
 
 
 def _medium_at_camera(scene, v0, v1, v2, info):

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from .errors import KernelBuildError, SceneError
 
 
@@ -35,6 +37,12 @@ def _parser():
     render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
     render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
+    render.add_argument("--volume-method", choices=("null", "raymarch"),
+                        help="grid media: null-scattering path integral (unbiased) or ray marching "
+                             "(biased preview) (default: the scene's, else null)")
+    render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
+    render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
+                        help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
@@ -50,6 +58,13 @@ def _positive_int(text):
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _positive_float(text):
+    value = float(text)
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
     return value
 
 
@@ -71,7 +86,8 @@ def _render(args):
     if suffix != ".exr" and suffix not in LDR_SUFFIXES:
         raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
     scene = load_scene(args.scene)
-    renderer = Renderer(scene, args.device)
+    renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
+                        raymarch_multiple_scattering=args.raymarch_multiple_scattering)
     spp = args.spp or (None if args.time else scene.render.spp)
     bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
 
@@ -113,12 +129,32 @@ def _info(args):
           + (f" ({arrays.degenerate_triangles} degenerate dropped)" if arrays.degenerate_triangles else ""))
     print(f"bvh:        {len(arrays.nodes)} nodes, depth {arrays.bvh_depth}")
     print(f"emitters:   {len(arrays.emitters)} ({len(scene.lights)} lights + emissive triangles)")
+    for medium in scene.media:
+        print(f"medium:     {medium.name}: {_describe_medium(medium)}")
+    if any(m.type == "grid" for m in scene.media):
+        r = scene.render
+        print(f"volumes:    method {r.volume_method}" + (
+            f", step {r.step:g}, multiple scattering {'on' if r.raymarch_multiple_scattering else 'off'}"
+            if r.volume_method == "raymarch" else ""))
     print(f"bounds:     min {_fmt(lo)}  max {_fmt(hi)}")
     print(f"features:   {describe(scene_features(scene))}")
     o = scene.outlines
     print("outlines:   " + (f"width {o.width:g} px, depth threshold {o.depth_threshold:g}, "
                             f"crease angle {o.crease_angle:g} deg" if o.enabled else "off"))
     return 0
+
+
+def _describe_medium(medium):
+    coefficients = f"sigma_a {_fmt(medium.sigma_a)}, sigma_s {_fmt(medium.sigma_s)}, g {medium.g:g}"
+    if medium.grid is None:
+        return f"homogeneous, {coefficients}"
+    grid = medium.grid
+    high, _ = grid.majorants()
+    nx, ny, nz = grid.resolution
+    lo, hi = grid.world_bounds()
+    return (f"grid {nx}x{ny}x{nz} ({grid.source}), density max {float(grid.density.max()):.4g}, "
+            f"{np.count_nonzero(high == 0)}/{high.size} empty majorant blocks of {grid.block}^3, "
+            f"box {_fmt(lo)}-{_fmt(hi)}, {coefficients} per unit density")
 
 
 def _fmt(v):

@@ -1,28 +1,42 @@
 """The one place that decides which kernel features a scene needs.
 
 The megakernel is compiled with one -D define per feature, so code a scene does not use is not
-compiled. Features are deliberately coarse: each new combination costs a kernel build.
+compiled. Features are deliberately coarse: each new combination costs a kernel build (about
+2 s on PoCL here, and tests/test_compile.py builds them all). Small code paths are not features:
+point and directional lights, for instance, are always compiled in (one untaken branch).
 """
 import itertools
 
-from .layout import ENVIRONMENT_MODES
+from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 
 # Every feature and the values it may take; the first value is "absent".
 FEATURE_VALUES = {
     "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
-    "DELTA_LIGHTS": (0, 1),
     "MEDIA": (0, 1),
     "TOON": (0, 1),
     # Specular materials: smooth and rough dielectrics and conductors (one feature for both:
     # they share the microfacet code, and every feature doubles the combinations to build).
     "DIELECTRIC": (0, 1),
+    # Grid media and how they are integrated: 0 none, 1 null-scattering path integral,
+    # 2 ray marching (VOLUME_* in layout.py). Only the chosen method is compiled in.
+    "GRID_MEDIA": tuple(VOLUME_METHODS.values()),
 }
 
 SPECULAR_MATERIALS = ("dielectric", "conductor")
 
 
-def scene_features(scene):
-    """The feature values (name -> int) that `scene` needs."""
+def volume_method(scene, override=None):
+    """The integration method for the scene's grid media: `override` (API/CLI) or the scene's."""
+    method = override if override is not None else scene.render.volume_method
+    if method not in VOLUME_METHODS or method == "none":
+        valid = ", ".join(m for m in VOLUME_METHODS if m != "none")
+        raise ValueError(f"unknown volume method {method!r}; valid: {valid}")
+    return method
+
+
+def scene_features(scene, volume_method_override=None):
+    """The feature values (name -> int) that `scene` needs; `volume_method_override` replaces
+    the scene's render.volume_method ("null" or "raymarch")."""
     environment = scene.environment
     if environment is None:
         env_mode = ENVIRONMENT_MODES["none"]
@@ -30,13 +44,14 @@ def scene_features(scene):
         env_mode = ENVIRONMENT_MODES["image" if environment.image is not None else "constant"]
     return {
         "ENVIRONMENT": env_mode,
-        "DELTA_LIGHTS": int(any(light.type in ("point", "directional") for light in scene.lights)),
         "MEDIA": int(_uses_media(scene)),
         # Only materials some shape uses: an unused toon material cannot be hit.
         "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
         # Only materials that some shape uses: an unused glass definition costs no kernel code.
         "DIELECTRIC": int(any(scene.materials[shape.material].type in SPECULAR_MATERIALS
                               for shape in scene.shapes)),
+        "GRID_MEDIA": VOLUME_METHODS[volume_method(scene, volume_method_override)]
+        if any(m.type == "grid" for m in scene.media) else 0,
     }
 
 
@@ -47,15 +62,23 @@ def _uses_media(scene):
 
 
 def all_feature_combinations():
-    """Every combination of feature values the defines allow (for compile checks)."""
+    """Every combination of feature values the defines allow (for compile checks). Grid media
+    are media: GRID_MEDIA > 0 comes with MEDIA = 1 only."""
     names = list(FEATURE_VALUES)
     for values in itertools.product(*(FEATURE_VALUES[n] for n in names)):
-        yield dict(zip(names, values))
+        features = dict(zip(names, values))
+        if features["GRID_MEDIA"] and not features["MEDIA"]:
+            continue
+        yield features
 
 
 def describe(features):
     """Human-readable list of enabled features."""
     env_names = {v: k for k, v in ENVIRONMENT_MODES.items()}
+    method_names = {v: k for k, v in VOLUME_METHODS.items()}
     parts = [f"environment={env_names[features['ENVIRONMENT']]}"]
-    parts += [name.lower() for name, value in features.items() if name != "ENVIRONMENT" and value]
+    parts += [name.lower() for name, value in features.items()
+              if name not in ("ENVIRONMENT", "GRID_MEDIA") and value]
+    if features.get("GRID_MEDIA"):
+        parts.append(f"grid_media={method_names[features['GRID_MEDIA']]}")
     return ", ".join(parts)

@@ -40,9 +40,14 @@ MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4)
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
 
-# Homogeneous medium: coefficients per RGB channel (already multiplied by the scale), in 1/length.
-# params: x Henyey-Greenstein g.
-MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4))
+# A medium: coefficients per RGB channel (already multiplied by the scale), in 1/length; for a
+# grid medium per unit density (sigma(x) = density(x) * sigma). params: x Henyey-Greenstein g.
+# grid: x MEDIUM_* kind, y first voxel in the grid buffer, z first majorant cell in the majorant
+# buffer (in cells: two floats each, max then min), w majorant block edge in voxels.
+# resolution: nx, ny, nz voxels; majorant_resolution: blocks per axis.
+# to_voxel: three rows of the affine map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz].
+MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4), ("resolution", I4),
+                 ("majorant_resolution", I4), ("to_voxel", ("<f4", (3, 4))))
 
 CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
 
@@ -52,6 +57,7 @@ RENDER_PARAMS = np.dtype([
     ("config", I4),        # max depth, roulette depth, seed, emitter count
     ("environment", I4),   # emitter index, image width, image height
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
+    ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
 ])
@@ -73,6 +79,9 @@ STRUCTS = {
 MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
+MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
+# Values of the GRID_MEDIA feature: how grid media are integrated (docs/heterogeneous-media.md).
+VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 
 
 def pack_media(interior, exterior):
@@ -89,7 +98,8 @@ def c_constants():
     """The enumerations and sizes above as C #define lines."""
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
-                          ("ENVIRONMENT", ENVIRONMENT_MODES)):
+                          ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
+                          ("VOLUME", VOLUME_METHODS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     return "\n".join(lines) + "\n"

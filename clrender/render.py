@@ -34,8 +34,10 @@ class RenderResult:
 MAX_SPP = 2 ** 31 - 1   # sample indices are int32 in the kernel
 
 
-def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True):
-    """The RenderParams struct of one launch."""
+def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True,
+                  step=None, raymarch_multiple_scattering=None):
+    """The RenderParams struct of one launch. `step` and `raymarch_multiple_scattering` (ray
+    marching of grid media) default to the scene's render settings."""
     camera = scene.camera
     width, height = camera.resolution
     forward, right, up = camera.basis()
@@ -48,6 +50,11 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
     p["environment"] = (arrays.env_index, *arrays.env_size, 0)
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
+    settings = scene.render
+    step = settings.step if step is None else step
+    multiple = (settings.raymarch_multiple_scattering if raymarch_multiple_scattering is None
+                else raymarch_multiple_scattering)
+    p["volume"] = (step, float(bool(multiple)), 0, 0)
     p["scene_sphere"] = arrays.scene_sphere
     p["lights"] = (arrays.first_light, 0, 0, 0)
     return p
@@ -64,23 +71,39 @@ class RenderInterrupted(KeyboardInterrupt):
 class Renderer:
     """A scene uploaded to one device with its specialised kernel, ready to render many times."""
 
-    def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True):
+    def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
+                 volume_method=None, step=None, raymarch_multiple_scattering=None):
+        """`volume_method` ("null" or "raymarch"), `step` (> 0, scene units) and
+        `raymarch_multiple_scattering` override the scene's render settings for grid media."""
+        if step is not None and not (np.isfinite(step) and step > 0):
+            raise ValueError(f"step must be a positive number, got {step!r}")
         self.scene = scene
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
         self.context = cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
-        self.features = scene_features(scene)
+        self.features = scene_features(scene, volume_method)
+        self.step = step
+        self.raymarch_multiple_scattering = raymarch_multiple_scattering
         self.arrays = build_scene_arrays(scene)
         self.kernel = cl.Kernel(build_program(self.context, self.features), "render_pass")
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
         a = self.arrays
-        self._buffers = [self._upload(x) for x in (
-            a.nodes, a.triangles, a.shading, a.info, a.materials, a.media, a.emitters,
-            a.emitter_cdf, a.env_texels, a.env_cdf)]
         fill_albedo_tables(self.queue, build_program(self.context, self.features), a)
-        self._buffers.append(self._upload(a.specular_albedo))
+        self._buffers = [self._upload(getattr(a, name)) for name in self.ARRAYS]
+
+    # The scene arrays passed to the kernel, in argument order after the RenderParams.
+    ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
+              "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data")
+
+    def update_array(self, name, array):
+        """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an
+        edited density grid (`grid_data`, with its `majorant_data`) between renders."""
+        index = self.ARRAYS.index(name)
+        array = np.asarray(array, dtype=getattr(self.arrays, name).dtype)
+        setattr(self.arrays, name, array)
+        self._buffers[index] = self._upload(array)
 
     def _upload(self, array):
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
@@ -116,7 +139,7 @@ class Renderer:
             while done < spp and (time_limit is None or seconds < time_limit):
                 count = min(per_pass, spp - done)
                 params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
-                                       seed, self.spectral_mis)
+                                       seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 start = time.perf_counter()
                 self.kernel(self.queue, global_size, self.local_size, params_buffer,
@@ -168,7 +191,8 @@ class Renderer:
                             int(discarded[0]), aux=aux, outline_alpha=alpha)
 
 
-def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None):
+def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
+           step=None):
     """Render `scene` and return the linear float32 (H, W, 3) image."""
-    return Renderer(scene, device).render(spp=spp, seed=seed, max_depth=max_depth,
-                                          progress=progress).image
+    return Renderer(scene, device, volume_method=volume_method, step=step).render(
+        spp=spp, seed=seed, max_depth=max_depth, progress=progress).image

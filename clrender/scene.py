@@ -9,12 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from . import meshes
+from . import grids, meshes
 from .errors import SceneError
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
 LIGHT_TYPES = ("environment", "point", "directional")
+MEDIUM_TYPES = ("homogeneous", "grid")
+VOLUME_METHODS = ("null", "raymarch")
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
 
@@ -92,11 +94,14 @@ class Shape:
 
 @dataclass
 class Medium:
-    """Homogeneous participating medium; coefficients per RGB channel, scale applied."""
+    """Participating medium; coefficients per RGB channel, scale applied. A `grid` medium's
+    coefficients are per unit density: sigma(x) = density(x) * sigma (docs/heterogeneous-media.md)."""
     name: str
     sigma_a: np.ndarray
     sigma_s: np.ndarray
     g: float = 0.0
+    type: str = "homogeneous"
+    grid: grids.DensityGrid = None   # set for type "grid" only
 
     @property
     def sigma_t(self):
@@ -118,6 +123,11 @@ class RenderSettings:
     max_depth: int = 8
     rr_depth: int = 5
     seed: int = 0
+    # Grid media only (docs/heterogeneous-media.md): "null" (null-scattering path integral,
+    # unbiased) or "raymarch" (fixed steps of `step` scene units, biased preview).
+    volume_method: str = "null"
+    step: float = 0.02
+    raymarch_multiple_scattering: bool = False
 
 
 @dataclass
@@ -293,7 +303,7 @@ def load_scene_dict(data, base_dir="."):
     for i, name in enumerate(names):
         if names.index(name) != i:
             raise SceneError(f"materials[{i}].name", f"duplicate material name {name!r}")
-    media = [_read_medium(node) for node in root.items("media")]
+    media = [_read_medium(node, base_dir) for node in root.items("media")]
     medium_names = [m.name for m in media]
     for i, name in enumerate(medium_names):
         if medium_names.index(name) != i:
@@ -308,6 +318,7 @@ def load_scene_dict(data, base_dir="."):
         camera_medium = _medium_reference(_Node(root.data["camera"], "camera"), "medium", medium_names)
     outlines = _read_outlines(root.child("outlines")) if "outlines" in data else Outlines()
     root.finish()
+    _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium)
     return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium,
                  outlines=outlines)
 
@@ -345,6 +356,9 @@ def _read_render(node):
         max_depth=node.number("max_depth", 8, low=1, high=1024, integer=True),
         rr_depth=node.number("rr_depth", 5, low=1, integer=True),
         seed=node.number("seed", 0, low=0, high=2**32 - 1, integer=True),
+        volume_method=node.string("volume_method", "null", choices=VOLUME_METHODS),
+        step=float(node.number("step", 0.02, low=0, low_open=True)),
+        raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", False),
     )
     node.finish()
     return settings
@@ -433,8 +447,9 @@ def _medium_reference(node, key, medium_names):
     return medium_names.index(name)
 
 
-def _read_medium(node):
+def _read_medium(node, base_dir):
     name = node.string("name")
+    kind = node.string("type", "homogeneous", choices=MEDIUM_TYPES)
     if "sigma_t" in node.data or "albedo" in node.data:
         if "sigma_a" in node.data or "sigma_s" in node.data:
             raise SceneError(node.where, "give either sigma_a and sigma_s, or sigma_t and albedo")
@@ -451,8 +466,72 @@ def _read_medium(node):
     g = node.number("g", 0.0)
     if not -1 < g < 1:
         raise SceneError(node.at("g"), f"must be in (-1, 1), got {g!r}")
+    grid = _read_grid(node, base_dir) if kind == "grid" else None
     node.finish()
-    return Medium(name, sigma_a * scale, sigma_s * scale, float(g))
+    return Medium(name, sigma_a * scale, sigma_s * scale, float(g), kind, grid)
+
+
+def _read_grid(node, base_dir):
+    """The density grid of a `grid` medium: `density` (a file or a generator), `transform`
+    (the unit cube [0, 1]^3 into the world) and `majorant_block` (voxels per block edge)."""
+    density_node = node.child("density")
+    density, source = _read_density(density_node, base_dir)
+    problem = grids.check_density(density)
+    if problem:
+        raise SceneError(density_node.where, problem)
+    to_world = _read_transform(node.child("transform")) if "transform" in node.data else np.eye(4)
+    block = node.number("majorant_block", grids.DEFAULT_BLOCK, low=1, high=1024, integer=True)
+    return grids.DensityGrid(np.ascontiguousarray(density, dtype=np.float32), to_world, block, source)
+
+
+def _read_density(node, base_dir):
+    """(array, description) from {"file": ...} or {"procedural": name, "resolution": ..., ...}."""
+    if ("file" in node.data) == ("procedural" in node.data):
+        raise SceneError(node.where, "give either a `file` or a `procedural` generator")
+    if "file" in node.data:
+        path = (base_dir / node.string("file")).resolve()
+        if path.suffix.lower() not in grids.GRID_SUFFIXES:
+            raise SceneError(node.at("file"), f"unsupported grid format {path.suffix!r}; "
+                                              f"valid: {', '.join(grids.GRID_SUFFIXES)}")
+        if not path.is_file():
+            raise SceneError(node.at("file"), f"file not found: {path}")
+        try:
+            density = grids.load_density_file(path)
+        except Exception as e:  # numpy and struct raise many types for malformed files
+            raise SceneError(node.at("file"), f"cannot load grid {path}: {e}") from None
+        node.finish()
+        return density, path.name
+    name = node.string("procedural", choices=tuple(grids.PROCEDURAL))
+    value = node.raw("resolution", [32, 32, 32])
+    if not (isinstance(value, list) and len(value) == 3 and all(
+            isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024 for v in value)):
+        raise SceneError(node.at("resolution"), f"must be [nx, ny, nz], integers in 1..1024, got {value!r}")
+    options = {}
+    for key, (default, kind, low, high) in grids.PROCEDURAL[name][1].items():
+        options[key] = node.number(key, default, low=low, high=high, integer=kind is int)
+    node.finish()
+    return grids.procedural(name, value, **options), f"{name} {value[0]}x{value[1]}x{value[2]}"
+
+
+def _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium):
+    """A grid medium fills the region it is assigned to (top-level `medium`, a shape's interior
+    or exterior, or the camera's), with zero density outside its grid box. One assigned nowhere,
+    or only to shape interiors that do not overlap its box, could never be seen."""
+    for index, medium in enumerate(media):
+        if medium.type != "grid":
+            continue
+        where = f"media[{index}]"
+        holders = [s for s in shapes if s.interior == index]
+        if index in (scene_medium, camera_medium) or any(s.exterior == index for s in shapes):
+            continue
+        if not holders:
+            raise SceneError(where, f"grid medium {medium.name!r} is used nowhere: make it the top-level "
+                                    "`medium` or a shape's `interior` (see docs/scene-format.md, Media)")
+        lo, hi = medium.grid.world_bounds()
+        if not any(np.all(s.mesh.vertices.min(axis=0) <= hi) and np.all(s.mesh.vertices.max(axis=0) >= lo)
+                   for s in holders):
+            raise SceneError(where, f"the box of grid medium {medium.name!r} ({lo.round(4).tolist()} to "
+                                    f"{hi.round(4).tolist()}) lies outside every shape whose interior it is")
 
 
 def _read_shape(node, material_names, medium_names, scene_medium, base_dir):

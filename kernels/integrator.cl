@@ -21,6 +21,15 @@
 #include "media/phase.h"
 #include "media/homogeneous.h"
 #endif
+#if GRID_MEDIA
+#include "media/grid.h"
+#include "media/majorant.h"
+#endif
+#if GRID_MEDIA == VOLUME_NULL
+#include "media/null_scattering.h"
+#elif GRID_MEDIA == VOLUME_RAYMARCH
+#include "media/raymarch.h"
+#endif
 #include "path.h"
 #include "aux_buffers.h"
 
@@ -36,6 +45,8 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global const float4* env_texels,
                           __global const float* env_cdf,
                           __global const float* specular_albedo,
+                          __global const float* grid_data,
+                          __global const float* majorant_data,
                           __global float4* accumulator,
                           __global int* discarded_samples,
                           __global float4* aux_geometry,
@@ -44,7 +55,7 @@ __kernel void render_pass(__constant RenderParams* params,
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
-                   emitter_cdf, env_texels, env_cdf, specular_albedo};
+                   emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data};
     int pixel = y * width + x;
     if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
     float4 sum = accumulator[pixel];

@@ -74,7 +74,6 @@ float triangle_emitter_pdf_w(__global const Emitter* e, float dist, float cos_li
 }
 
 // ----- point and directional lights ----------------------------------------------------------
-#if DELTA_LIGHTS
 // The light arriving at p from a point or directional emitter, with pdf_w = pmf (the
 // probability of having chosen it). Returns false for other kinds or a point light at p.
 bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSample* ls) {
@@ -97,7 +96,6 @@ bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSam
     ls->delta = true;
     return true;
 }
-#endif
 
 // ----- one sample --------------------------------------------------------------------------
 LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
@@ -141,11 +139,9 @@ LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
         ls.radiance = environment_radiance(scene, ls.wi);
     }
 #endif
-#if DELTA_LIGHTS
     else if (kind == EMITTER_POINT || kind == EMITTER_DIRECTIONAL) {
         delta_light_sample(e, p, pmf, &ls);
     }
-#endif
     return ls;
 }
 

@@ -44,15 +44,38 @@ int medium_beyond(const SurfacePoint* sp) {
 
 // Transmittance from origin towards a light dist away (INFINITY for distant lights), through
 // index-matched boundaries, analytic per homogeneous segment; 0 when anything else blocks it.
-float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float dist, int medium) {
+// Grid media: ratio tracking (null scattering; *pdf_ratio then receives the ratio of the
+// unidirectional to the light technique's transmittance pdfs for MIS, see
+// media/null_scattering.h) or marching; *pdf_ratio is 1 otherwise.
+float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float dist, int medium,
+                            Rng* rng, float* pdf_ratio) {
     float3 tr = (float3)(1.0f);
     float3 target = origin + dir * dist;
+    *pdf_ratio = 1.0f;
+#if GRID_MEDIA == VOLUME_NULL
+    bool spectral_mis = scene->params->media.y != 0;
+    RatioTracker tracker = ratio_tracker(rng);
+#endif
     for (int crossing = 0; crossing < MAX_NULL_CROSSINGS; ++crossing) {
         float remaining = isinf(dist) ? INFINITY : dot(target - origin, dir);
         Hit hit;
         bool found = intersect_scene(scene, origin, dir, remaining * (1.0f - 1e-4f), &hit);
+#if GRID_MEDIA == VOLUME_NULL
+        if (medium >= 0 && !ratio_track(scene, medium, origin, dir, found ? hit.t : remaining, &tracker, rng))
+            return (float3)(0.0f);
+        if (!found) return ratio_transmittance(&tracker, spectral_mis, pdf_ratio);
+#elif GRID_MEDIA == VOLUME_RAYMARCH
+        if (medium >= 0) {
+            __global const Medium* md = scene->media + medium;
+            float t = found ? hit.t : remaining;
+            tr *= medium_is_grid(md) ? march_transmittance(scene, md, origin, dir, t, rng)
+                                     : transmittance(medium_sigma_t(md), t);
+        }
+        if (!found) return tr;
+#else
         if (medium >= 0) tr *= transmittance(medium_sigma_t(scene->media + medium), found ? hit.t : remaining);
         if (!found) return tr;
+#endif
         SurfacePoint sp = surface_point(scene, &hit, dir);
         if (scene->materials[sp.material].kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
         medium = medium_beyond(&sp);
@@ -62,10 +85,13 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
 }
 #endif
 
-// Fraction of light arriving along a shadow ray: 0/1 visibility, or transmittance with media.
-float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium) {
+// Fraction of light arriving along a shadow ray: 0/1 visibility, or transmittance with media
+// (*pdf_ratio: see shadow_transmittance; 1 without grid media).
+float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium, Rng* rng,
+                  float* pdf_ratio) {
+    *pdf_ratio = 1.0f;
 #if MEDIA
-    return shadow_transmittance(scene, origin, dir, dist, medium);
+    return shadow_transmittance(scene, origin, dir, dist, medium, rng, pdf_ratio);
 #else
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
     return occluded(scene, origin, dir, dist * (1.0f - 1e-4f)) ? (float3)(0.0f) : (float3)(1.0f);
@@ -83,9 +109,10 @@ float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* s
 #if MEDIA
     if (!same_side) medium = medium_beyond(sp);
 #endif
-    float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium);
+    float pdf_ratio;
+    float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
-    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(m, sp, wo, ls.wi));
+    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(m, sp, wo, ls.wi) * pdf_ratio);
     return f * tr * ls.radiance * (weight / ls.pdf_w);
 }
 
@@ -95,9 +122,10 @@ float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medi
     LightSample ls = sample_light(scene, p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float phase = eval_phase_hg(dot(dir, ls.wi), medium_g(scene->media + medium));
-    float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium);
+    float pdf_ratio;
+    float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
-    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, phase);
+    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, phase * pdf_ratio);
     return tr * ls.radiance * (phase * weight / ls.pdf_w);
 }
 #endif
@@ -132,6 +160,11 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #else
     int medium = -1;
 #endif
+#if GRID_MEDIA == VOLUME_NULL
+    // The segments from the last vertex (here the camera) to the next: media/null_scattering.h.
+    NullChain chain;
+    chain_begin(&chain, rng);
+#endif
     int depth = 1;
     while (depth <= max_depth) {
         Hit hit;
@@ -139,21 +172,56 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #if MEDIA
         if (medium >= 0) {
             __global const Medium* md = scene->media + medium;
+            bool lit_by_medium = false;  // next-event estimation at the scattering point done already
+#if GRID_MEDIA == VOLUME_NULL
+            // Every medium (homogeneous ones are a single majorant segment) by delta tracking.
+            MediumEvent event = null_scattering_event(scene, medium, ray, found ? hit.t : INFINITY,
+                                                      &chain, spectral_mis, rng);
+#elif GRID_MEDIA == VOLUME_RAYMARCH
+            MediumEvent event;
+            if (medium_is_grid(md)) {
+                float3 inscattered;
+                event = raymarch_event(scene, medium, ray, found ? hit.t : INFINITY, depth < max_depth,
+                                       &inscattered, rng);
+                radiance += throughput * inscattered;
+                lit_by_medium = true;
+            } else {
+                event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
+            }
+#else
             MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
+#endif
             throughput *= event.weight;
             if (event.scattered) {
                 if (depth == max_depth || is_black(throughput)) break;
                 float3 p = ray.origin + event.t * ray.direction;
-                radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, rng);
+                if (!lit_by_medium)
+                    radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, rng);
                 // HG is sampled exactly: phase / pdf = 1 leaves the throughput unchanged.
                 ray.direction = sample_phase_hg(ray.direction, medium_g(md), rng_float2(rng), &prev_pdf_w);
                 ray.origin = p;
                 prev_p = p;
                 prev_delta = false;
+#if GRID_MEDIA == VOLUME_NULL
+                chain_begin(&chain, rng);
+#endif
                 if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
                 ++depth;
                 continue;
             }
+#if GRID_MEDIA
+            if (is_black(throughput)) break;  // absorbed, or no light left through the medium
+#endif
+        }
+#endif
+#if GRID_MEDIA == VOLUME_NULL
+        // The chain ends at a surface or in the distance (unless the surface is a boundary):
+        // its spectral-MIS weight, and its transmittance pdfs for the emission's MIS weight.
+        bool chain_ends = !found || scene->materials[scene->info[hit.triangle].info.x].kind.x != MATERIAL_INTERFACE;
+        if (chain_ends) {
+            throughput *= chain_weight(&chain, spectral_mis);
+            prev_pdf_w *= chain_pdf_ratio(&chain, spectral_mis);
+            chain_begin(&chain, rng);
         }
 #endif
         if (!found) {

@@ -16,6 +16,8 @@ typedef struct {
     __global const float4* env_texels;   // environment image, row-major, top row first
     __global const float* env_cdf;       // marginal (height + 1) then conditional rows (width + 1)
     __global const float* specular_albedo;  // energy-compensation tables (materials/energy.h)
+    __global const float* grid_data;     // voxels of all grid media (Medium.grid.y: first voxel)
+    __global const float* majorant_data; // (max, min) per majorant block (Medium.grid.z: first block)
 } Scene;
 
 typedef struct {

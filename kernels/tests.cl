@@ -15,6 +15,21 @@
 #include "materials/energy.h"
 #include "materials/bsdf.h"
 #include "media/phase.h"
+#if GRID_MEDIA
+// The integrator's headers, as integrator.cl includes them (ray marching reaches path.h).
+#include "materials/diffuse.h"
+#include "materials/bsdf.h"
+#include "materials/toon.h"
+#include "media/homogeneous.h"
+#include "media/grid.h"
+#include "media/majorant.h"
+#if GRID_MEDIA == VOLUME_NULL
+#include "media/null_scattering.h"
+#else
+#include "media/raymarch.h"
+#endif
+#include "path.h"
+#endif
 
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
@@ -43,12 +58,14 @@ __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
     out[k++] = sizeof(Medium);
     out[k++] = OFFSET(md, sigma_a); out[k++] = OFFSET(md, sigma_s); out[k++] = OFFSET(md, params);
+    out[k++] = OFFSET(md, grid); out[k++] = OFFSET(md, resolution);
+    out[k++] = OFFSET(md, majorant_resolution); out[k++] = OFFSET(md, to_voxel);
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
     out[k++] = OFFSET(c, up);
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
-    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media);
+    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights);
 }
 
@@ -205,3 +222,93 @@ __kernel void spawn_from_hits(__global const BvhNode* nodes, __global const Tria
     out[i] = (float4)((float)hit.triangle, found ? (float)next.triangle : -1.0f, next.t,
                       sp.front_face ? 1.0f : 0.0f);
 }
+#if GRID_MEDIA
+// ----- grid media: lookups, majorant walks, transmittance estimators -------------------------
+Scene media_scene(__constant RenderParams* params, __global const Medium* media,
+                  __global const float* grid_data, __global const float* majorant_data) {
+    Scene scene;
+    scene.params = params;
+    scene.media = media;
+    scene.grid_data = grid_data;
+    scene.majorant_data = majorant_data;
+    return scene;
+}
+
+// Density of medium points[i].w at world point points[i].xyz.
+__kernel void grid_lookup(__constant RenderParams* params, __global const Medium* media,
+                          __global const float* grid_data, __global const float* majorant_data,
+                          __global const float4* points, __global float* out) {
+    int i = get_global_id(0);
+    Scene scene = media_scene(params, media, grid_data, majorant_data);
+    out[i] = medium_density(&scene, media + (int)points[i].w, points[i].xyz);
+}
+
+// The majorant segments of ray i (at most max_segments: (t0, t1, d_max, d_min)), their count,
+// and over `samples` jittered points per segment: max(density - d_max), min(density - d_min).
+__kernel void majorant_walk(__constant RenderParams* params, __global const Medium* media,
+                            __global const float* grid_data, __global const float* majorant_data,
+                            int medium, __global const float4* origins, __global const float4* dirs,
+                            float t_max, int max_segments, int samples, uint seed,
+                            __global float4* segments, __global int* counts, __global float2* bounds) {
+    int i = get_global_id(0);
+    Scene scene = media_scene(params, media, grid_data, majorant_data);
+    __global const Medium* m = media + medium;
+    Rng rng = rng_for_sample((uint)i, 0u, seed);
+    MajorantIterator it = majorant_iterator(&scene, m, origins[i].xyz, dirs[i].xyz, t_max);
+    MajorantSegment seg;
+    int count = 0;
+    float2 worst = (float2)(-INFINITY, INFINITY);
+    while (majorant_next(&scene, m, &it, &seg)) {
+        if (count < max_segments) segments[i * max_segments + count] = (float4)(seg.t0, seg.t1, seg.d_max, seg.d_min);
+        ++count;
+        for (int k = 0; k < samples; ++k) {
+            float t = seg.t0 + (seg.t1 - seg.t0) * ((float)k + rng_float(&rng)) / (float)samples;
+            float density = majorant_ray_density(&scene, m, &it, t);
+            worst = (float2)(fmax(worst.x, density - seg.d_max), fmin(worst.y, density - seg.d_min));
+        }
+    }
+    counts[i] = count;
+    bounds[i] = worst;
+}
+
+// One transmittance estimate per work-item along origin + t dir, t in [0, t_max), through one
+// medium: ratio tracking (null scattering: xyz the estimate, w the tentative collisions) or
+// marching (w 0). `spectral_mis` as RenderParams.media.y (null scattering only).
+__kernel void transmittance_estimates(__constant RenderParams* params, __global const Medium* media,
+                                      __global const float* grid_data, __global const float* majorant_data,
+                                      int medium, float4 origin, float4 dir, float t_max, uint seed,
+                                      int spectral_mis, __global float4* out) {
+    int i = get_global_id(0);
+    Scene scene = media_scene(params, media, grid_data, majorant_data);
+    Rng rng = rng_for_sample((uint)i, 0u, seed);
+#if GRID_MEDIA == VOLUME_NULL
+    RatioTracker tracker = ratio_tracker(&rng);
+    float3 tr = (float3)(0.0f);
+    float pdf_ratio;
+    if (ratio_track(&scene, medium, origin.xyz, dir.xyz, t_max, &tracker, &rng))
+        tr = ratio_transmittance(&tracker, spectral_mis != 0, &pdf_ratio);
+    out[i] = (float4)(tr, (float)tracker.collisions);
+#else
+    out[i] = (float4)(march_transmittance(&scene, media + medium, origin.xyz, dir.xyz, t_max, &rng), 0.0f);
+#endif
+}
+
+#if GRID_MEDIA == VOLUME_NULL
+// Delta tracking over one medium segment: the chain weight when the ray passes (its expectation
+// is the transmittance per channel), 0 when it scatters or is absorbed; w the collisions.
+__kernel void delta_pass_estimates(__constant RenderParams* params, __global const Medium* media,
+                                   __global const float* grid_data, __global const float* majorant_data,
+                                   int medium, float4 origin, float4 dir, float t_max, uint seed,
+                                   int spectral_mis, __global float4* out) {
+    int i = get_global_id(0);
+    Scene scene = media_scene(params, media, grid_data, majorant_data);
+    Rng rng = rng_for_sample((uint)i, 0u, seed);
+    NullChain chain;
+    chain_begin(&chain, &rng);
+    float t_event;
+    int kind = delta_track(&scene, medium, origin.xyz, dir.xyz, t_max, &chain, &rng, &t_event);
+    float3 weight = kind == NULL_PASSED ? chain_weight(&chain, spectral_mis != 0) : (float3)(0.0f);
+    out[i] = (float4)(weight, (float)chain.collisions);
+}
+#endif
+#endif

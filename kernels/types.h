@@ -30,8 +30,15 @@ typedef struct {
 // Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
 
-// Homogeneous medium, RGB coefficients in 1/length; params.x: Henyey-Greenstein g.
-typedef struct { float4 sigma_a; float4 sigma_s; float4 params; } Medium;
+// A medium, RGB coefficients in 1/length (a grid medium's per unit density); params.x:
+// Henyey-Greenstein g. grid: x MEDIUM_* kind, y first voxel in the grid buffer, z first majorant
+// cell (two floats each: max, min density), w majorant block edge in voxels. resolution: nx, ny,
+// nz; majorant_resolution: blocks per axis; to_voxel: rows of the affine map world -> voxel
+// coordinates [0, nx] x [0, ny] x [0, nz] (media/grid.h).
+typedef struct {
+    float4 sigma_a; float4 sigma_s; float4 params;
+    int4 grid; int4 resolution; int4 majorant_resolution; float4 to_voxel[3];
+} Medium;
 
 // right/up are pre-scaled by tan(fov/2) (and the aspect ratio), so a pixel's direction is
 // forward + sx * right + sy * up with sx, sy in [-1, 1].
@@ -43,6 +50,7 @@ typedef struct {
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
     int4 environment;  // x emitter index (-1: none), y image width, z image height
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
+    float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first non-triangle emitter (lights follow the triangles)
 } RenderParams;

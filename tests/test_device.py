@@ -29,7 +29,7 @@ def test_programs_are_cached_in_memory_and_on_disk(device, tmp_path, monkeypatch
     context = cl.Context([device])
     first = build_program(context, no_features())
     assert build_program(context, no_features()) is first          # memory
-    assert build_program(context, no_features(DELTA_LIGHTS=1)) is not first  # other defines
+    assert build_program(context, no_features(TOON=1)) is not first  # other defines
     assert any(os.scandir(tmp_path))                                # disk: binaries were stored
     monkeypatch.setattr(device_module, "_programs", {})
     again = build_program(cl.Context([device]), no_features())      # a new context, from disk

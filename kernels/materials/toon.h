@@ -121,7 +121,6 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
                           float3 wo, Rng* rng) {
     float3 shadow_tone = toon_shadow_tone(m);
     float3 radiance = (float3)(0.0f);
-#if DELTA_LIGHTS
     // Point and directional lights follow the emissive triangles in the emitter array.
     for (int i = scene->params->lights.x; i < scene->params->config.w; ++i) {
         LightSample ls;
@@ -129,7 +128,6 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
             continue;
         radiance += ls.radiance * (shadow_tone + toon_lit(scene, m, sp, wo, ls.wi, ls.dist));
     }
-#endif
 #if ENVIRONMENT != ENVIRONMENT_NONE
     radiance += toon_environment(scene, m, sp, wo, shadow_tone, rng);
 #endif
