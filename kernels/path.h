@@ -117,15 +117,17 @@ float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* s
 }
 
 #if MEDIA
-// Next-event estimation from a scattering point inside a medium; dir: the incoming travel direction.
-float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, Rng* rng) {
+// Next-event estimation from a scattering point inside a medium; dir: the incoming travel
+// direction. mis: whether phase sampling may also reach the light from here (not so for ray
+// marching's single-scattering estimate, which then takes the light sample with full weight).
+float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, bool mis, Rng* rng) {
     LightSample ls = sample_light(scene, p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float phase = eval_phase_hg(dot(dir, ls.wi), medium_g(scene->media + medium));
     float pdf_ratio;
     float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
-    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, phase * pdf_ratio);
+    float weight = (ls.delta || !mis) ? 1.0f : power_heuristic(ls.pdf_w, phase * pdf_ratio);
     return tr * ls.radiance * (phase * weight / ls.pdf_w);
 }
 #endif
@@ -196,7 +198,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
                 if (depth == max_depth || is_black(throughput)) break;
                 float3 p = ray.origin + event.t * ray.direction;
                 if (!lit_by_medium)
-                    radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, rng);
+                    radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, true, rng);
                 // HG is sampled exactly: phase / pdf = 1 leaves the throughput unchanged.
                 ray.direction = sample_phase_hg(ray.direction, medium_g(md), rng_float2(rng), &prev_pdf_w);
                 ray.origin = p;

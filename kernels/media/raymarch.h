@@ -28,9 +28,8 @@ float march_step(const Scene* scene) { return scene->params->volume.x; }
 
 bool march_multiple_scattering(const Scene* scene) { return scene->params->volume.y != 0.0f; }
 
-// Defined in path.h: transmittance towards a light through boundaries and media.
-float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float dist, int medium,
-                            Rng* rng, float* pdf_ratio);
+// Defined in path.h: next-event estimation from a point in a medium, through boundaries and media.
+float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, bool mis, Rng* rng);
 
 // Steps covering a majorant segment (the last one shortened), within the per-ray budget.
 int march_step_count(MajorantSegment seg, float step, int steps_taken) {
@@ -61,19 +60,6 @@ float3 march_transmittance(const Scene* scene, __global const Medium* m, float3 
         steps += count;
     }
     return transmittance(sigma_t, depth);
-}
-
-// Next-event estimation from a marching point, with the phase function of the medium; MIS
-// against phase sampling only when the path may continue from this point (multiple scattering).
-float3 march_direct_light(const Scene* scene, float3 p, float3 dir, int medium, bool mis, Rng* rng) {
-    LightSample ls = sample_light(scene, p, rng);
-    if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
-    float phase = eval_phase_hg(dot(dir, ls.wi), medium_g(scene->media + medium));
-    float unused;
-    float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium, rng, &unused);
-    if (is_black(tr)) return (float3)(0.0f);
-    float weight = (ls.delta || !mis) ? 1.0f : power_heuristic(ls.pdf_w, phase);
-    return tr * ls.radiance * (phase * weight / ls.pdf_w);
 }
 
 // March one grid-medium segment of a path ray over [0, t_max). *inscattered receives the
@@ -122,7 +108,7 @@ MediumEvent raymarch_event(const Scene* scene, int medium, Ray ray, float t_max,
             if (lit) {
                 float3 p = ray.origin + t_sample * ray.direction;
                 *inscattered += interacted * albedo *
-                                march_direct_light(scene, p, ray.direction, medium, may_scatter, rng);
+                                direct_light_in_medium(scene, p, ray.direction, medium, may_scatter, rng);
             }
             if (may_scatter && !event.scattered) {
                 // The path continues from here, but the march goes on: the single scattering
