@@ -8,8 +8,14 @@
 // of transmittance; the bias and the noise shrink with the step. Within a step the medium is
 // taken as constant, so its in-scattering integral is exact for that constant medium:
 //     integral over the step of T(t) sigma_s L dt = T_j (1 - exp(-sigma_t,j len)) (sigma_s / sigma_t) L(x_j).
-// Single scattering: L(x_j) is next-event estimation at every step, its shadow ray marched the
-// same way (through shadow_transmittance, so it also crosses boundaries and other media).
+// Single scattering: the sum over steps of w_j L(x_j), w_j = T_j (1 - exp(-sigma_t,j len)) albedo,
+// L(x_j) by next-event estimation whose shadow ray is marched the same way (through
+// shadow_transmittance, so it also crosses boundaries and other media). Without multiple
+// scattering (the smooth preview) every step gets its light sample. With it, every path vertex
+// marches, and a marched shadow ray per step made the cost quadratic in the step count (0.05
+// against 1.4 M samples/s for null scattering under a low sun): there ONE step gets the light
+// sample, picked by a single-item weighted reservoir with probability mean(w_j) / sum_k
+// mean(w_k) and weighted by the inverse, an unbiased estimate of the same sum.
 // Multiple scattering (RenderParams.volume.y): the path also continues from one step, picked
 // with probability q_j = mean_c T_j,c (1 - exp(-sigma_t,j,c len)) (the discrete free-flight
 // distribution of the marched medium), or passes with the rest, mean(T_end); the next-event
@@ -82,6 +88,9 @@ MediumEvent raymarch_event(const Scene* scene, int medium, Ray ray, float t_max,
     float cumulative = 0.0f;
     float3 tr = (float3)(1.0f);
     *inscattered = (float3)(0.0f);
+    float total_weight = 0.0f;             // reservoir: sum of mean3(step weights) so far
+    float3 chosen_weight = (float3)(0.0f);  // the chosen step's weight and position
+    float chosen_t = 0.0f;
     MediumEvent event;
     event.scattered = false;
     event.t = t_max;
@@ -105,10 +114,19 @@ MediumEvent raymarch_event(const Scene* scene, int medium, Ray ray, float t_max,
             if (!(density > 0.0f)) continue;
             float3 step_tr = exp(-density * sigma_t * len);
             float3 interacted = tr * (1.0f - step_tr);   // probability of an event in this step
-            if (lit) {
+            if (lit && !may_scatter) {
                 float3 p = ray.origin + t_sample * ray.direction;
                 *inscattered += interacted * albedo *
-                                direct_light_in_medium(scene, p, ray.direction, medium, may_scatter, rng);
+                                direct_light_in_medium(scene, p, ray.direction, medium, false, rng);
+            } else if (lit) {
+                // Weighted reservoir of one step for next-event estimation (see the top).
+                float3 w = interacted * albedo;
+                float mean_w = mean3(w);
+                total_weight += mean_w;
+                if (mean_w > 0.0f && rng_float(rng) * total_weight < mean_w) {
+                    chosen_weight = w;
+                    chosen_t = t_sample;
+                }
             }
             if (may_scatter && !event.scattered) {
                 // The path continues from here, but the march goes on: the single scattering
@@ -123,6 +141,11 @@ MediumEvent raymarch_event(const Scene* scene, int medium, Ray ray, float t_max,
             }
             tr *= step_tr;
         }
+    }
+    if (total_weight > 0.0f) {
+        float3 p = ray.origin + chosen_t * ray.direction;
+        *inscattered = chosen_weight * (total_weight / mean3(chosen_weight)) *
+                       direct_light_in_medium(scene, p, ray.direction, medium, true, rng);
     }
     if (event.scattered) return event;
     if (may_scatter) {
