@@ -85,13 +85,13 @@ class Renderer:
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
         self.arrays = build_scene_arrays(scene)
-        self.kernel = cl.Kernel(build_program(self.context, self.features), "render_pass")
+        program = build_program(self.context, self.features)
+        self.kernel = cl.Kernel(program, "render_pass")
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
-        a = self.arrays
-        fill_albedo_tables(self.queue, build_program(self.context, self.features), a)
-        self._buffers = [self._upload(getattr(a, name)) for name in self.ARRAYS]
+        fill_albedo_tables(self.queue, program, self.arrays)
+        self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
     ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
