@@ -399,3 +399,26 @@ def test_example_toon_scenes_render(path, outlined):
     assert (result.outline_alpha is not None) == outlined
     toon_ids = [i for i, shape in enumerate(scene.shapes) if scene.materials[shape.material].type == "toon"]
     assert np.isin(result.aux["object_id"], toon_ids).sum() > 20  # toon objects in view
+
+
+def test_toon_object_keeps_its_tones_in_a_mirror():
+    # A banded toon sphere (hard band edges, flat facets, no highlight or rim: a few exact tones)
+    # seen in a tinted mirror shows exactly its directly seen tones times the tint: the path
+    # reflects off the delta mirror and takes the toon radiance at the sphere.
+    tint = np.array([0.9, 0.8, 0.7])
+    material = toon(bands=2, softness=0.0, shadow_color=[0.3] * 3)
+    sun = [{"type": "directional", "direction": [0.2, -1.0, 0.4], "irradiance": 2.0}]
+    sphere = {"type": "sphere", "material": "toon", "center": [4, 0, 4], "radius": 1.0,
+              "subdivisions": 3, "smooth": False}
+    mirror = {"type": "rectangle", "material": "mirror", "transform": {"scale": 3}}
+    seen_in_mirror = render({
+        "camera": camera(position=(-4, 0, 4), look_at=(0, 0, 0), fov=20, resolution=(48, 48)),
+        "materials": [material, {"name": "mirror", "type": "conductor", "tint": tint.tolist()}],
+        "shapes": [sphere, mirror], "lights": sun}, max_depth=3)
+    seen_directly = render({   # from the camera's mirror image, without the mirror
+        "camera": camera(position=(-4, 0, -4), look_at=(0, 0, 0), fov=20, resolution=(48, 48)),
+        "materials": [material], "shapes": [sphere], "lights": sun}, max_depth=3)
+    direct_tones = np.unique(seen_directly.image[seen_directly.image[..., 0] > 0], axis=0)
+    mirror_tones = np.unique(seen_in_mirror.image[seen_in_mirror.image[..., 0] > 0], axis=0)
+    assert len(direct_tones) == 3  # shadow tone and two bands
+    np.testing.assert_allclose(mirror_tones, direct_tones * tint, rtol=1e-5)
