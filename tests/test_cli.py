@@ -32,6 +32,13 @@ def test_render_cornell_box_to_png_and_exr(tmp_path):
     assert iio.imread(png).shape == (256, 256, 3)
 
 
+def test_render_for_a_fixed_time(tmp_path):
+    out = tmp_path / "timed.png"
+    result = run("render", "scenes/cornell_box.json", "-o", str(out), "--time", "0.5", "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert out.exists() and " spp in " in result.stderr
+
+
 def test_info_and_devices():
     info = run("info", "scenes/cornell_box.json")
     assert info.returncode == 0
