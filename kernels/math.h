@@ -51,8 +51,15 @@ void sincos_2pi(float u, float* s, float* c) {
 // final step to the next float away from p keeps rounding of p + offset from undoing it.
 // Waechter and Binder's fixed 256-ulp step (Ray Tracing Gems ch. 6) was used before: it is 0.25
 // world units at 1e4 from the origin and a fixed 1.5e-5 near it, neither relative to the scene.
+// One float step from p towards the sign of offset: nextafter(p, +-INFINITY) by integer
+// arithmetic on the bits (PoCL calls a library routine for nextafter). Stepping away from zero
+// adds one to the magnitude's bits, towards zero subtracts one; zero itself steps to the
+// smallest float of the offset's sign.
 float offset_component(float p, float offset) {
-    return offset > 0.0f ? nextafter(p, INFINITY) : offset < 0.0f ? nextafter(p, -INFINITY) : p;
+    if (offset == 0.0f) return p;
+    if (p == 0.0f) return offset > 0.0f ? FLT_MIN : -FLT_MIN;
+    bool away_from_zero = (p > 0.0f) == (offset > 0.0f);
+    return as_float(as_int(p) + (away_from_zero ? 1 : -1));
 }
 
 float3 offset_ray_origin(float3 p, float3 n, float err) {
