@@ -54,25 +54,20 @@ def _parser():
     return parser
 
 
-def _positive_int(text):
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+def _number_at_least(convert, low, strict=False):
+    """An argparse type: `convert(text)`, finite and >= low (> low if strict)."""
+    def parse(text):
+        value = convert(text)
+        if not (value > low if strict else value >= low) or value == float("inf"):
+            bound = "a positive number" if strict and low == 0 else f">= {low}"
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
+        return value
+    return parse
 
 
-def _positive_float(text):
-    value = float(text)
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
-
-
-def _non_negative_int(text):
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
+_positive_int = _number_at_least(int, 1)
+_non_negative_int = _number_at_least(int, 0)
+_positive_float = _number_at_least(float, 0.0, strict=True)
 
 
 def _render(args):
