@@ -4,6 +4,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import layout
+from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -52,6 +53,7 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info = v0[keep], v1[keep], v2[keep], normals[keep], info[keep]
 
     bvh = build_bvh(v0, v1, v2)
+    nodes, bvh_depth = wide_bvh.collapse(bvh)
     order = bvh.prim_order
     v0, v1, v2, normals, info = v0[order], v1[order], v2[order], normals[order], info[order]
 
@@ -104,13 +106,13 @@ def build_scene_arrays(scene):
         camera_medium = _medium_at_camera(scene, v0, v1, v2, info)
     media, grid_data, majorant_data = _medium_array(scene.media)
     return SceneArrays(
-        nodes=bvh.nodes, triangles=triangles, shading=shading,
+        nodes=nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         first_light=first_light,
-        scene_sphere=sphere.astype(np.float32), bvh_depth=bvh.depth,
+        scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
         degenerate_triangles=degenerate,
         specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials)
 

@@ -14,10 +14,18 @@ def _struct(*fields):
     return np.dtype([(name, kind) for name, kind in fields])
 
 
+# The binary SAH tree as the builder makes it (host only: the kernel reads WIDE_BVH_NODE, which
+# clrender/wide_bvh.py collapses it into).
 # Two-child BVH node: each node stores the boxes of both children, so one node fetch tests both.
 # For a child: *_lo.w holds (as int bits) the child node index when *_hi.w is 0, otherwise the
 # first primitive in the reordered triangle array; *_hi.w holds (as int bits) the primitive count.
 BVH_NODE = _struct(("left_lo", F4), ("left_hi", F4), ("right_lo", F4), ("right_hi", F4))
+
+# Four-wide BVH node: the boxes of up to four children, one child per float4 lane. child: node
+# index (count 0) or first triangle slot (count > 0); an empty lane has child -1, count 0 and
+# its box at +inf, which no ray enters.
+WIDE_BVH_NODE = _struct(("lo_x", F4), ("hi_x", F4), ("lo_y", F4), ("hi_y", F4), ("lo_z", F4), ("hi_z", F4),
+                        ("child", I4), ("count", I4))
 
 # Triangle geometry for Moller-Trumbore: v0 and the two edges.
 TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
@@ -63,7 +71,7 @@ RENDER_PARAMS = np.dtype([
 ])
 
 STRUCTS = {
-    "BvhNode": BVH_NODE,
+    "WideBvhNode": WIDE_BVH_NODE,
     "Triangle": TRIANGLE,
     "TriangleShading": TRIANGLE_SHADING,
     "TriangleInfo": TRIANGLE_INFO,

@@ -34,7 +34,7 @@
 #include "aux_buffers.h"
 
 __kernel void render_pass(__constant RenderParams* params,
-                          __global const BvhNode* nodes,
+                          __global const WideBvhNode* nodes,
                           __global const Triangle* triangles,
                           __global const TriangleShading* shading,
                           __global const TriangleInfo* info,

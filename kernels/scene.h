@@ -5,7 +5,7 @@
 
 typedef struct {
     __constant RenderParams* params;
-    __global const BvhNode* nodes;
+    __global const WideBvhNode* nodes;
     __global const Triangle* triangles;
     __global const TriangleShading* shading;
     __global const TriangleInfo* info;

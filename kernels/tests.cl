@@ -34,15 +34,16 @@
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
-__kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
+__kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
                             __global TriangleShading* sh, __global TriangleInfo* info,
                             __global Material* m, __global Emitter* e, __global Medium* md,
                             __global Camera* c,
                             __global RenderParams* p, __global int* out) {
     int k = 0;
-    out[k++] = sizeof(BvhNode);
-    out[k++] = OFFSET(node, left_lo); out[k++] = OFFSET(node, left_hi);
-    out[k++] = OFFSET(node, right_lo); out[k++] = OFFSET(node, right_hi);
+    out[k++] = sizeof(WideBvhNode);
+    out[k++] = OFFSET(node, lo_x); out[k++] = OFFSET(node, hi_x); out[k++] = OFFSET(node, lo_y);
+    out[k++] = OFFSET(node, hi_y); out[k++] = OFFSET(node, lo_z); out[k++] = OFFSET(node, hi_z);
+    out[k++] = OFFSET(node, child); out[k++] = OFFSET(node, count);
     out[k++] = sizeof(Triangle);
     out[k++] = OFFSET(tri, v0); out[k++] = OFFSET(tri, e1); out[k++] = OFFSET(tri, e2);
     out[k++] = sizeof(TriangleShading);
@@ -70,7 +71,7 @@ __kernel void struct_layout(__global BvhNode* node, __global Triangle* tri,
 }
 
 // ----- BVH: closest hit per ray ------------------------------------------------------------
-__kernel void trace_rays(__global const BvhNode* nodes, __global const Triangle* triangles,
+__kernel void trace_rays(__global const WideBvhNode* nodes, __global const Triangle* triangles,
                          __global const float4* origins, __global const float4* directions,
                          __global float* hit_t, __global int* hit_triangle, __global int* any_hit) {
     int i = get_global_id(0);
@@ -199,7 +200,7 @@ __kernel void sample_vndf_values(float alpha, __global const float4* wo, uint se
 // ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
 // sign picks the side), and report both hits: (first triangle, second triangle, second t).
-__kernel void spawn_from_hits(__global const BvhNode* nodes, __global const Triangle* triangles,
+__kernel void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
                               __global const TriangleShading* shading,
                               __global const TriangleInfo* info, __global const float4* origins,
                               __global const float4* directions, __global const float4* leave,

@@ -4,9 +4,13 @@
 #ifndef CLRENDER_TYPES_H
 #define CLRENDER_TYPES_H
 
-// Both children's boxes live in the parent. lo.w: child node index or first primitive (int bits);
-// hi.w: primitive count (int bits), 0 for an interior child.
-typedef struct { float4 left_lo, left_hi, right_lo, right_hi; } BvhNode;
+// Four-wide BVH node: the boxes of up to four children, one child per lane. child: node index
+// (count 0) or first triangle slot (count > 0); empty lanes: child -1, count 0, box at +inf.
+typedef struct {
+    float4 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
+    int4 child;
+    int4 count;
+} WideBvhNode;
 
 typedef struct { float4 v0, e1, e2; } Triangle;
 typedef struct { float4 n0, n1, n2; } TriangleShading;

@@ -4,7 +4,7 @@ import pyopencl as cl
 import pytest
 
 import clrender
-from clrender import layout
+from clrender import layout, wide_bvh
 from clrender.bvh import build_bvh, intersect_brute_force
 from conftest import build_test_kernels, camera
 
@@ -23,6 +23,7 @@ def random_rays(rng, count):
 
 def trace_on_device(context, queue, v0, v1, v2, origins, directions):
     tree = build_bvh(v0, v1, v2)
+    nodes, _ = wide_bvh.collapse(tree)
     order = tree.prim_order
     triangles = np.zeros(max(len(v0), 1), layout.TRIANGLE)
     triangles["v0"][:len(v0), :3] = v0[order]
@@ -32,7 +33,7 @@ def trace_on_device(context, queue, v0, v1, v2, origins, directions):
     rays[0][:, :3], rays[1][:, :3] = origins, directions
     mf = cl.mem_flags
     inputs = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
-              for x in (tree.nodes, triangles, *rays)]
+              for x in (nodes, triangles, *rays)]
     t = np.empty(len(origins), np.float32)
     slot = np.empty(len(origins), np.int32)
     any_hit = np.empty(len(origins), np.int32)
