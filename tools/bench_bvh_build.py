@@ -1,11 +1,13 @@
-"""Benchmark clrender.bvh.build_bvh on procedurally generated meshes (no downloads).
+"""Benchmark the BVH build (clrender.bvh.build_bvh, then wide_bvh.collapse into the kernel's
+four-wide tree) on procedurally generated meshes (no downloads).
 
 Usage: python tools/bench_bvh_build.py [--sizes 100000 1000000] [--repeats 3]
 
 Meshes: "grid", a displaced height-field grid with exactly the requested triangle count (rounded
 to 2*m*m), and "sphere", a trimesh icosphere at the subdivision level nearest to the requested
-count. For each, prints the median build time over --repeats builds after one warm-up build,
-the time per million triangles, the node count, depth, mean leaf size and the tree's SAH cost
+count. For each, prints the median times of the binary build and of the collapse over --repeats
+builds after one warm-up build, the total per million triangles, the node counts, the binary
+depth, mean leaf size and the binary tree's SAH cost
 (traversal and intersection cost 1, relative to the root box area; lower is better).
 """
 import argparse
@@ -19,6 +21,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from clrender.bvh import build_bvh  # noqa: E402
+from clrender.wide_bvh import collapse  # noqa: E402
 
 
 def displaced_grid(n_triangles):
@@ -70,17 +73,22 @@ def bench(name, n_triangles, repeats):
     verts, faces = MESHES[name](n_triangles)
     v0, v1, v2 = (verts[faces[:, k]] for k in range(3))
     n = len(faces)
-    build_bvh(v0, v1, v2)  # warm-up: page in code paths and allocator pools
-    times = []
+    collapse(build_bvh(v0, v1, v2))  # warm-up: page in code paths and allocator pools
+    times, wide_times = [], []
     for _ in range(repeats):
         start = time.perf_counter()
         bvh = build_bvh(v0, v1, v2)
-        times.append(time.perf_counter() - start)
+        built = time.perf_counter()
+        wide, _ = collapse(bvh)
+        times.append(built - start)
+        wide_times.append(time.perf_counter() - built)
     median = statistics.median(times)
+    wide_median = statistics.median(wide_times)
     n_leaves = sum(int(np.count_nonzero(bvh.nodes[f"{s}_hi"][:, 3].view(np.int32) > 0))
                    for s in ("left", "right"))
-    print(f"{name:7s} {n:>10,d} {median:9.3f} {median / n * 1e6:11.3f} {len(bvh.nodes):>10,d} "
-          f"{bvh.depth:6d} {n / max(n_leaves, 1):10.2f} {sah_cost(bvh):9.2f}", flush=True)
+    total = median + wide_median
+    print(f"{name:7s} {n:>10,d} {median:9.3f} {wide_median:9.3f} {total / n * 1e6:11.3f} {len(bvh.nodes):>10,d} "
+          f"{len(wide):>10,d} {bvh.depth:6d} {n / max(n_leaves, 1):10.2f} {sah_cost(bvh):9.2f}", flush=True)
 
 
 def main():
@@ -89,8 +97,8 @@ def main():
     parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=list(MESHES))
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    print(f"{'mesh':7s} {'triangles':>10s} {'build s':>9s} {'s / Mtri':>11s} {'nodes':>10s} "
-          f"{'depth':>6s} {'leaf size':>10s} {'SAH cost':>9s}")
+    print(f"{'mesh':7s} {'triangles':>10s} {'binary s':>9s} {'wide s':>9s} {'total s/Mtri':>11s} "
+          f"{'nodes':>10s} {'wide nodes':>10s} {'depth':>6s} {'leaf size':>10s} {'SAH cost':>9s}")
     for name in args.meshes:
         for size in args.sizes:
             bench(name, size, args.repeats)

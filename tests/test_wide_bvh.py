@@ -1,0 +1,36 @@
+"""The four-wide tree collapsed from the binary SAH tree: structure and bounds."""
+import numpy as np
+import pytest
+
+from clrender.bvh import MAX_DEPTH, build_bvh
+from clrender.wide_bvh import collapse
+
+KERNEL_STACK = 192  # BVH_STACK_SIZE in kernels/bvh.h
+
+
+@pytest.mark.parametrize("count", [0, 1, 2, 5, 17, 3000])
+def test_wide_tree_covers_every_triangle_once_inside_its_boxes(count):
+    rng = np.random.default_rng(count)
+    v0 = rng.uniform(-5, 5, (count, 3))
+    v1, v2 = v0 + rng.normal(0, 0.4, (count, 3)), v0 + rng.normal(0, 0.4, (count, 3))
+    binary = build_bvh(v0, v1, v2)
+    nodes, depth = collapse(binary)
+    child, lanes_count = nodes["child"], nodes["count"]
+    leaf = lanes_count > 0
+    covered = np.concatenate([np.arange(c, c + n) for c, n in zip(child[leaf], lanes_count[leaf])] or [[]])
+    assert np.array_equal(np.sort(covered), np.arange(count))  # every slot exactly once
+    interior = (lanes_count == 0) & (child >= 0)
+    # every wide node but the root is the child of exactly one lane
+    assert np.array_equal(np.sort(child[interior]), np.arange(1, len(nodes)))
+    empty = (lanes_count == 0) & (child < 0)
+    for name in ("lo_x", "hi_x", "lo_y", "hi_y", "lo_z", "hi_z"):
+        assert np.all(nodes[name][empty] == np.inf)
+    # leaf boxes contain their triangles (in the reordered slots)
+    corners = np.stack([v0, v1, v2], axis=1)[binary.prim_order]
+    rows, lanes = np.nonzero(leaf)
+    for r, l in zip(rows, lanes):
+        tri = corners[child[r, l]:child[r, l] + lanes_count[r, l]].reshape(-1, 3)
+        lo = [nodes[n][r, l] for n in ("lo_x", "lo_y", "lo_z")]
+        hi = [nodes[n][r, l] for n in ("hi_x", "hi_y", "hi_z")]
+        assert np.all(tri >= lo) and np.all(tri <= hi)
+    assert depth <= binary.depth and 3 * (MAX_DEPTH - 1) + 1 <= KERNEL_STACK
