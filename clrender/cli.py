@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import KernelBuildError, SceneError
+from .scene import MIN_MARCH_STEP
 
 
 def main(argv=None):
@@ -40,9 +41,12 @@ def _parser():
     render.add_argument("--volume-method", choices=("null", "raymarch"),
                         help="grid media: null-scattering path integral (unbiased) or ray marching "
                              "(biased preview) (default: the scene's, else null)")
-    render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
+    render.add_argument("--step", type=_march_step,
+                        help="ray marching: longest step in voxels, also scaling the optical depth per step "
+                             "(default: the scene's, else 1)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
-                        help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+                        help="ray marching: continue paths from a scattering point; --no-... renders single "
+                             "scattering (default: the scene's, else on)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
@@ -67,7 +71,7 @@ def _number_at_least(convert, low, strict=False):
 
 _positive_int = _number_at_least(int, 1)
 _non_negative_int = _number_at_least(int, 0)
-_positive_float = _number_at_least(float, 0.0, strict=True)
+_march_step = _number_at_least(float, MIN_MARCH_STEP)
 
 
 def _render(args):

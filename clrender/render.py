@@ -11,6 +11,7 @@ from .arrays import build_scene_arrays
 from .device import build_program, choose_device
 from .energy import fill_albedo_tables
 from .features import scene_features
+from .scene import MIN_MARCH_STEP
 
 
 @dataclass
@@ -73,10 +74,11 @@ class Renderer:
 
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
                  volume_method=None, step=None, raymarch_multiple_scattering=None):
-        """`volume_method` ("null" or "raymarch"), `step` (> 0, scene units) and
-        `raymarch_multiple_scattering` override the scene's render settings for grid media."""
-        if step is not None and not (np.isfinite(step) and step > 0):
-            raise ValueError(f"step must be a positive number, got {step!r}")
+        """`volume_method` ("null" or "raymarch"), `step` (ray marching's longest step in voxels,
+        >= scene.MIN_MARCH_STEP) and `raymarch_multiple_scattering` override the scene's render
+        settings for grid media."""
+        if step is not None and not (np.isfinite(step) and step >= MIN_MARCH_STEP):
+            raise ValueError(f"step must be a number >= {MIN_MARCH_STEP} (voxels), got {step!r}")
         self.scene = scene
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
         self.context = cl.Context([self.device])

@@ -4,6 +4,8 @@
 // independent of the seed, the sample count and how samples are split into launches.
 #ifndef CLRENDER_AUX_BUFFERS_H
 #define CLRENDER_AUX_BUFFERS_H
+#include "camera.h"
+#include "scene.h"
 
 // geometry: xyz the unit shading normal facing the camera (world space), w the planar depth
 // (distance along the camera axis: 1 / depth is affine in the image over a plane, which the

@@ -7,6 +7,13 @@
 
 float max_component(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 
+float min_component(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }
+
+float mean3(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
+
+// Component c (0, 1, 2) of v: RGB channels picked at run time (spectral MIS's hero channel).
+float channel(float3 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
+
 float luminance(float3 c) { return dot(c, (float3)(0.2126f, 0.7152f, 0.0722f)); }
 
 bool is_black(float3 c) { return c.x == 0.0f && c.y == 0.0f && c.z == 0.0f; }

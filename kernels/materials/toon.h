@@ -25,6 +25,12 @@
 // environment's shadow-tone term does not depend on visibility and is added exactly.
 #ifndef CLRENDER_TOON_H
 #define CLRENDER_TOON_H
+#include "math.h"
+#include "rng.h"
+#include "sampling.h"
+#include "scene.h"
+#include "lights.h"
+#include "materials/material.h"
 
 #if TOON
 
@@ -48,31 +54,31 @@ float toon_band(float n_dot_l, int bands, float softness) {
 
 // Specular highlight: on where N.H exceeds 1 - size, reaching full strength `softness` later.
 float toon_highlight(const Material* m, float n_dot_h) {
-    float size = m->toon_bands.z;
-    return size > 0.0f ? toon_step(n_dot_h - (1.0f - size), m->toon_bands.w) : 0.0f;
+    float size = material_toon_highlight_size(m);
+    return size > 0.0f ? toon_step(n_dot_h - (1.0f - size), material_toon_highlight_softness(m)) : 0.0f;
 }
 
 // Rim light: on only where the view grazes the surface, N.V < threshold, reaching full
 // strength `width` below it. Threshold 0 switches it off.
 float toon_rim(const Material* m, float n_dot_v) {
-    return toon_step(m->toon_rim.w - n_dot_v, m->toon_highlight.w);
+    return toon_step(material_toon_rim_threshold(m) - n_dot_v, material_toon_rim_width(m));
 }
 
 // The bracket of the formula above splits into the shadow tone color * S, which every light
 // adds whatever its visibility, and the lit part, which depends on the light's direction and
 // on whether it is seen.
-float3 toon_shadow_tone(const Material* m) { return m->color.xyz * m->toon_shadow.xyz; }
+float3 toon_shadow_tone(const Material* m) { return material_color(m) * material_toon_shadow_color(m); }
 
 float3 toon_lit_response(const Material* m, float3 n, float3 wo, float3 wi, bool visible) {
-    float v = visible ? 1.0f : m->toon_shadow.w;
+    float v = visible ? 1.0f : material_toon_shadow_factor(m);
     float n_dot_l = dot(n, wi);
-    float band = toon_band(n_dot_l, (int)m->toon_bands.x, m->toon_bands.y);
-    float3 tone = m->color.xyz * (1.0f - m->toon_shadow.xyz) * (band * v);
+    float band = toon_band(n_dot_l, (int)material_toon_bands(m), material_toon_band_softness(m));
+    float3 tone = material_color(m) * (1.0f - material_toon_shadow_color(m)) * (band * v);
     float3 h = wi + wo;
     float h_len = length(h);
     if (visible && n_dot_l > 0.0f && h_len > 0.0f)
-        tone += m->toon_highlight.xyz * toon_highlight(m, dot(n, h) / h_len);
-    tone += m->toon_rim.xyz * (toon_rim(m, dot(n, wo)) * v);
+        tone += material_toon_highlight_color(m) * toon_highlight(m, dot(n, h) / h_len);
+    tone += material_toon_rim_color(m) * (toon_rim(m, dot(n, wo)) * v);
     return tone;
 }
 
