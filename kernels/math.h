@@ -4,6 +4,7 @@
 
 #define PI_F 3.14159265358979323846f
 #define INV_PI_F 0.31830988618379067154f
+#define LN2_F 0.69314718f
 
 float max_component(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 

@@ -50,7 +50,6 @@
 // separate log so that products of thousands of collisions stay representable.
 #define RATIO_RESCALE_HIGH 4294967296.0f
 #define RATIO_RESCALE_LOW 2.3283064e-10f
-#define LN2_F 0.69314718f
 
 // A product of per-channel ratios, kept as ratio * exp(log_scale).
 typedef struct {
