@@ -43,7 +43,7 @@ def _parser():
                              "(biased preview) (default: the scene's, else null)")
     render.add_argument("--step", type=_march_step,
                         help="ray marching: longest step in voxels, also scaling the optical depth per step "
-                             "(default: the scene's, else 1)")
+                             "(default: the scene's, else 2)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point; --no-... renders single "
                              "scattering (default: the scene's, else on)")
@@ -87,6 +87,8 @@ def _render(args):
     scene = load_scene(args.scene)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
+    for note in renderer.notes:
+        print(f"clrender: note: {note}", file=sys.stderr)
     spp = args.spp or (None if args.time else scene.render.spp)
     bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
 

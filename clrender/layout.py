@@ -152,6 +152,12 @@ def pack_media(interior, exterior):
 # the Material field albedo_tables holds the offset of the material's tables, -1 for none.
 ALBEDO_TABLE_SIZE = 64
 
+# Ray marching's step (kernels/media/raymarch.h): at step 1 a step spans at most one voxel and
+# at most MARCH_STEP_OPTICAL_DEPTH of majorant optical depth; the refinement by optical depth stops
+# at MARCH_MAX_STEPS_PER_VOXEL steps per voxel (the host reports media that reach it).
+MARCH_STEP_OPTICAL_DEPTH = 0.5
+MARCH_MAX_STEPS_PER_VOXEL = 64
+
 
 def c_constants():
     """The enumerations and sizes above as C #define lines."""
@@ -161,4 +167,6 @@ def c_constants():
                           ("VOLUME", VOLUME_METHODS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
+    lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
+    lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

@@ -61,6 +61,23 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     return p
 
 
+def march_notes(scene):
+    """What ray marching cannot resolve in `scene`: grid media so dense that the refinement of
+    steps by optical depth stops (kernels/media/raymarch.h), as sentences for the user."""
+    limit = layout.MARCH_STEP_OPTICAL_DEPTH * layout.MARCH_MAX_STEPS_PER_VOXEL
+    notes = []
+    for medium in scene.media:
+        if medium.grid is None:
+            continue
+        depth = float(medium.grid.density.max() * np.max(medium.sigma_t)) * medium.grid.longest_voxel_step()
+        if depth > limit:
+            notes.append(f"ray marching: medium {medium.name!r} holds up to {depth:.3g} optical depths per voxel; "
+                         f"steps stop shrinking at 1/{layout.MARCH_MAX_STEPS_PER_VOXEL:g} voxel (x step), so steps "
+                         f"through its densest parts exceed the usual {layout.MARCH_STEP_OPTICAL_DEPTH:g} x step "
+                         "optical depth (more bias at its edges; use null scattering for exact results)")
+    return notes
+
+
 class RenderInterrupted(KeyboardInterrupt):
     """Ctrl-C during a render; `result` holds the image of the samples completed so far."""
 
@@ -84,6 +101,8 @@ class Renderer:
         self.context = cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
         self.features = scene_features(scene, volume_method)
+        # Limits of the chosen method that the image may show, for the user (the CLI prints them).
+        self.notes = march_notes(scene) if self.features["GRID_MEDIA"] == layout.VOLUME_METHODS["raymarch"] else []
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
         self.arrays = build_scene_arrays(scene)

@@ -129,7 +129,7 @@ class RenderSettings:
     # unbiased) or "raymarch" (biased preview; steps of at most `step` voxels, shorter where the
     # medium is dense: see kernels/media/raymarch.h).
     volume_method: str = "null"
-    step: float = 1.0
+    step: float = 2.0
     raymarch_multiple_scattering: bool = True
 
 
@@ -360,7 +360,7 @@ def _read_render(node):
         rr_depth=node.number("rr_depth", 5, low=1, integer=True),
         seed=node.number("seed", 0, low=0, high=2**32 - 1, integer=True),
         volume_method=node.string("volume_method", "null", choices=VOLUME_METHODS),
-        step=float(node.number("step", 1.0, low=MIN_MARCH_STEP)),
+        step=float(node.number("step", 2.0, low=MIN_MARCH_STEP)),
         raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", True),
     )
     node.finish()

@@ -11,8 +11,9 @@
 //     constant density puts it (the step's optical depth places it, not a uniform point).
 //     Weights and pdf ratios are those of a homogeneous medium at depth D: spectral MIS,
 //     albedo-weighted collisions, and light sampling once per scattering vertex (path.h).
-//   - transmittance of shadow rays: exp(-sigma_t D), marched with steps MARCH_SHADOW_COARSENING
-//     times longer (measured bias: docs/volume-report.md).
+//   - transmittance of shadow rays: exp(-sigma_t D), marched with the same steps, with Russian
+//     roulette once it is small (2x coarser shadow steps were tried: they carried most of
+//     marching's bias for 5-10% of speed, docs/performance.md).
 // The bias is Jensen's: E[exp(-sigma D)] >= exp(-sigma E[D]), of the order of the variance of D's
 // estimate, which shrinks with the step. Step length, per majorant block: `step` (RenderParams
 // .volume.x) times the smaller of one voxel (measured along the ray) and MARCH_STEP_OPTICAL_DEPTH
@@ -29,14 +30,11 @@
 #include "media/majorant.h"
 #if GRID_MEDIA == VOLUME_RAYMARCH
 
-// Majorant optical depth of a step at step 1 (see the top).
-#define MARCH_STEP_OPTICAL_DEPTH 0.5f
-// Shadow rays march with steps this many times longer than path rays.
-#define MARCH_SHADOW_COARSENING 2.0f
-// The refinement by optical depth stops at this many steps per voxel (times 1 / step): only
-// where a voxel holds more than MARCH_STEP_OPTICAL_DEPTH x 64 = 32 optical depths of majorant,
-// i.e. the medium is opaque within a fraction of a voxel. clrender.Renderer warns of such media.
-#define MARCH_MAX_STEPS_PER_VOXEL 64.0f
+// MARCH_STEP_OPTICAL_DEPTH (the majorant optical depth of a step at step 1, see the top) and
+// MARCH_MAX_STEPS_PER_VOXEL come from clrender/layout.py, which also reports the media where the
+// latter binds: the refinement by optical depth stops at that many steps per voxel (times
+// 1 / step), i.e. only where a voxel holds more than 32 optical depths of majorant and the
+// medium is opaque within a fraction of a voxel.
 // Shadow rays play Russian roulette whenever their weighted transmittance drops below this.
 #define MARCH_ROULETTE_BELOW 0.1f
 // Marching stops once every channel's transmittance is below exp(-11.5) = 1e-5.
@@ -125,8 +123,7 @@ float3 grid_transmittance(const Scene* scene, __global const Medium* m, float3 o
                           float t_max, Rng* rng, float* pdf_ratio) {
     float3 sigma_t = medium_sigma_t(m);
     float limit = march_depth_limit(sigma_t);
-    Marcher mr = marcher(scene, m, origin, dir, t_max, march_step(scene) * MARCH_SHADOW_COARSENING,
-                         rng_float(rng));
+    Marcher mr = marcher(scene, m, origin, dir, t_max, march_step(scene), rng_float(rng));
     // Russian roulette, as ratio tracking's: whenever the weighted estimate of the thinnest
     // channel drops below 0.1 (every ln 2 of optical depth beyond 2.3), the ray survives with
     // probability 1/2 and its weight doubles: unbiased for the marched medium, and the march
