@@ -63,7 +63,8 @@ def dot(a, b):
 def toon_reference(color, n, v, lights, **parameters):
     """The documented toon radiance at points with unit normal n and unit view direction v
     ((..., 3) arrays). lights: (l, strength, transmittance, share) per light: unit direction
-    towards it (..., 3), s = irradiance / pi (rgb), T (...) and its power share p."""
+    towards it (..., 3), s = irradiance / pi (rgb), T ((...) or per channel (..., 3)) and its
+    power share p."""
     p = dict(DEFAULTS, **parameters)
     col = lambda key: np.broadcast_to(np.asarray(p[key], float), (3,))
     lit = np.zeros(n.shape)
@@ -76,7 +77,8 @@ def toon_reference(color, n, v, lights, **parameters):
         size = p["highlight_size"]
         highlight = (smoothstep(1 - size, 1 - size + p["highlight_softness"], dot(r, v)) if size > 0
                      else np.zeros(n_dot_l.shape)) * smoothstep(0, p["softness"], n_dot_l)
-        t = np.asarray(transmittance, float)[..., None]
+        t = np.asarray(transmittance, float)
+        t = t if t.ndim == n.ndim else t[..., None]  # per channel, or grey
         lit += np.asarray(strength, float) * t * (band[..., None] + col("highlight_color") * highlight[..., None])
         reached += share * t
     blocked = p["shadow_factor"] * col("shadow_color")
@@ -485,12 +487,15 @@ def interior(mask):
 # --------------------------------------------------------------------------------------------
 # Shadow rays through interface boundaries and media
 # --------------------------------------------------------------------------------------------
+BUBBLE_TOON = dict(ambient=0.5)  # a large ambient: its dimming by the fog is plain to see
+
+
 def toon_in_a_bubble(medium=None, resolution=(32, 32)):
     """A flat-faceted toon sphere inside an `interface` sphere of radius 1.6, lit by a sun; the
     bubble holds `medium` (or nothing)."""
     data = {
         "camera": camera(position=(0, 0, 5), look_at=(0, 0, 0), fov=40, resolution=resolution),
-        "materials": [material_from({}, (0.9, 0.6, 0.3)), {"name": "boundary", "type": "interface"}],
+        "materials": [material_from(BUBBLE_TOON, (0.9, 0.6, 0.3)), {"name": "boundary", "type": "interface"}],
         "shapes": [{"type": "sphere", "material": "toon", "radius": 1.0, "subdivisions": 2, "smooth": False},
                    {"type": "sphere", "material": "boundary", "radius": 1.6, "subdivisions": 2, "smooth": False}],
         "lights": [{"type": "directional", "direction": [0.6, -0.5, -0.62], "irradiance": 3.0}],
@@ -547,7 +552,8 @@ def test_fog_darkens_the_lit_side_by_its_transmittance():
         n = hits.normal
         below = dot(n, to_light) <= 0
         radiance = toon_reference([0.9, 0.6, 0.3], n, -directions,
-                                  [(to_light, np.full(3, 3.0 / np.pi), np.where(below, 0.0, t_light), 1.0)])
+                                  [(to_light, np.full(3, 3.0 / np.pi), np.where(below, 0.0, t_light), 1.0)],
+                                  **BUBBLE_TOON)
         radiance = np.where(toon_hit[..., None], radiance, 0.0)
         mean += t_cam[..., None] * radiance / spp
         variance += t_cam[..., None] * (1 - t_cam[..., None]) * radiance ** 2 / spp ** 2
@@ -560,6 +566,41 @@ def test_fog_darkens_the_lit_side_by_its_transmittance():
     for c in range(3):
         z = (result.image[lit_side, c] - mean[lit_side, c]).sum() / np.sqrt(variance[lit_side, c].sum())
         assert abs(z) < 5.0, (c, z)
+
+
+def test_fog_between_the_light_and_a_toon_floor_scales_its_terms_exactly():
+    # A fog box hangs between a sun and part of a toon floor, out of the camera's way: the
+    # camera rays are clear, the shadow rays cross the box (analytic transmittance), so every
+    # pixel is deterministic: C [s T (band + specular) + (b + (1 - b) T)(ambient + rim)], with
+    # T = exp(-sigma * (path length in the box)) computed here in closed form.
+    sigma = np.array([0.3, 0.6, 1.2])
+    color = np.array([0.9, 0.7, 0.5])
+    parameters = dict(ambient=0.4, highlight_size=0.6, highlight_softness=0.3)
+    to_light = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    data = {
+        "camera": camera(position=(-3, 4, 0), look_at=(-0.5, 0, 0), fov=40, resolution=(40, 40)),
+        "media": [{"name": "fog", "sigma_a": sigma.tolist(), "sigma_s": 0.0}],
+        "materials": [material_from(parameters, color), {"name": "boundary", "type": "interface"}],
+        "shapes": [{"type": "rectangle", "material": "toon", "transform": {"scale": 6, "rotate": [-90, 0, 0]}},
+                   {"type": "box", "material": "boundary", "interior": "fog",
+                    "transform": {"scale": [1, 0.5, 4], "translate": [2, 1.5, 0]}}],
+        "lights": [{"type": "directional", "direction": (-to_light).tolist(), "irradiance": np.pi}],
+    }
+    scene = clrender.load_scene_dict(data)
+    result = clrender.Renderer(scene).render(spp=1, seed=8)
+    assert result.discarded_samples == 0
+    hits, view = floor_points(scene, seed=8)
+    floor = (hits.object == 0) & (hits.edge > 1e-4)
+    # From (x, 0, z) towards the light the ray is at (x + s, s, z): inside the box where
+    # s in [1, 2] and x + s in [1, 3].
+    x = hits.point[..., 0]
+    s_in, s_out = np.maximum(1.0, 1.0 - x), np.minimum(2.0, 3.0 - x)
+    length = np.sqrt(2) * np.maximum(s_out - s_in, 0.0)
+    transmittance = np.exp(-sigma * length[..., None])
+    expected = toon_reference(color, hits.normal, view, [(to_light, [1, 1, 1], transmittance, 1.0)], **parameters)
+    partly = floor & (length > 0.2) & (length < 1.2)
+    assert partly.sum() > 50 and np.sum(floor & (length == 0)) > 50
+    np.testing.assert_allclose(result.image[floor], expected[floor], rtol=1e-4, atol=1e-6)
 
 
 # --------------------------------------------------------------------------------------------
