@@ -269,6 +269,7 @@ def _toon_fields(record, toon):
     record["toon_bands"] = (toon.bands, toon.softness, toon.highlight_size, toon.highlight_softness)
     record["toon_highlight"] = (*toon.highlight_color, toon.rim_width)
     record["toon_rim"] = (*toon.rim_color, toon.rim_threshold)
+    record["toon_ambient"] = (*toon.ambient, 0.0)
 
 
 def _cdf(weights):

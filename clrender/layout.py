@@ -39,11 +39,13 @@ TRIANGLE_INFO = _struct(("info", I4))
 # reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
 # and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
 # (-1: none). The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
-# toon_shadow: rgb shadow colour (fraction of the lit tone kept where unlit), w shadow factor;
-# toon_bands: x band count, y band softness, z highlight size, w highlight softness;
-# toon_highlight: rgb highlight colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
+# toon_shadow: rgb shadow colour (tints the shadow factor: a blocked point keeps
+# shadow_factor x shadow_colour of its colour), w shadow factor; toon_bands: x band count,
+# y band softness, z highlight size, w highlight softness; toon_highlight: rgb highlight colour,
+# w rim width; toon_rim: rgb rim colour, w rim threshold; toon_ambient: rgb ambient colour, w 0.
 MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4),
-                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4))
+                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4),
+                   ("toon_ambient", F4))
 
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))

@@ -55,18 +55,19 @@ class Camera:
 class Toon:
     """Cel-shading parameters of a `toon` material (docs/materials-toon.md; kernels/materials/toon.h).
 
-    Per light the surface shows color x (shadow_color + (1 - shadow_color) x band x visibility),
-    plus highlight and rim, all scaled by the light's irradiance / pi."""
-    shadow_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.3))
-    shadow_factor: float = 0.1       # visibility of a light from points it does not reach
-    bands: int = 1                   # lit tones above the shadow tone (1: classic two-tone)
+    The defaults give the classic formula C' x (specular + light_intensity + ambient + rim), with
+    C' = C x shadow_factor where the light is blocked; shadow_color and bands extend it."""
+    ambient: np.ndarray = field(default_factory=lambda: np.full(3, 0.1))   # added once, any lights
+    shadow_factor: float = 0.1       # fraction of the colour a point keeps where the light is blocked
+    shadow_color: np.ndarray = field(default_factory=lambda: np.ones(3))  # tints that fraction
+    bands: int = 1                   # lit tones of light_intensity (1: the formula's two tones)
     softness: float = 0.01           # smoothstep width of each band edge, in N.L
-    highlight_size: float = 0.02     # highlight where N.H > 1 - size (0: none)
+    highlight_size: float = 0.02     # highlight where R.V > 1 - size (0: none)
     highlight_softness: float = 0.005
     highlight_color: np.ndarray = field(default_factory=lambda: np.ones(3))
-    rim_threshold: float = 0.0       # rim where N.V < threshold (0: none)
-    rim_width: float = 0.05
-    rim_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    rim_threshold: float = 0.25      # rim where N.V < threshold (0: none)
+    rim_width: float = 0.02
+    rim_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
 
 
 @dataclass
@@ -405,6 +406,7 @@ def _read_toon(node):
     highlight = node.child("highlight", {})
     rim = node.child("rim", {})
     toon = Toon(
+        ambient=node.vector("ambient", d.ambient.tolist(), non_negative=True, allow_scalar=True),
         shadow_color=_unit_color(node, "shadow_color", d.shadow_color.tolist()),
         shadow_factor=float(node.number("shadow_factor", d.shadow_factor, low=0, high=1)),
         bands=node.number("bands", d.bands, low=1, high=MAX_TOON_BANDS, integer=True),

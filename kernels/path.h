@@ -249,7 +249,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
         // counts as direct lighting, hence after the max-depth test), and the path ends.
         if (m.kind.x == MATERIAL_TOON) {
-            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, rng);
+            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, medium, rng);
             break;
         }
 #endif

@@ -23,10 +23,11 @@ typedef struct { int4 info; } TriangleInfo;
 // and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
 // (-1: none). toon_* are read by MATERIAL_TOON only (materials/toon.h): toon_shadow: rgb shadow
 // colour, w shadow factor; toon_bands: x bands, y band softness, z highlight size, w highlight
-// softness; toon_highlight: rgb colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
+// softness; toon_highlight: rgb colour, w rim width; toon_rim: rgb rim colour, w rim threshold;
+// toon_ambient: rgb ambient colour, w unused (0).
 typedef struct {
     int4 kind; float4 color; float4 emission; float4 params;
-    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim;
+    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim; float4 toon_ambient;
 } Material;
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
