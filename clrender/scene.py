@@ -13,7 +13,7 @@ from . import grids, meshes
 from .errors import SceneError
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
-SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
+SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
@@ -81,6 +81,11 @@ class Material:
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
     roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
+    # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
+    # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
+    # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
+    two_sided: bool = True
+    energy_compensation: bool = True
 
 
 @dataclass
@@ -128,6 +133,7 @@ class RenderSettings:
     volume_method: str = "null"
     step: float = 0.02
     raymarch_multiple_scattering: bool = False
+    hide_environment: bool = False   # camera rays that escape see black (Mitsuba's hide_emitters)
 
 
 @dataclass
@@ -359,6 +365,7 @@ def _read_render(node):
         volume_method=node.string("volume_method", "null", choices=VOLUME_METHODS),
         step=float(node.number("step", 0.02, low=0, low_open=True)),
         raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", False),
+        hide_environment=node.boolean("hide_environment", False),
     )
     node.finish()
     return settings
@@ -369,7 +376,8 @@ def _read_material(node):
     kind = node.string("type", choices=MATERIAL_TYPES)
     if kind == "diffuse":
         material = Material(name, kind, albedo=node.vector("albedo", [0.8, 0.8, 0.8], non_negative=True),
-                            emission=node.vector("emission", [0, 0, 0], non_negative=True))
+                            emission=node.vector("emission", [0, 0, 0], non_negative=True),
+                            two_sided=node.boolean("two_sided", True))
         if np.any(material.albedo > 1):
             raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {material.albedo.tolist()}")
     elif kind == "toon":
@@ -381,7 +389,10 @@ def _read_material(node):
     elif kind in ("dielectric", "conductor"):
         material = Material(name, kind, albedo=np.zeros(3),
                             tint=_unit_color(node, "tint"),
-                            roughness=node.number("roughness", 0.0, low=0, high=1))
+                            roughness=node.number("roughness", 0.0, low=0, high=1),
+                            energy_compensation=node.boolean("energy_compensation", True))
+        if kind == "conductor":
+            material.two_sided = node.boolean("two_sided", True)
         if kind == "dielectric":
             material.ior = node.number("ior", 1.5, low=0, low_open=True)
             material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
@@ -549,6 +560,8 @@ def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
                              smooth=node.boolean("smooth", True))
     elif kind == "rectangle":
         mesh = meshes.rectangle()
+    elif kind == "disk":
+        mesh = meshes.disk(node.number("segments", 128, low=3, high=4096, integer=True))
     else:
         mesh = meshes.box()
     if "transform" in node.data:
