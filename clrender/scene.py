@@ -282,9 +282,17 @@ class _Node:
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
-def load_scene(path):
-    """Load and validate a JSON scene file; relative file paths resolve against its folder."""
+def load_scene(path, parameters=None):
+    """Load and validate a scene file: JSON, or Mitsuba 3 XML (`.xml`, docs/mitsuba-xml.md;
+    `parameters` override its <default> values, like Mitsuba's -D). Relative file paths resolve
+    against the file's folder."""
     path = Path(path)
+    if path.suffix.lower() == ".xml":
+        from . import mitsuba_xml
+
+        return mitsuba_xml.load_scene(path, parameters)
+    if parameters:
+        raise SceneError("", "parameters apply to Mitsuba XML scenes only")
     try:
         text = path.read_text()
     except FileNotFoundError:
@@ -629,6 +637,16 @@ def _read_light(node, base_dir):
 
 def _read_environment(node, base_dir):
     scale = node.number("scale", 1.0, low=0)
+    if sum(key in node.data for key in ("image", "file", "radiance")) > 1:
+        raise SceneError(node.where, "give one of radiance, file or image")
+    if "image" in node.data:   # Python API: an (H, W, 3) lat-long array instead of a file
+        image = np.asarray(node.raw("image"))
+        if image.ndim != 3 or image.shape[2] != 3 or min(image.shape[:2]) < 1 or not np.issubdtype(image.dtype, np.number):
+            raise SceneError(node.at("image"), f"must be an (H, W, 3) array of numbers, got shape {image.shape}")
+        image = image.astype(np.float32)
+        if not np.all(np.isfinite(image)) or np.any(image < 0):
+            raise SceneError(node.at("image"), "image must be finite and non-negative")
+        return Light("environment", np.ones(3) * scale, image=image * scale)
     if "file" in node.data:
         from .image import load_image
 
