@@ -420,14 +420,15 @@ def _transform(element):
 
 
 def _rotation(op):
-    """Rotation by `angle` degrees (counter-clockwise, right-handed) about the axis (x, y, z)."""
+    """Rotation by `angle` degrees (counter-clockwise, right-handed) about the axis (x, y, z).
+    Like Mitsuba, the axis is used as given: one that is not of unit length also scales and
+    shears (Rodrigues' formula with that vector)."""
     if "angle" not in op.attrs:
         raise op.error("<rotate> needs an angle (degrees)")
     axis = _xyz(op, 0.0)
-    length = np.linalg.norm(axis)
-    if length == 0:
+    if not np.any(axis):
         raise op.error("<rotate> needs a non-zero axis")
-    x, y, z = axis / length
+    x, y, z = axis
     angle = np.radians(_float(op, op.attrs["angle"]))
     c, s = np.cos(angle), np.sin(angle)
     k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
@@ -462,6 +463,12 @@ def _rotation_scale(matrix):
     if scale2 <= 0 or np.linalg.det(linear) <= 0 or not np.allclose(gram, scale2 * np.eye(3), rtol=0, atol=1e-6 * scale2):
         return None
     return float(np.sqrt(scale2))
+
+
+def _is_rigid(matrix):
+    """Whether the linear part of `matrix` is a rotation (up to float rounding)."""
+    scale = _rotation_scale(matrix)
+    return scale is not None and abs(scale - 1.0) < 1e-5
 
 
 def _matrix_rows(matrix):
@@ -591,6 +598,7 @@ def read_integrator(plugin, reader):
     reader.out.scene["render"] = render
     if plugin is None:   # Mitsuba's default: path, max_depth -1, rr_depth 5
         render.update(max_depth=MAX_DEPTH, rr_depth=5)
+        reader.ignore_media = True
         return
     if plugin.type not in INTEGRATORS:
         raise plugin.error(f"unsupported integrator '{plugin.type}' (supported: {', '.join(INTEGRATORS)})")
@@ -635,9 +643,9 @@ def read_sensor(plugin, reader):
     render.update(spp=spp, seed=seed)
     matrix = plugin.transform("to_world")
     matrix = np.eye(4) if matrix is None else matrix
-    if _rotation_scale(matrix) is None:
-        raise plugin.error("the sensor's to_world must be a rotation, translation and uniform scale "
-                           "(clrender's camera cannot shear or mirror the image)")
+    if not _is_rigid(matrix):
+        raise plugin.error("the sensor's to_world must be a rotation and translation (Mitsuba "
+                           "rejects scale factors; mirroring or shearing the image is not supported)")
     fov_y = _vertical_fov(plugin, width / height)
     for name, default in (("near_clip", DEFAULT_NEAR_CLIP), ("far_clip", DEFAULT_FAR_CLIP)):
         value = plugin.number(name, default)
@@ -1069,7 +1077,7 @@ def _read_envmap(plugin, reader):
     matrix = plugin.transform("to_world")
     rotation = np.eye(3)
     if matrix is not None:
-        if _rotation_scale(matrix) is None or not np.isclose(_rotation_scale(matrix), 1.0, atol=1e-6):
+        if not _is_rigid(matrix):
             raise plugin.error("an envmap's to_world must be a rotation")
         rotation = matrix[:3, :3]
     plugin.accept("mis_compensation")   # a sampling choice: the same image
