@@ -7,12 +7,14 @@ from clrender import grids
 from clrender.image import save_image
 
 
-def _scene(body, integrator="path", max_depth=8, origin="0 1.2 5", target="0 -0.2 0", fov=36):
+def _scene(body, integrator="path", max_depth=8, origin="0 1.2 5", target="0 -0.2 0", fov=36,
+           hide_emitters=False):
     return f"""<scene version="3.0.0">
     <default name="spp" value="16"/>
     <default name="res" value="16"/>
     <integrator type="{integrator}">
         <integer name="max_depth" value="{max_depth}"/>
+        <boolean name="hide_emitters" value="{str(hide_emitters).lower()}"/>
     </integrator>
     <sensor type="perspective">
         <float name="fov" value="{fov}"/>
@@ -122,7 +124,7 @@ def grid_medium(use_grid_bbox=False):
     </shape>""", integrator="volpathmis", max_depth=16)
 
 
-def environment_map():
+def environment_map(hide_emitters=False):
     return _scene("""
     <emitter type="envmap">
         <string name="filename" value="sky.exr"/>
@@ -147,7 +149,7 @@ def environment_map():
         <bsdf type="conductor">
             <rgb name="specular_reflectance" value="0.9, 0.9, 0.8"/>
         </bsdf>
-    </shape>""", origin="0 0.5 4", target="0 0 0", fov=50)
+    </shape>""", origin="0 0.5 4", target="0 0 0", fov=50, hide_emitters=hide_emitters)
 
 
 def lights():
@@ -201,6 +203,7 @@ SCENES = {
     "grid_medium": grid_medium,
     "grid_medium_bbox": lambda: grid_medium(use_grid_bbox=True),
     "environment_map": environment_map,
+    "environment_map_hidden": lambda: environment_map(hide_emitters=True),
     "lights": lights,
 }
 
