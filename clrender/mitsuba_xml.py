@@ -494,8 +494,8 @@ class _Reader:
         self.ids = ids
         self.files = files
         self.out = Translation({"materials": [], "shapes": [], "lights": [], "media": []})
-        self.material_names = {}   # (bsdf element id or None, emission or None) -> name
-        self.medium_names = {}     # medium element id -> name
+        self.material_names = {}   # (id() of the BSDF element or None, emission or None) -> name
+        self.medium_names = {}     # id() of the medium element -> name
         self.ignore_media = False  # Mitsuba's `path` integrator renders without media
         self.has_area_emitters = False
 
@@ -666,7 +666,7 @@ def read_sensor(plugin, reader):
     if media and not reader.ignore_media:
         name = read_medium(media[0], reader)
         camera["medium"] = name
-        reader.out.scene["medium"] = name   # shapes without media leave the ray in it (see _check_media_nesting)
+        reader.out.scene["medium"] = name   # shapes without media leave the ray in it (see check_media_nesting)
     else:
         camera["medium"] = None
         if media:
@@ -684,22 +684,21 @@ def _vertical_fov(plugin, aspect):
         match = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm)?\s*", text)
         if not match or not float(match.group(1)) > 0:
             raise plugin.error(f"focal_length must be like '50mm', got {text!r}")
-        tan_diagonal = np.hypot(36.0, 24.0) / (2 * float(match.group(1)))
+        tan_half = np.hypot(36.0, 24.0) / (2 * float(match.group(1)))   # along `axis`
         axis = "diagonal"
     else:
         fov = plugin.number("fov", None)
         axis = plugin.string("fov_axis", "x").lower()
         if fov is None:
-            tan_diagonal, axis = np.hypot(36.0, 24.0) / (2 * 50.0), "diagonal"
+            tan_half, axis = np.hypot(36.0, 24.0) / (2 * 50.0), "diagonal"
         elif not 0 < fov < 180:
             raise plugin.error(f"fov must be in (0, 180) degrees, got {fov:g}")
         else:
-            tan_diagonal = np.tan(np.radians(fov) / 2)
+            tan_half = np.tan(np.radians(fov) / 2)
     if axis == "smaller":
         axis = "x" if aspect <= 1 else "y"
     elif axis == "larger":
         axis = "y" if aspect <= 1 else "x"
-    tan_half = tan_diagonal   # along `axis`
     if axis == "x":
         tan_y = tan_half / aspect
     elif axis == "y":
@@ -720,6 +719,8 @@ def read_film(plugin, reader):
     if plugin.type != "hdrfilm":
         raise plugin.error(f"unsupported film '{plugin.type}' (supported: hdrfilm)")
     width, height = plugin.integer("width", 768), plugin.integer("height", 576)
+    if width < 1 or height < 1:
+        raise plugin.error(f"width and height must be >= 1, got {width} x {height}")
     crop = (plugin.integer("crop_offset_x", 0), plugin.integer("crop_offset_y", 0),
             plugin.integer("crop_width", width), plugin.integer("crop_height", height))
     if crop != (0, 0, width, height):
@@ -901,7 +902,7 @@ def _conductor_reflectance(plugin, reader):
 def _material(plugin, reader, emission, emitter_where):
     """The name of the scene material for (BSDF, area emission), made once per distinct pair.
     A shape without a BSDF is diffuse 0.5, or black when it emits (as in Mitsuba)."""
-    key = (plugin.element.where() if plugin else None, None if emission is None else tuple(emission))
+    key = (id(plugin.element) if plugin else None, None if emission is None else tuple(emission))
     if key in reader.material_names:
         return reader.material_names[key]
     if plugin is None:
@@ -1054,7 +1055,18 @@ def read_emitter(plugin, reader):
         light = _read_envmap(plugin, reader)
     plugin.finish()
     reader.out.scene["lights"].append(light)
-    reader.note(plugin, f"lights[{index}]", light["type"])
+    reader.note(plugin, f"lights[{index}]", _describe_light(light))
+
+
+def _describe_light(light):
+    if light["type"] == "point":
+        return f"point at {_fmt(light['position'])}, intensity {_fmt(light['intensity'])}"
+    if light["type"] == "directional":
+        return f"directional towards {_fmt(light['direction'])}, irradiance {_fmt(light['irradiance'])}"
+    if "image" in light:
+        height, width, _ = light["image"].shape
+        return f"environment image {width} x {height}"
+    return f"constant environment {_fmt(light['radiance'])}"
 
 
 def _read_envmap(plugin, reader):
@@ -1140,7 +1152,7 @@ MEDIA = ("homogeneous", "heterogeneous")
 
 def read_medium(plugin, reader):
     """The name of the scene medium for a medium element (made once per element)."""
-    key = plugin.element.where()
+    key = id(plugin.element)
     if key in reader.medium_names:
         return reader.medium_names[key]
     if plugin.type not in MEDIA:

@@ -228,8 +228,10 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     (sensor(sampler='<sampler type="fancy"/>'), "unsupported sampler 'fancy'"),
     (sensor(sampler='<sampler type="independent"><integer name="sample_count" value="0"/></sampler>'), "sample_count must be >= 1"),
     (sensor(film='<film type="hdrfilm"/><film type="hdrfilm"/>'), "at most one film"),
-    (sensor(film='<film type="hdrfilm"><integer name="width" value="0"/><rfilter type="box"/></film>'),
-     "camera.resolution"),
+    (sensor(film='<film type="hdrfilm"><integer name="height" value="0"/><rfilter type="box"/></film>'),
+     "width and height must be >= 1"),
+    (sensor(film='<film type="hdrfilm"><integer name="width" value="20000"/><rfilter type="box"/></film>'),
+     "got [20000, 576] (scene field camera.resolution)"),
 ])
 def test_sensor_errors(tmp_path, sensor_xml, message):
     assert message in error_of(tmp_path, "", sensor=sensor_xml)
