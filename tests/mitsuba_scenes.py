@@ -1,7 +1,8 @@
 """Mitsuba 3 XML scenes for the comparisons of tests/test_mitsuba_parity.py, written into a
-folder together with the files they use (an EXR environment map, a .vol grid). Each takes the
+folder together with the files they use (an EXR environment map, a .vol grid, OBJ and PLY). Each takes the
 parameters `spp` and `res` (square image) through <default>, so one file serves both renderers."""
 import numpy as np
+import trimesh
 
 from clrender import grids
 from clrender.image import save_image
@@ -196,6 +197,35 @@ def lights():
     </shape>""")
 
 
+def meshes():
+    """An OBJ without normals (smooth: vertex normals computed from the faces) and a PLY with
+    face normals, stretched and turned: mesh loading, winding and normals."""
+    return _scene(FLOOR + SUN + SKY + """
+    <shape type="obj">
+        <string name="filename" value="ball.obj"/>
+        <transform name="to_world">
+            <scale x="1.3" y="0.8" z="1"/>
+            <translate x="-0.8"/>
+        </transform>
+        <bsdf type="diffuse">
+            <rgb name="reflectance" value="0.7, 0.6, 0.5"/>
+        </bsdf>
+    </shape>
+    <shape type="ply">
+        <string name="filename" value="ball.ply"/>
+        <boolean name="face_normals" value="true"/>
+        <transform name="to_world">
+            <rotate y="1" angle="30"/>
+            <scale value="0.7"/>
+            <translate x="1"/>
+        </transform>
+        <bsdf type="roughconductor">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="0.2"/>
+        </bsdf>
+    </shape>""", max_depth=4)
+
+
 SCENES = {
     "glass_sphere": glass_sphere,
     "rough_glass": rough_glass,
@@ -205,6 +235,7 @@ SCENES = {
     "environment_map": environment_map,
     "environment_map_hidden": lambda: environment_map(hide_emitters=True),
     "lights": lights,
+    "meshes": meshes,
 }
 
 
@@ -227,6 +258,9 @@ def cloud_density(resolution=(12, 10, 8)):
 
 def write(folder, name):
     """Write scene `name` and its data files into `folder`; returns the XML path."""
+    ball = trimesh.creation.icosphere(subdivisions=3)
+    (folder / "ball.obj").write_text(ball.export(file_type="obj", include_normals=False))
+    (folder / "ball.ply").write_bytes(ball.export(file_type="ply"))
     save_image(sky_image(), folder / "sky.exr")
     # The bounding box is where the to_world variant places the unit cube.
     grids.write_vol(folder / "cloud.vol", cloud_density(), bbox=((-0.9,) * 3, (0.9,) * 3))

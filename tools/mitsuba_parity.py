@@ -56,6 +56,7 @@ def main():
     parser.add_argument("--renders", type=int, default=8)
     parser.add_argument("--res", type=int, default=16)
     parser.add_argument("--device", default="cpu")
+    parser.add_argument("--scenes", nargs="*", help="only these (names of tests/mitsuba_scenes.py, or cornell_box)")
     args = parser.parse_args()
     import mitsuba as mi
 
@@ -66,10 +67,12 @@ def main():
     print("| scene | mean rel. difference (R, G, B) | image z (R, G, B) | max block abs z | Mitsuba s |")
     print("|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
+        wanted = set(args.scenes or [*mitsuba_scenes.SCENES, "cornell_box"])
         cases = [(name, mitsuba_scenes.write(Path(folder), name), {"res": args.res})
-                 for name in sorted(mitsuba_scenes.SCENES)]
-        cases += [(f"cornell_box max_depth {depth}", ROOT / "scenes" / "cornell_box.xml",
-                   {"resolution": args.res, "max_depth": depth}) for depth in (2, 8)]
+                 for name in sorted(mitsuba_scenes.SCENES) if name in wanted]
+        if "cornell_box" in wanted:
+            cases += [(f"cornell_box max_depth {depth}", ROOT / "scenes" / "cornell_box.xml",
+                       {"resolution": args.res, "max_depth": depth}) for depth in (2, 8)]
         for name, path, parameters in cases:
             ours, mitsuba, seconds = render(path, args.spp, args.renders, device, **parameters)
             relative, image_z, block_z = statistics(ours, mitsuba)
