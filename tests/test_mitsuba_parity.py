@@ -10,7 +10,7 @@ sqrt(var_clrender + var_mitsuba) must stay below Z_MAX = 4.5 (48 block values pe
 false alarm about 1 in 3000 for Gaussian statistics; seeds are fixed, so outcomes are
 deterministic). Blocks where neither renderer varies must agree exactly.
 
-Budget: about 40 s on 2 cores with warm kernel caches (Mitsuba's part about 10 s).
+Budget: about 30 s on 2 cores with warm kernel caches (Mitsuba's part about 10 s).
 """
 import warnings
 
