@@ -18,7 +18,7 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
-// kind: x MATERIAL_*; color: albedo (diffuse), tint (dielectric: transmission, conductor:
+// kind: x MATERIAL_*, y one-sided (1: black seen from behind, materials/bsdf.h); color: albedo (diffuse), tint (dielectric: transmission, conductor:
 // reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
 // and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
 // (-1: none). toon_* are read by MATERIAL_TOON only (materials/toon.h): toon_shadow: rgb shadow
@@ -53,7 +53,8 @@ typedef struct {
     Camera camera;
     int4 frame;        // x width, y height, z first sample index of this pass, w samples in pass
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
-    int4 environment;  // x emitter index (-1: none), y image width, z image height
+    int4 environment;  // x emitter index (-1: none), y image width, z image height,
+                       // w hide the environment from camera rays (1/0)
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
