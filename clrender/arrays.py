@@ -99,7 +99,8 @@ def build_scene_arrays(scene):
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
     materials = _material_array(scene.materials)
     used = {shape.material for shape in scene.shapes}
-    table_size, table_materials = _assign_albedo_tables(materials, used)
+    compensated = {i for i, m in enumerate(scene.materials) if m.energy_compensation}
+    table_size, table_materials = _assign_albedo_tables(materials, used & compensated)
 
     camera_medium = scene.camera_medium
     if camera_medium is None:
@@ -181,6 +182,7 @@ def _material_array(materials):
         kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
         record = out[i]
         _set(record, "kind", layout.MATERIAL_KINDS[kind])
+        _set(record, "one_sided", int(not m.two_sided))
         _set(record, "emission", m.emission)
         if kind in ("dielectric", "conductor"):
             _set(record, "color", m.tint)
@@ -215,9 +217,10 @@ def needs_albedo_table(material):
 
 
 def _assign_albedo_tables(materials, used):
-    """Give each rough specular material that a shape uses its table slots (field albedo_tables;
-    a dielectric needs two: wo outside and wo inside); returns the total size and the owners.
-    Unused materials get none: the kernel of a scene without specular shapes has no table code."""
+    """Give each rough specular material in `used` (those that a shape uses, with energy
+    compensation on) its table slots (field albedo_tables; a dielectric needs two: wo outside and
+    wo inside); returns the total size and the owners. Others get none: the kernel of a scene
+    without specular shapes has no table code."""
     size, owners = 0, []
     for i in range(len(materials)):
         _set(materials[i], "albedo_tables", -1.0)
@@ -285,7 +288,8 @@ def _toon_fields(record, toon):
                         ("toon_highlight_size", toon.highlight_size),
                         ("toon_highlight_softness", toon.highlight_softness),
                         ("toon_highlight_color", toon.highlight_color), ("toon_rim_width", toon.rim_width),
-                        ("toon_rim_color", toon.rim_color), ("toon_rim_threshold", toon.rim_threshold)):
+                        ("toon_rim_color", toon.rim_color), ("toon_rim_threshold", toon.rim_threshold),
+                        ("toon_ambient", toon.ambient)):
         _set(record, name, value)
 
 

@@ -38,17 +38,21 @@ TRIANGLE_INFO = _struct(("info", I4))
 # A material. Its lanes are named in MATERIAL_FIELDS below; read and write them by name (field,
 # set_field here, the accessors of kernels/materials/material.h in the kernels).
 MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4),
-                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4))
+                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4),
+                   ("toon_ambient", F4))
 
-# name -> (struct member, first lane, lanes). color: albedo (diffuse), tint (dielectric:
-# transmission, conductor: reflectance) or base colour (toon). ior / exterior_ior / roughness:
-# dielectrics and conductors. albedo_tables: offset of the material's energy-compensation tables
-# in Scene.specular_albedo (-1: none; kernels/materials/energy.h). toon_*: read by MATERIAL_TOON
-# only (kernels/materials/toon.h): shadow colour (fraction of the lit tone kept where unlit) and
-# factor, band count and softness, highlight size, softness and colour, rim width, colour and
-# threshold.
+# name -> (struct member, first lane, lanes). one_sided: 1 = black seen from behind its front
+# face (Mitsuba's BSDFs without `twosided`, kernels/materials/bsdf.h). color: albedo (diffuse),
+# tint (dielectric: transmission, conductor: reflectance) or base colour (toon). ior /
+# exterior_ior / roughness: dielectrics and conductors. albedo_tables: offset of the material's
+# energy-compensation tables in Scene.specular_albedo (-1: none: smooth, or `energy_compensation`
+# off; kernels/materials/energy.h). toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h):
+# shadow colour (tints the shadow factor: a blocked point keeps shadow_factor x shadow_colour of
+# its colour) and factor, band count and softness, highlight size, softness and colour, rim
+# width, colour and threshold, ambient colour.
 MATERIAL_FIELDS = {
     "kind": ("kind", 0, 1),
+    "one_sided": ("kind", 1, 1),
     "color": ("color", 0, 3),
     "emission": ("emission", 0, 3),
     "ior": ("params", 0, 1),
@@ -65,6 +69,7 @@ MATERIAL_FIELDS = {
     "toon_rim_width": ("toon_highlight", 3, 1),
     "toon_rim_color": ("toon_rim", 0, 3),
     "toon_rim_threshold": ("toon_rim", 3, 1),
+    "toon_ambient": ("toon_ambient", 0, 3),
 }
 
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
@@ -99,7 +104,7 @@ RENDER_PARAMS = np.dtype([
     ("camera", CAMERA),
     ("frame", I4),         # width, height, first sample, samples in this pass
     ("config", I4),        # max depth, roulette depth, seed, emitter count
-    ("environment", I4),   # emitter index, image width, image height
+    ("environment", I4),   # emitter index, image width, image height, hide from camera rays (1/0)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius

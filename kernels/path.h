@@ -49,19 +49,6 @@ float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoin
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
-// Fraction of light arriving along a shadow ray: 0/1 visibility, or transmittance with media
-// (*pdf_ratio: see shadow_transmittance; 1 without media).
-float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium, Rng* rng,
-                  float* pdf_ratio) {
-    *pdf_ratio = 1.0f;
-#if MEDIA
-    return shadow_transmittance(scene, origin, dir, dist, medium, rng, pdf_ratio);
-#else
-    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    return occluded(scene, origin, dir, dist * (1.0f - 1e-4f)) ? (float3)(0.0f) : (float3)(1.0f);
-#endif
-}
-
 float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                     int medium, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
@@ -134,7 +121,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         }
 #endif
         if (!found) {
-            radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
+            // RenderParams.environment.w (render.hide_environment): camera rays that escape,
+            // through null boundaries or not, see black; the environment still lights the scene.
+            if (depth > 1 || scene->params->environment.w == 0)
+                radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
@@ -156,7 +146,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
         // counts as direct lighting, hence after the max-depth test), and the path ends.
         if (material_kind(&m) == MATERIAL_TOON) {
-            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, rng);
+            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, medium, rng);
             break;
         }
 #endif

@@ -21,7 +21,7 @@ typedef struct { int4 info; } TriangleInfo;
 // Lanes named in clrender/layout.py (MATERIAL_FIELDS); read through materials/material.h.
 typedef struct {
     int4 kind; float4 color; float4 emission; float4 params;
-    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim;
+    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim; float4 toon_ambient;
 } Material;
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
@@ -43,7 +43,8 @@ typedef struct {
     Camera camera;
     int4 frame;        // x width, y height, z first sample index of this pass, w samples in pass
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
-    int4 environment;  // x emitter index (-1: none), y image width, z image height
+    int4 environment;  // x emitter index (-1: none), y image width, z image height,
+                       // w hide the environment from camera rays (1/0)
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry

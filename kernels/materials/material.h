@@ -6,6 +6,7 @@
 #include "types.h"
 
 int material_kind(const Material* m) { return m->kind.x; }
+int material_one_sided(const Material* m) { return m->kind.y; }
 float3 material_color(const Material* m) { return m->color.xyz; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
 float material_ior(const Material* m) { return m->params.x; }
@@ -23,6 +24,7 @@ float3 material_toon_highlight_color(const Material* m) { return m->toon_highlig
 float material_toon_rim_width(const Material* m) { return m->toon_highlight.w; }
 float3 material_toon_rim_color(const Material* m) { return m->toon_rim.xyz; }
 float material_toon_rim_threshold(const Material* m) { return m->toon_rim.w; }
+float3 material_toon_ambient(const Material* m) { return m->toon_ambient.xyz; }
 
 // A dielectric with the same index on both sides: a smooth pass-through (eta exactly 1).
 bool material_is_index_matched(const Material* m) { return material_ior(m) == material_exterior_ior(m); }

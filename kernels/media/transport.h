@@ -1,7 +1,8 @@
 // Light transport through media shared by every estimator: the transmittance of shadow rays
-// through index-matched boundaries and any media, and next-event estimation at a scattering
-// vertex inside a medium. Built on media/medium.h only, and included by path.h before the
-// path loop (no estimator calls back into the integrator).
+// through index-matched boundaries and any media (shadow_ray: plain visibility in a kernel
+// without media), and next-event estimation at a scattering vertex inside a medium. Built on
+// media/medium.h only, and included by path.h and materials/toon.h before they use it (no
+// estimator calls back into the integrator).
 #ifndef CLRENDER_TRANSPORT_H
 #define CLRENDER_TRANSPORT_H
 #include "scene.h"
@@ -59,5 +60,18 @@ float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medi
     return tr * ls.radiance * (phase * weight / ls.pdf_w);
 }
 #endif
+
+// Fraction of light arriving along a shadow ray: 0/1 visibility, or transmittance with media
+// (*pdf_ratio: see shadow_transmittance; 1 without media).
+float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium, Rng* rng,
+                  float* pdf_ratio) {
+    *pdf_ratio = 1.0f;
+#if MEDIA
+    return shadow_transmittance(scene, origin, dir, dist, medium, rng, pdf_ratio);
+#else
+    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
+    return occluded(scene, origin, dir, dist * (1.0f - 1e-4f)) ? (float3)(0.0f) : (float3)(1.0f);
+#endif
+}
 
 #endif
