@@ -174,6 +174,12 @@ def test_cli_chooses_the_volume_method(tmp_path):
         assert result.returncode == 0, result.stderr
         image = clrender.load_image(out)
         assert np.all(np.isfinite(image)) and image.min() < 0.99   # the cloud is visible
+        assert "note:" not in result.stderr
+    # A medium too dense for marching's step refinement is reported, not silently capped.
+    data["media"][0]["sigma_t"] = 1e4
+    path.write_text(json.dumps(data))
+    dense = run_cli("render", str(path), "-o", str(out), "--spp", "1", "--quiet", "--volume-method", "raymarch")
+    assert dense.returncode == 0 and "note: ray marching: medium 'cloud'" in dense.stderr, dense.stderr
     bad = run_cli("render", str(path), "-o", str(tmp_path / "x.exr"), "--volume-method", "magic")
     assert bad.returncode != 0 and "invalid choice" in bad.stderr
     bad = run_cli("render", str(path), "-o", str(tmp_path / "x.exr"), "--step", "-1")
