@@ -166,7 +166,7 @@ def _info(args):
     if any(m.type == "grid" for m in scene.media):
         r = scene.render
         print(f"volumes:    method {r.volume_method}" + (
-            f", step {r.step:g}, multiple scattering {'on' if r.raymarch_multiple_scattering else 'off'}"
+            f", step {r.step:g} voxels, multiple scattering {'on' if r.raymarch_multiple_scattering else 'off'}"
             if r.volume_method == "raymarch" else ""))
     print(f"bounds:     min {_fmt(lo)}  max {_fmt(hi)}")
     print(f"features:   {describe(scene_features(scene))}")

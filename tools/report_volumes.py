@@ -11,15 +11,18 @@ docs/volume-report.md and docs/volume-report.png.
 - Bias of marching, isolated from its noise: each step is rendered with --bias-spp samples in
   BATCHES batches; per pixel, (m - r)^2 - var(m) - var(r) is an unbiased estimate of the squared
   bias, and its mean over the image the squared RMS bias ("error beyond noise"), given with its
-  standard error.
+  standard error (every row shares the reference's noise, so their estimates share an offset of
+  that size) and a two-standard-error upper bound. The signed bias of the image mean per channel
+  is resolved far better (the noise of a mean over all pixels is small).
 - Speed against error: both methods at each --spp, interleaved in every repetition (the machine
   is shared, so only ratios measured in the same run mean something); seconds are kernel time
   after a warm-up, the median of --repeats; RMSE against the reference with the reference's own
   variance removed.
-- Crossover: with c the seconds per spp (the medians above, per spp) and V the pixel variance of
-  one sample (from the batches), null scattering reaches RMSE e in c_n V_n / e^2 seconds and
-  marching in c_m V_m / (e^2 - b^2), b its RMS bias: marching is faster for every RMSE above
-  e* = b / sqrt(1 - c_m V_m / (c_n V_n)), and never if c_m V_m >= c_n V_n.
+- Crossover: with c the seconds per spp (the timed renders at the largest spp) and V the pixel
+  variance of one sample (from the batches), null scattering reaches RMSE e in c_n V_n / e^2
+  seconds and marching in c_m V_m / (e^2 - b^2), b its RMS bias: marching is faster for every
+  RMSE above e* = b / sqrt(1 - c_m V_m / (c_n V_n)), and never if c_m V_m >= c_n V_n. Given for
+  b's estimate and (conservatively) for its upper bound.
 """
 import argparse
 import statistics
@@ -73,7 +76,8 @@ def error_beyond_noise(mean, variance, ref, ref_variance):
     """RMS bias of `mean` against the reference, and the standard error of its square."""
     terms = (mean - ref) ** 2 - variance - ref_variance
     squared = terms.mean()
-    return np.sqrt(max(squared, 0.0)), squared, terms.std(ddof=1) / np.sqrt(terms.size)
+    error = terms.std(ddof=1) / np.sqrt(terms.size)
+    return np.sqrt(max(squared, 0.0)), squared, error
 
 
 def measure_bias(scene, device, ref, ref_variance, steps, spp):
@@ -89,6 +93,7 @@ def measure_bias(scene, device, ref, ref_variance, steps, spp):
         bias, squared, error = error_beyond_noise(mean, variance, ref, ref_variance)
         relative = (mean - ref).sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
         rows.append({"step": step, "multiple": multiple, "bias": bias, "squared": squared, "error": error,
+                     "bias_upper": np.sqrt(max(squared + 2 * error, 0.0)),
                      "relative": relative, "pixel_variance": float(variance.mean() * spp),
                      "seconds_per_spp": seconds / spp})
         print(f"  marching step {step:g}{'' if multiple else ' single scattering'}: RMS bias {bias:.5f} "
@@ -139,9 +144,10 @@ def plot(results, path):
             for p in points:
                 axis.annotate(f"{p['spp']}", (p["seconds"], p["rmse"]), textcoords="offset points", xytext=(4, 3),
                               fontsize=7)
-        seconds = np.geomspace(min(p["seconds"] for ps in r["speed"].values() for p in ps) / 2,
-                               max(p["seconds"] for ps in r["speed"].values() for p in ps) * 8, 100)
         model = r["model"]
+        longest = max(p["seconds"] for ps in r["speed"].values() for p in ps) * 8
+        seconds = np.geomspace(min(p["seconds"] for ps in r["speed"].values() for p in ps) / 2,
+                               max(longest, 3 * model.get("crossover_seconds", 0.0)), 100)
         axis.loglog(seconds, np.sqrt(model["null_cost"] / seconds), color="C0", alpha=0.35, lw=4,
                     label="null scattering: model c V / t")
         axis.loglog(seconds, np.sqrt(model["bias"] ** 2 + model["march_cost"] / seconds), color="C1", alpha=0.35,
@@ -172,28 +178,31 @@ def scene_section(name, scene, args, ref_path, r):
         f"Reference: `{ref_path.relative_to(ROOT)}` (null scattering, {args.reference_spp} spp, with its "
         "variance image).", "",
         f"### Bias of ray marching ({args.bias_spp} spp per row)", "",
-        "| step (voxels) | scattering | RMS bias (error beyond noise) | b^2 +- standard error | mean bias R, G, B | "
-        "noise: pixel variance x spp | seconds per spp |",
-        "|---|---|---|---|---|---|---|",
+        "| step (voxels) | scattering | mean bias R, G, B (of the image mean) | RMS bias b (error beyond noise) | "
+        "b^2 +- standard error | b upper bound | noise: pixel variance x spp | seconds per spp |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for row in r["bias"]:
-        lines.append(f"| {row['step']:g} | {'multiple' if row['multiple'] else 'single'} | {row['bias']:.5f} | "
-                     f"{row['squared']:.3g} +- {row['error']:.2g} | "
-                     f"{', '.join(f'{100 * v:+.2f}%' for v in row['relative'])} | {row['pixel_variance']:.4g} | "
-                     f"{row['seconds_per_spp']:.4f} |")
+        lines.append(f"| {row['step']:g} | {'multiple' if row['multiple'] else 'single'} | "
+                     f"{', '.join(f'{100 * v:+.2f}%' for v in row['relative'])} | {row['bias']:.5f} | "
+                     f"{row['squared']:.3g} +- {row['error']:.2g} | {row['bias_upper']:.5f} | "
+                     f"{row['pixel_variance']:.4g} | {row['seconds_per_spp']:.4f} |")
     lines += ["", "### Speed against error (same run, interleaved)", "",
               "| method | spp | seconds | RMSE |", "|---|---|---|---|"]
     for label, points in r["speed"].items():
         lines += [f"| {label} | {p['spp']} | {p['seconds']:.3f} | {p['rmse']:.5f} |" for p in points]
     ratio = model["march_seconds"] / model["null_seconds"]
-    verdict = (f"marching at its default step reaches a given RMSE faster than null scattering down to an RMSE of "
-               f"**{model['crossover']:.4f}**, where its bias takes over (null scattering gets there in "
-               f"{model['crossover_seconds']:.3g} s at this resolution)" if model["crossover"] is not None
-               else "marching at its default step is not faster than null scattering at any RMSE here")
-    lines += ["", f"Model (seconds per spp c from the largest spp above, pixel variance per spp V from the batches): "
-              f"null c V = {model['null_cost']:.4g}, marching c V = {model['march_cost']:.4g} (seconds per spp "
-              f"x{ratio:.2f} of null's, variance x{model['march_variance'] / model['null_variance']:.2f}), marching's "
-              f"RMS bias b = {model['bias']:.5f}: {verdict}.", ""]
+    if model["crossover"] is not None:
+        verdict = (f"marching at its default step reaches a given RMSE faster than null scattering down to an RMSE "
+                   f"of **{model['crossover']:.4f}** (with b's upper bound: {model['crossover_upper']:.4f}), where its "
+                   f"bias takes over; null scattering needs {model['crossover_seconds']:.3g} s "
+                   f"({model['crossover_spp']:.0f} spp) to get there at this resolution")
+    else:
+        verdict = "marching at its default step is not faster than null scattering at any RMSE here"
+    lines += ["", f"Model (seconds per spp c from the timed renders at {args.spp[-1]} spp, pixel variance per spp V "
+              f"from the batches): null c V = {model['null_cost']:.4g}, marching c V = {model['march_cost']:.4g} "
+              f"(seconds per spp x{ratio:.2f} of null's, variance x{model['march_variance'] / model['null_variance']:.2f}"
+              f"), marching's RMS bias b = {model['bias']:.5f} (upper bound {model['bias_upper']:.5f}): {verdict}.", ""]
     return lines
 
 
@@ -227,10 +236,12 @@ def main():
         model = {"null_variance": null_variance, "march_variance": march["pixel_variance"],
                  "null_seconds": null_seconds, "march_seconds": march_seconds,
                  "null_cost": null_seconds * null_variance, "march_cost": march_seconds * march["pixel_variance"],
-                 "bias": march["bias"]}
+                 "bias": march["bias"], "bias_upper": march["bias_upper"]}
         model["crossover"] = crossover(model["null_cost"], model["march_cost"], model["bias"])
         if model["crossover"] is not None:
+            model["crossover_upper"] = crossover(model["null_cost"], model["march_cost"], model["bias_upper"])
             model["crossover_seconds"] = model["null_cost"] / model["crossover"] ** 2
+            model["crossover_spp"] = model["crossover_seconds"] / null_seconds
         results[name] = {"bias": bias, "speed": speed, "model": model}
         lines += scene_section(name, scene, args, ref_path, results[name])
     plot(results, ROOT / "docs" / "volume-report.png")
