@@ -70,6 +70,12 @@ RENDER_PARAMS = np.dtype([
     ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
 ])
 
+# Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
+# whose w counts the samples: albedo and normal (xyz) summed over the samples, colour_m2 (xyz) the
+# sum of squared deviations of the colour samples from their mean; w unused. clrender/aovs.py
+# turns them into images.
+AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("colour_m2", F4))
+
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,
     "Triangle": TRIANGLE,
@@ -80,6 +86,7 @@ STRUCTS = {
     "Medium": MEDIUM,
     "Camera": CAMERA,
     "RenderParams": RENDER_PARAMS,
+    "AovSums": AOV_SUMS,
 }
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the

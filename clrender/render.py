@@ -6,7 +6,9 @@ import numpy as np
 import pyopencl as cl
 
 from . import layout
-from .outlines import apply_outlines, aux_dict
+from .aovs import DENOISER_AOVS, aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
+from .denoise import check_denoiser, denoise as denoise_image
+from .outlines import apply_outlines, composite
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device
 from .energy import fill_albedo_tables
@@ -24,6 +26,9 @@ class RenderResult:
     # shape index; where the ray escapes: depth 0, normal 0, object_id -1.
     aux: dict = None
     outline_alpha: np.ndarray = None   # (H, W) ink coverage composited into image, or None
+    aovs: dict = None                  # the AOVs asked for, name -> array (clrender/aovs.py)
+    noisy_image: np.ndarray = None     # with denoise: the image before denoising (else None)
+    denoise_seconds: float = 0.0       # time spent denoising
 
     @property
     def samples_per_second(self):
@@ -87,6 +92,7 @@ class Renderer:
         self.arrays = build_scene_arrays(scene)
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
+        self._aov_kernel = None   # the AOVS build, made when a render first asks for it
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
@@ -111,11 +117,20 @@ class Renderer:
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
 
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
-               samples_per_pass=None, time_limit=None):
+               samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
         after every launch. Samples per launch adapt to `pass_seconds` unless fixed by
         `samples_per_pass`; the image does not depend on the split. With `time_limit` (seconds of
-        kernel time) rendering stops after the launch that reaches it, or at `spp` if given."""
+        kernel time) rendering stops after the launch that reaches it, or at `spp` if given.
+        `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py); they
+        leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
+        Denoise guided by the albedo and normal AOVs (also returned), result.noisy_image keeps
+        the raw one; `denoise_prefilter` denoises the guides first (clrender/denoise.py)."""
+        names = parse_aovs(aovs)
+        if denoise:
+            check_denoiser()   # before the render, not after it
+            names = parse_aovs(names + DENOISER_AOVS)
+        kernel = self._kernel(needs_sample_aovs(names))
         settings = self.scene.render
         if spp is None:
             spp = MAX_SPP if time_limit is not None else settings.spp
@@ -131,6 +146,9 @@ class Renderer:
         # Written by the launch holding sample 0 (every render starts there).
         aux_buffers = (cl.Buffer(self.context, mf.WRITE_ONLY, height * width * 16),
                        cl.Buffer(self.context, mf.WRITE_ONLY, height * width * 4))
+        # Read by the AOVS build only; the colour-only build gets a placeholder.
+        aov_sums = np.zeros(height * width if needs_sample_aovs(names) else 1, layout.AOV_SUMS)
+        aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=aov_sums)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
         global_size = self._global_size(width, height)
 
@@ -142,8 +160,8 @@ class Renderer:
                                        seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 start = time.perf_counter()
-                self.kernel(self.queue, global_size, self.local_size, params_buffer,
-                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers)
+                kernel(self.queue, global_size, self.local_size, params_buffer,
+                       *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer)
                 self.queue.finish()
                 elapsed = time.perf_counter() - start
                 seconds += elapsed
@@ -154,9 +172,19 @@ class Renderer:
                     progress(done, spp, seconds)
         except KeyboardInterrupt:
             self.queue.finish()
-            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers,
-                                                 seconds)) from None
-        return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds)
+            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers, seconds,
+                                                 aov_buffer, names, denoise, denoise_prefilter)) from None
+        return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names,
+                            denoise, denoise_prefilter)
+
+    def _kernel(self, sample_aovs):
+        """The colour-only kernel, or the one that also accumulates the sample-level AOVs."""
+        if not sample_aovs:
+            return self.kernel
+        if self._aov_kernel is None:
+            program = build_program(self.context, {**self.features, "AOVS": 1})
+            self._aov_kernel = cl.Kernel(program, "render_pass")
+        return self._aov_kernel
 
     def _global_size(self, width, height):
         if self.local_size is None:
@@ -170,7 +198,8 @@ class Renderer:
         target = int(count * self.pass_seconds / elapsed)
         return max(1, min(target, count * 4))
 
-    def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds):
+    def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names,
+                denoise, denoise_prefilter):
         width, height = self.scene.camera.resolution
         accumulator = np.empty((height * width, 4), np.float32)
         discarded = np.empty(1, np.int32)
@@ -185,14 +214,29 @@ class Renderer:
         counts = accumulator[:, 3:4]
         image = np.where(counts > 0, accumulator[:, :3] / np.maximum(counts, 1), 0.0)
         image = image.reshape(height, width, 3).astype(np.float32)
-        aux = aux_dict(geometry, object_id, width, height)
+        aux = pixel_centre_record(geometry, object_id, width, height)
+        sample_images = {}
+        if needs_sample_aovs(names):
+            aov_sums = np.empty(height * width, layout.AOV_SUMS)
+            cl.enqueue_copy(self.queue, aov_sums, aov_buffer)
+            sample_images = sample_aov_images(aov_sums, accumulator, width, height)
+        aovs = aov_images(names, aux, sample_images)
+        noisy, denoise_seconds = None, 0.0
+        if denoise:
+            start = time.perf_counter()
+            noisy, image = image, denoise_image(image, aovs["albedo"], aovs["normal"], denoise_prefilter)
+            denoise_seconds = time.perf_counter() - start
+        # Ink goes on after denoising: it is exact, and the denoiser would blur it.
         image, alpha = apply_outlines(image, aux, self.scene.outlines)
+        if noisy is not None and alpha is not None:
+            noisy = composite(noisy, alpha, self.scene.outlines.color)
         return RenderResult(image, int(counts.min()) if counts.size else 0, seconds,
-                            int(discarded[0]), aux=aux, outline_alpha=alpha)
+                            int(discarded[0]), aux=aux, outline_alpha=alpha, aovs=aovs,
+                            noisy_image=noisy, denoise_seconds=denoise_seconds)
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
-           step=None):
-    """Render `scene` and return the linear float32 (H, W, 3) image."""
+           step=None, denoise=False):
+    """Render `scene` and return the linear float32 (H, W, 3) image (denoised if `denoise`)."""
     return Renderer(scene, device, volume_method=volume_method, step=step).render(
-        spp=spp, seed=seed, max_depth=max_depth, progress=progress).image
+        spp=spp, seed=seed, max_depth=max_depth, progress=progress, denoise=denoise).image

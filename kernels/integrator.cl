@@ -1,6 +1,6 @@
 // The megakernel: one work-item per pixel adds `frame.w` samples to its accumulator.
 // Samples are taken in index order and added one by one, so the sum is the same however the
-// samples are split into launches.
+// samples are split into launches. With AOVS the sample-level AOVs accumulate beside it (aovs.h).
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -30,6 +30,7 @@
 #elif GRID_MEDIA == VOLUME_RAYMARCH
 #include "media/raymarch.h"
 #endif
+#include "aovs.h"
 #include "path.h"
 #include "aux_buffers.h"
 
@@ -50,7 +51,8 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global float4* accumulator,
                           __global int* discarded_samples,
                           __global float4* aux_geometry,
-                          __global int* aux_object) {
+                          __global int* aux_object,
+                          __global AovSums* aov_sums) {
     int x = get_global_id(0), y = get_global_id(1);
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;
@@ -59,17 +61,28 @@ __kernel void render_pass(__constant RenderParams* params,
     int pixel = y * width + x;
     if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
     float4 sum = accumulator[pixel];
+#if AOVS
+    AovSums aovs = aov_sums[pixel];
+#endif
     int discarded = 0;
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_sample((uint)pixel, (uint)s, (uint)params->config.z);
         Ray ray = camera_ray(&params->camera, x, y, width, height, rng_float2(&rng));
-        float3 radiance = trace_path(&scene, ray, &rng);
+        AovSample aov = aov_sample_none();
+        float3 radiance = trace_path(&scene, ray, &rng, &aov);
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         bool finite = isfinite(radiance.x) && isfinite(radiance.y) && isfinite(radiance.z);
         discarded += finite ? 0 : 1;
-        sum += (float4)(finite ? radiance : (float3)(0.0f), 1.0f);
+        float3 value = finite ? radiance : (float3)(0.0f);
+#if AOVS
+        accumulate_aovs(&aovs, &aov, value, sum);
+#endif
+        sum += (float4)(value, 1.0f);
     }
     accumulator[pixel] = sum;
+#if AOVS
+    aov_sums[pixel] = aovs;
+#endif
     if (discarded > 0) atomic_add(discarded_samples, discarded);
 }
