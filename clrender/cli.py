@@ -43,6 +43,13 @@ def _parser():
     render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+    render.add_argument("--aov", default="", metavar="NAMES",
+                        help="auxiliary outputs, comma-separated: albedo, normal, variance, depth, object_id "
+                             "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
+    render.add_argument("--denoise", action="store_true",
+                        help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
+    render.add_argument("--keep-noisy", action="store_true",
+                        help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
@@ -73,6 +80,7 @@ _positive_float = _number_at_least(float, 0.0, strict=True)
 def _render(args):
     from tqdm import tqdm
 
+    from .aovs import parse_aovs
     from .image import LDR_SUFFIXES, save_image
     from .render import Renderer, RenderInterrupted
     from .scene import load_scene
@@ -80,6 +88,9 @@ def _render(args):
     suffix = args.output.suffix.lower()
     if suffix != ".exr" and suffix not in LDR_SUFFIXES:
         raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
+    aovs = parse_aovs(args.aov, source="--aov")
+    if args.keep_noisy and not args.denoise:
+        raise ValueError("--keep-noisy: only with --denoise")
     scene = load_scene(args.scene)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
@@ -93,16 +104,20 @@ def _render(args):
 
     try:
         result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
-                                 time_limit=args.time)
+                                 time_limit=args.time, aovs=aovs, denoise=args.denoise)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result
         status = 130
     bar.close()
-    save_image(result.image, args.output, exposure=args.exposure)
+    layers = {name: result.aovs[name] for name in aovs}
+    if args.keep_noisy:
+        layers["noisy"] = result.noisy_image
+    save_image(result.image, args.output, exposure=args.exposure, layers=layers)
     print(f"{args.output}: {result.samples} spp in {result.seconds:.2f} s, "
           f"{result.samples_per_second / 1e6:.2f} M samples/s on {renderer.device.name.strip()}"
           + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
+          + (f", denoised in {result.denoise_seconds:.2f} s" if args.denoise else "")
           + (" (interrupted: partial image saved)" if status else ""), file=sys.stderr)
     return status
 
