@@ -48,6 +48,8 @@ def _parser():
                              "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
     render.add_argument("--denoise", action="store_true",
                         help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
+    render.add_argument("--denoise-prefilter", action="store_true",
+                        help="with --denoise, denoise the albedo and normal guides first (slower; see docs/denoising.md)")
     render.add_argument("--keep-noisy", action="store_true",
                         help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
     render.set_defaults(run=_render)
@@ -89,8 +91,9 @@ def _render(args):
     if suffix != ".exr" and suffix not in LDR_SUFFIXES:
         raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
     aovs = parse_aovs(args.aov, source="--aov")
-    if args.keep_noisy and not args.denoise:
-        raise ValueError("--keep-noisy: only with --denoise")
+    for flag in ("keep_noisy", "denoise_prefilter"):
+        if getattr(args, flag) and not args.denoise:
+            raise ValueError(f"--{flag.replace('_', '-')}: only with --denoise")
     scene = load_scene(args.scene)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
@@ -104,7 +107,8 @@ def _render(args):
 
     try:
         result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
-                                 time_limit=args.time, aovs=aovs, denoise=args.denoise)
+                                 time_limit=args.time, aovs=aovs, denoise=args.denoise,
+                                 denoise_prefilter=args.denoise_prefilter)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result

@@ -214,3 +214,25 @@ def test_aov_names_are_checked():
     assert parse_aovs(AOV_NAMES[::-1]) == AOV_NAMES
     with pytest.raises(ValueError, match="--aov: unknown AOV 'albedos'"):
         parse_aovs("albedo,albedos", source="--aov")
+
+
+def test_cli_writes_aovs_and_rejects_bad_flags(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+    def run(*args):
+        return subprocess.run([sys.executable, "-m", "clrender.cli", "render", "scenes/cornell_box.json", "--spp",
+                               "1", "--quiet", *args], capture_output=True, text=True, cwd=repo, timeout=300)
+
+    result = run("-o", str(tmp_path / "cb.png"), "--aov", "normal,object_id")
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cb.normal.png", "cb.object_id.png", "cb.png"]
+    for args, message in ((("--aov", "albedo,shadow"), "--aov: unknown AOV 'shadow'"),
+                          (("--keep-noisy",), "--keep-noisy: only with --denoise"),
+                          (("--denoise-prefilter",), "--denoise-prefilter: only with --denoise")):
+        result = run("-o", str(tmp_path / "bad.exr"), *args)
+        assert result.returncode == 1 and message in result.stderr and "Traceback" not in result.stderr
+        assert not (tmp_path / "bad.exr").exists()
