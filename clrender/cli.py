@@ -52,15 +52,46 @@ def _parser():
                         help="with --denoise, denoise the albedo and normal guides first (slower; see docs/denoising.md)")
     render.add_argument("--keep-noisy", action="store_true",
                         help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
+    _add_parameter_option(render)
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
     info.add_argument("scene", type=Path)
+    _add_parameter_option(info)
     info.set_defaults(run=_info)
 
     devices = commands.add_parser("devices", help="list OpenCL platforms and devices")
     devices.set_defaults(run=_devices)
     return parser
+
+
+def _add_parameter_option(parser):
+    parser.add_argument("-D", dest="parameters", action="append", default=[], metavar="NAME=VALUE",
+                        type=_parameter, help="Mitsuba XML scenes: set parameter $NAME (overrides its <default>)")
+
+
+def _parameter(text):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name, value
+
+
+def _load_scene(args):
+    """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
+    the translation notes that `info` shows (None for JSON)."""
+    from .scene import load_scene
+
+    parameters = dict(args.parameters)
+    if args.scene.suffix.lower() != ".xml":
+        return load_scene(args.scene, parameters=parameters), None
+    from . import mitsuba_xml
+
+    translation = mitsuba_xml.read_scene(args.scene, parameters)
+    for message in translation.warnings:
+        print(f"clrender: warning: {message}", file=sys.stderr)
+    scene = mitsuba_xml.scene_from_translation(translation)
+    return scene, translation.notes
 
 
 def _number_at_least(convert, low, strict=False):
@@ -85,7 +116,6 @@ def _render(args):
     from .aovs import parse_aovs
     from .image import LDR_SUFFIXES, save_image
     from .render import Renderer, RenderInterrupted
-    from .scene import load_scene
 
     suffix = args.output.suffix.lower()
     if suffix != ".exr" and suffix not in LDR_SUFFIXES:
@@ -94,7 +124,7 @@ def _render(args):
     for flag in ("keep_noisy", "denoise_prefilter"):
         if getattr(args, flag) and not args.denoise:
             raise ValueError(f"--{flag.replace('_', '-')}: only with --denoise")
-    scene = load_scene(args.scene)
+    scene, _ = _load_scene(args)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
     spp = args.spp or (None if args.time else scene.render.spp)
@@ -129,13 +159,14 @@ def _render(args):
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
-    from .scene import load_scene
 
-    scene = load_scene(args.scene)
+    scene, notes = _load_scene(args)
     arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
     width, height = scene.camera.resolution
     print(f"scene:      {args.scene}")
+    for index, note in enumerate(notes or []):
+        print(f"{'mitsuba:' if index == 0 else '':<12}{note}")
     print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")

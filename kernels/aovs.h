@@ -15,9 +15,11 @@
 //     rough conductor: its reflectance (the colour at normal incidence);
 //     the front face of an emitter: its emission, scaled down to a maximum component of 1 when
 //       brighter (its hue; OIDN wants albedos in [0, 1]);
+//     the back of a one-sided material: 0 (it is black);
 //     a scattering point in a medium: its single-scattering albedo sigma_s / sigma_t (the same at
 //       any density of a grid medium);
-//     an escaped ray: the environment's radiance scaled like an emitter's (0 without one).
+//     an escaped ray: the environment's radiance scaled like an emitter's (0 without one, and
+//       for camera rays when the environment is hidden from them).
 //   normal = the unit shading normal on the side the path arrived from (facing the camera for
 //   the first surface); 0 at medium scattering points and for escaped rays, which have no
 //   surface. A sample whose path ends before any such vertex (depth or roulette in a chain of
@@ -31,6 +33,7 @@
 #include "math.h"
 #include "scene.h"
 #include "lights.h"
+#include "materials/bsdf.h"
 
 // What one path sample records (filled at most once, by the first non-delta vertex).
 typedef struct {
@@ -66,7 +69,9 @@ void aov_record(AovSample* aov, float3 albedo, float3 normal) {
 void aov_record_surface(AovSample* aov, const Material* m, const SurfacePoint* sp, float3 filter) {
     if (aov->found) return;
     bool emits = sp->front_face && sp->emitter >= 0;
-    aov_record(aov, filter * (emits ? emission_albedo(m->emission.xyz) : m->color.xyz), sp->ns);
+    float3 colour = emits ? emission_albedo(m->emission.xyz)
+                          : (is_one_sided_back(m, sp) ? (float3)(0.0f) : m->color.xyz);
+    aov_record(aov, filter * colour, sp->ns);
 }
 
 #if MEDIA

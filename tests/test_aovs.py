@@ -67,10 +67,14 @@ def test_normals_are_unit_and_face_the_camera_on_a_sphere(device):
         else:
             assert np.all((length > 0.99) & (length < 1 + 1e-5))
         assert np.all(np.sum(normal * view[on_sphere], axis=1) < -0.1)
-    # Escaped rays see the environment: albedo its (scaled) colour, normal 0.
+    # Escaped rays see the environment: albedo its (scaled) colour, normal 0; black when the
+    # environment is hidden from camera rays.
     sky = interior(result.aovs["object_id"] == -1)
     assert sky.sum() > 20
     assert np.all(result.aovs["albedo"][sky] == 1.0) and np.all(result.aovs["normal"][sky] == 0.0)
+    hidden = render(dict(data, render={"hide_environment": True}), device, spp=8, aovs=("albedo",))
+    assert np.all(hidden.aovs["albedo"][sky] == 0.0)
+    np.testing.assert_array_equal(hidden.aovs["albedo"][on_sphere], result.aovs["albedo"][on_sphere])
 
 
 def mirror_scene(resolution=(16, 16)):
