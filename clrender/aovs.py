@@ -11,6 +11,9 @@ Two sources, one set of named images (`Renderer.render(aovs=...)`, `clrender ren
     normal    (H, W, 3) the unit shading normal there, world space, facing where the path came
               from, averaged over the samples: shorter than 1 where samples disagree (edges,
               glass), 0 where no sample met a surface (OIDN's normal)
+    emission  (H, W, 3) the part of the colour emitted there towards the camera: emitters and
+              the environment seen directly or through mirrors and glass (lighting-free, so the
+              denoiser leaves it out); the colour minus it is the light reflected or scattered
     variance  (H, W, 3) per channel, the unbiased estimate of the variance of the pixel's value
               (the mean of its n samples): m2 / (n (n - 1)) with m2 the sum of squared deviations
               of the samples from their mean, i.e. the squared standard error; n times it is
@@ -24,7 +27,7 @@ Two sources, one set of named images (`Renderer.render(aovs=...)`, `clrender ren
 """
 import numpy as np
 
-SAMPLE_AOVS = ("albedo", "normal", "variance")
+SAMPLE_AOVS = ("albedo", "normal", "emission", "variance")
 PIXEL_CENTRE_AOVS = ("depth", "object_id")
 AOV_NAMES = SAMPLE_AOVS + PIXEL_CENTRE_AOVS
 DENOISER_AOVS = ("albedo", "normal")   # what the denoiser (denoise.py) takes beside the colour
@@ -57,7 +60,7 @@ def pixel_centre_record(geometry, object_id, width, height):
 
 
 def sample_aov_images(aov_sums, colour_sums, width, height):
-    """albedo, normal and variance (see the module docstring) from the kernel's per-pixel AovSums
+    """albedo, normal, emission and variance (see the module docstring) from the kernel's per-pixel AovSums
     (layout.AOV_SUMS) and colour sums (n, 4) (w: the samples of each pixel)."""
     counts = colour_sums[:, 3:4].astype(np.float64)
     n = np.maximum(counts, 1.0)
@@ -70,6 +73,7 @@ def sample_aov_images(aov_sums, colour_sums, width, height):
         variance = np.where(counts >= 2, m2 / (n * (n - 1.0)), np.inf)
     return {"albedo": image(np.clip(aov_sums["albedo"][:, :3] / n, 0.0, 1.0)),
             "normal": image(aov_sums["normal"][:, :3] / n),
+            "emission": image(aov_sums["emission"][:, :3] / n),
             "variance": image(variance)}
 
 

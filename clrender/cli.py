@@ -44,12 +44,15 @@ def _parser():
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
     render.add_argument("--aov", default="", metavar="NAMES",
-                        help="auxiliary outputs, comma-separated: albedo, normal, variance, depth, object_id "
+                        help="auxiliary outputs, comma-separated: albedo, normal, emission, variance, depth, object_id "
                              "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
     render.add_argument("--denoise", action="store_true",
                         help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
     render.add_argument("--denoise-prefilter", action="store_true",
                         help="with --denoise, denoise the albedo and normal guides first (slower; see docs/denoising.md)")
+    render.add_argument("--denoise-keep-emission", action="store_true",
+                        help="with --denoise, leave emitters and the environment seen directly out of the denoiser "
+                             "(exact emitters, raw anti-aliasing noise at their edges; see docs/denoising.md)")
     render.add_argument("--keep-noisy", action="store_true",
                         help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
     _add_parameter_option(render)
@@ -121,7 +124,7 @@ def _render(args):
     if suffix != ".exr" and suffix not in LDR_SUFFIXES:
         raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
     aovs = parse_aovs(args.aov, source="--aov")
-    for flag in ("keep_noisy", "denoise_prefilter"):
+    for flag in ("keep_noisy", "denoise_prefilter", "denoise_keep_emission"):
         if getattr(args, flag) and not args.denoise:
             raise ValueError(f"--{flag.replace('_', '-')}: only with --denoise")
     scene, _ = _load_scene(args)
@@ -138,7 +141,8 @@ def _render(args):
     try:
         result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
                                  time_limit=args.time, aovs=aovs, denoise=args.denoise,
-                                 denoise_prefilter=args.denoise_prefilter)
+                                 denoise_prefilter=args.denoise_prefilter,
+                                 denoise_keep_emission=args.denoise_keep_emission)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result

@@ -2,7 +2,10 @@
 
 The "RT" filter on the CPU device, in high-quality mode, with the colour as HDR (our radiance is
 unbounded: a Cornell box light is 17 units bright, and an LDR filter would clip it), guided by
-the albedo and normal AOVs (aovs.py: first non-delta vertex, as OIDN recommends). Those guides
+the albedo and normal AOVs (aovs.py: first non-delta vertex, as OIDN recommends). Optionally
+the emission seen directly (the emission AOV) is left out of the filter and added back: emitters
+then stay exact (no halo, no noise of the filter's own), but their anti-aliased edges keep their
+raw noise; docs/denoising.md measures both. Those guides
 are noisy where the path picks between lobes (glass) or scatters in media; `prefilter=True`
 denoises them first and tells the filter they are clean (OIDN's final-frame recipe, about three
 times the cost): docs/denoising.md measures both.
@@ -43,13 +46,20 @@ def check_denoiser():
     _oidn()
 
 
-def denoise(color, albedo=None, normal=None, prefilter=False):
+def denoise(color, albedo=None, normal=None, prefilter=False, emission=None):
     """Denoised copy of the linear HDR `color` (H, W, 3); `albedo` in [0, 1] and `normal` in
-    [-1, 1] (H, W, 3) guide it when given (normal only with albedo, as OIDN requires)."""
+    [-1, 1] (H, W, 3) guide it when given (normal only with albedo, as OIDN requires).
+    `emission`: the part of `color` emitted towards the camera (the emission AOV), to keep out of
+    the filter and add back: it has no lighting noise, and a bright emitter inside the filter's
+    input comes out with a halo and noise of its own (docs/denoising.md)."""
     oidn = _oidn()
     if normal is not None and albedo is None:
         raise ValueError("denoise: a normal image needs an albedo image too (OIDN)")
-    images = {"color": _float3(np.maximum(np.nan_to_num(color), 0.0))}
+    color = np.nan_to_num(np.asarray(color, dtype=np.float32))
+    if emission is not None:
+        emission = _float3(emission)
+        color = color - emission
+    images = {"color": _float3(np.maximum(color, 0.0))}
     if albedo is not None:
         images["albedo"] = _float3(np.clip(albedo, 0.0, 1.0))
     if normal is not None:
@@ -60,8 +70,9 @@ def denoise(color, albedo=None, normal=None, prefilter=False):
             if name in images:
                 images[name] = _run_filter(oidn, device, {name: images[name]}, hdr=False,
                                            clean_aux=False, output_like=name)
-    return _run_filter(oidn, device, images, hdr=True, clean_aux=prefilter and len(images) > 1,
-                       output_like="color")
+    output = _run_filter(oidn, device, images, hdr=True, clean_aux=prefilter and len(images) > 1,
+                         output_like="color")
+    return output if emission is None else output + emission
 
 
 def _float3(image):

@@ -74,10 +74,10 @@ RENDER_PARAMS = np.dtype([
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
-# whose w counts the samples: albedo and normal (xyz) summed over the samples, colour_m2 (xyz) the
-# sum of squared deviations of the colour samples from their mean; w unused. clrender/aovs.py
-# turns them into images.
-AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("colour_m2", F4))
+# whose w counts the samples: albedo, normal and emission (xyz) summed over the samples, colour_m2
+# (xyz) the sum of squared deviations of the colour samples from their mean; w unused.
+# clrender/aovs.py turns them into images.
+AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("emission", F4), ("colour_m2", F4))
 
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,

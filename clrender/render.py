@@ -117,19 +117,21 @@ class Renderer:
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
 
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
-               samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False):
+               samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
+               denoise_keep_emission=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
         after every launch. Samples per launch adapt to `pass_seconds` unless fixed by
         `samples_per_pass`; the image does not depend on the split. With `time_limit` (seconds of
         kernel time) rendering stops after the launch that reaches it, or at `spp` if given.
         `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py); they
         leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
-        Denoise guided by the albedo and normal AOVs (also returned), result.noisy_image keeps
-        the raw one; `denoise_prefilter` denoises the guides first (clrender/denoise.py)."""
+        Denoise guided by the albedo and normal AOVs (returned too), result.noisy_image keeps the
+        raw one; `denoise_prefilter` denoises the guides first, `denoise_keep_emission` leaves the
+        emission AOV out of the filter and adds it back (clrender/denoise.py, docs/denoising.md)."""
         names = parse_aovs(aovs)
         if denoise:
             check_denoiser()   # before the render, not after it
-            names = parse_aovs(names + DENOISER_AOVS)
+            names = parse_aovs(names + DENOISER_AOVS + (("emission",) if denoise_keep_emission else ()))
         kernel = self._kernel(needs_sample_aovs(names))
         settings = self.scene.render
         if spp is None:
@@ -173,9 +175,10 @@ class Renderer:
         except KeyboardInterrupt:
             self.queue.finish()
             raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers, seconds,
-                                                 aov_buffer, names, denoise, denoise_prefilter)) from None
+                                                 aov_buffer, names, denoise, denoise_prefilter,
+                                                 denoise_keep_emission)) from None
         return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names,
-                            denoise, denoise_prefilter)
+                            denoise, denoise_prefilter, denoise_keep_emission)
 
     def _kernel(self, sample_aovs):
         """The colour-only kernel, or the one that also accumulates the sample-level AOVs."""
@@ -199,7 +202,7 @@ class Renderer:
         return max(1, min(target, count * 4))
 
     def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names,
-                denoise, denoise_prefilter):
+                denoise, denoise_prefilter, denoise_keep_emission):
         width, height = self.scene.camera.resolution
         accumulator = np.empty((height * width, 4), np.float32)
         discarded = np.empty(1, np.int32)
@@ -224,7 +227,8 @@ class Renderer:
         noisy, denoise_seconds = None, 0.0
         if denoise:
             start = time.perf_counter()
-            noisy, image = image, denoise_image(image, aovs["albedo"], aovs["normal"], denoise_prefilter)
+            noisy, image = image, denoise_image(image, aovs["albedo"], aovs["normal"], denoise_prefilter,
+                                                aovs["emission"] if denoise_keep_emission else None)
             denoise_seconds = time.perf_counter() - start
         # Ink goes on after denoising: it is exact, and the denoiser would blur it.
         image, alpha = apply_outlines(image, aux, self.scene.outlines)

@@ -76,7 +76,7 @@ __kernel void render_pass(__constant RenderParams* params,
         discarded += finite ? 0 : 1;
         float3 value = finite ? radiance : (float3)(0.0f);
 #if AOVS
-        accumulate_aovs(&aovs, &aov, value, sum);
+        accumulate_aovs(&aovs, &aov, value, finite, sum);
 #endif
         sum += (float4)(value, 1.0f);
     }

@@ -197,7 +197,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
 #endif
 #if AOVS
-            if (event.scattered) aov_record_medium(aov, md, aov_filter(throughput, eta_scale));
+            if (event.scattered) aov_record_medium(aov, md, throughput, eta_scale);
 #endif
             throughput *= event.weight;
             if (event.scattered) {
@@ -234,9 +234,8 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #endif
         if (!found) {
 #if AOVS
-            // A hidden environment is black to camera rays (below): albedo 0 for them too.
-            aov_record_escape(aov, scene, ray.direction, depth > 1 || scene->params->environment.w == 0
-                                                         ? aov_filter(throughput, eta_scale) : (float3)(0.0f));
+            aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
+                              depth > 1 || scene->params->environment.w == 0);
 #endif
             // RenderParams.environment.w (render.hide_environment): camera rays that escape,
             // through null boundaries or not, see black; the environment still lights the scene.
@@ -255,7 +254,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         }
 #endif
 #if AOVS
-        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, aov_filter(throughput, eta_scale));
+        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
 #endif
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);

@@ -6,7 +6,7 @@ import clrender
 from clrender.aovs import AOV_NAMES, parse_aovs
 from conftest import camera, z_bound
 
-ALL = ("albedo", "normal", "variance", "depth", "object_id")
+ALL = ("albedo", "normal", "emission", "variance", "depth", "object_id")
 
 
 def render(data, device, spp=4, seed=1, aovs=ALL, **options):
@@ -42,6 +42,7 @@ def test_diffuse_wall_albedo_equals_its_albedo_and_normals_face_the_camera(devic
     assert albedo.shape == normal.shape == (12, 16, 3) and albedo.dtype == np.float32
     np.testing.assert_allclose(albedo, np.broadcast_to([0.3, 0.5, 0.7], albedo.shape), rtol=1e-6)
     np.testing.assert_allclose(normal, np.broadcast_to([0, 0, 1], normal.shape), atol=1e-6)
+    assert np.all(result.aovs["emission"] == 0.0)   # all its light is reflected
 
 
 def test_normals_are_unit_and_face_the_camera_on_a_sphere(device):
@@ -102,6 +103,20 @@ def test_through_a_mirror_albedo_and_normal_are_the_reflected_surfaces(device):
     # Depth and object id stay those of the pixel-centre hit: the mirror.
     assert np.all(result.aovs["object_id"] == 0)
     assert np.all(np.abs(result.aovs["depth"] - 3.0) < 0.3)
+
+
+def test_emission_is_the_emitted_part_of_the_colour_through_a_mirror(device):
+    """An emitter seen in a mirror of tint 0.9 and nothing else: colour and emission are both
+    0.9 x its radiance, bit for bit (the same product the colour adds)."""
+    data = mirror_scene()
+    data["materials"][1] = {"name": "wall", "type": "emissive", "radiance": [2, 3, 4]}
+    del data["lights"]
+    result = render(data, device)
+    expected = np.float32(0.9) * np.float32([2, 3, 4])
+    assert np.array_equal(result.aovs["emission"], np.broadcast_to(expected, (16, 16, 3)))
+    assert np.array_equal(result.image, result.aovs["emission"])
+    np.testing.assert_allclose(result.aovs["albedo"], np.broadcast_to(np.float32(0.9) * np.float32([2, 3, 4]) / 4,
+                                                                      (16, 16, 3)), rtol=1e-6)
 
 
 def window_scene(ior):
@@ -182,6 +197,9 @@ def test_variance_is_the_variance_of_the_pixel_mean(device):
     # An emitter's albedo is its emission scaled to a maximum of 1.
     np.testing.assert_allclose(result.aovs["albedo"][:, 17:], np.broadcast_to(radiance / 8, (20, 16, 3)),
                                rtol=1e-6)
+    # The colour is all emission; on the centre column both hold the same coverage noise.
+    emission = render(half_emitter_scene(), device, spp=spp, aovs=("emission",))
+    assert np.array_equal(emission.aovs["emission"], emission.image)
     one = render(half_emitter_scene(), device, spp=1, aovs=("variance",))
     assert np.all(np.isinf(one.aovs["variance"]))   # unknown from a single sample
 

@@ -1,8 +1,9 @@
 """Denoising (Intel Open Image Denoise): speed against error, raw and denoised.
 
 For each scene, at each sample count: the raw render (colour only) and the denoised one (the
-render with the albedo and normal AOVs, then OIDN, hdr, high quality; and with the guides
-prefiltered), their RMSE and relative MSE against a converged reference, and their times
+render with the albedo and normal AOVs, then OIDN, hdr, high quality; also with the guides
+prefiltered, and with the emission seen directly kept out of the filter), their RMSE and
+relative MSE against a converged reference, and their times
 (kernel seconds; denoised: the AOV render plus the denoiser's wall time). Then the equal-time
 comparison: a raw render given the time the denoised one took. In media scenes the errors are
 also taken over the pixels whose centre ray crosses the medium (where thin volumes lose detail).
@@ -144,7 +145,7 @@ def measure(scene, device, ref, spps, region):
     rows = []
     for spp in spps:
         raw = plain.render(spp=spp, seed=SEED)
-        aov = with_aovs.render(spp=spp, seed=SEED, aovs=("albedo", "normal", "variance"))
+        aov = with_aovs.render(spp=spp, seed=SEED, aovs=("albedo", "normal", "emission", "variance"))
         assert np.array_equal(raw.image, aov.image)   # the AOVs never change the colour
         start = time.perf_counter()
         denoised = clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"])
@@ -152,11 +153,12 @@ def measure(scene, device, ref, spps, region):
         start = time.perf_counter()
         prefiltered = clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"], prefilter=True)
         prefilter_seconds = time.perf_counter() - start
+        kept = clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"], emission=aov.aovs["emission"])
         rows.append({
             "spp": spp, "raw_seconds": raw.seconds, "aov_seconds": aov.seconds,
             "denoise_seconds": denoise_seconds, "prefilter_seconds": prefilter_seconds,
             "raw": errors(raw.image, ref, region), "denoised": errors(denoised, ref, region),
-            "prefiltered": errors(prefiltered, ref, region),
+            "prefiltered": errors(prefiltered, ref, region), "kept": errors(kept, ref, region),
             # The raw image's expected relative MSE from its variance AOV: sum over pixels of
             # var / (ref^2 + eps), checked against the measured one.
             "predicted_raw_relmse": float(np.mean(aov.aovs["variance"] / (ref ** 2 + EPSILON))),
@@ -191,22 +193,25 @@ def table(name, scene, ref_path, ref_spp, rows, floor):
              f"`scenes/{name}.json` at {width}x{height}. Reference: `{display_path(ref_path)}` ({ref_spp} spp); "
              f"its own noise adds about {floor:.2g} to every relative MSE below.", "",
              "| spp | raw s | raw RMSE | raw relMSE | denoised s | denoised RMSE | denoised relMSE "
-             "| prefiltered s | prefiltered relMSE | equal-time raw spp (s) | its relMSE |"
-             + (" raw relMSE in medium | denoised relMSE in medium |" if region else ""),
-             "|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|" if region else "")]
+             "| prefiltered s | prefiltered RMSE | prefiltered relMSE | emission kept: RMSE | relMSE "
+             "| equal-time raw spp (s) | its relMSE |"
+             + (" in the medium: raw relMSE | denoised relMSE |" if region else ""),
+             "|---" * 14 + "|" + ("---|---|" if region else "")]
     for r in rows:
         den_s = r["aov_seconds"] + r["denoise_seconds"]
         pre_s = r["aov_seconds"] + r["prefilter_seconds"]
         line = (f"| {r['spp']} | {r['raw_seconds']:.2f} | {r['raw']['rmse']:.4f} | {r['raw']['relmse']:.4g} | "
                 f"{den_s:.2f} | {r['denoised']['rmse']:.4f} | {r['denoised']['relmse']:.4g} | {pre_s:.2f} | "
-                f"{r['prefiltered']['relmse']:.4g} | {r['equal_spp']} ({r['equal_seconds']:.2f}) | "
+                f"{r['prefiltered']['rmse']:.4f} | {r['prefiltered']['relmse']:.4g} | {r['kept']['rmse']:.4f} | "
+                f"{r['kept']['relmse']:.4g} | {r['equal_spp']} ({r['equal_seconds']:.2f}) | "
                 f"{r['equal']['relmse']:.4g} |")
         if region:
             line += f" {r['raw']['region_relmse']:.4g} | {r['denoised']['region_relmse']:.4g} |"
         lines.append(line)
     lines.append("")
-    worse = [r["spp"] for r in rows if r["denoised"]["relmse"] > r["raw"]["relmse"]]
-    lines.append("Denoising raises the relative MSE at " + (", ".join(f"{s} spp" for s in worse) if worse
+    for measure, label in (("relmse", "relative MSE"), ("rmse", "RMSE")):
+        worse = [r["spp"] for r in rows if r["denoised"][measure] > r["raw"][measure]]
+        lines.append(f"Denoising raises the {label} at " + (", ".join(f"{s} spp" for s in worse) if worse
                                                             else "no sample count measured") + ".")
     if region:
         worse = [r["spp"] for r in rows if r["denoised"]["region_relmse"] > r["raw"]["region_relmse"]]
@@ -237,28 +242,31 @@ def plot(results, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(results), figsize=(4.6 * len(results), 4.2), squeeze=False)
-    for axis, (name, (rows, floor)) in zip(axes[0], results.items()):
-        raw_t = [r["raw_seconds"] for r in rows]
+    fig, axes = plt.subplots(2, len(results), figsize=(4.6 * len(results), 8.0), squeeze=False)
+    for column, (name, (rows, floor)) in enumerate(results.items()):
         den_t = [r["aov_seconds"] + r["denoise_seconds"] for r in rows]
-        pre_t = [r["aov_seconds"] + r["prefilter_seconds"] for r in rows]
-        axis.loglog(raw_t, [r["raw"]["relmse"] for r in rows], "o-", label="raw")
-        axis.loglog(den_t, [r["denoised"]["relmse"] for r in rows], "s-", label="denoised")
-        axis.loglog(pre_t, [r["prefiltered"]["relmse"] for r in rows], "^:", label="denoised, prefiltered guides")
-        for r, t in zip(rows, den_t):
-            axis.annotate(str(r["spp"]), (t, r["denoised"]["relmse"]), textcoords="offset points",
-                          xytext=(4, 3), fontsize=7)
-        for r in rows:
-            axis.annotate(str(r["spp"]), (r["raw_seconds"], r["raw"]["relmse"]), textcoords="offset points",
-                          xytext=(4, 3), fontsize=7)
-        axis.axhline(floor, color="grey", lw=0.8, ls="--", label="reference noise")
-        axis.set_title(f"{name} (labels: spp)")
-        axis.set_xlabel("seconds (denoised: render + denoise)")
-        axis.set_ylabel("relative MSE")
-        axis.grid(True, which="both", alpha=0.3)
-        axis.legend(fontsize=7)
+        curves = [("raw", [r["raw_seconds"] for r in rows], "raw", "o-"),
+                  ("denoised", den_t, "denoised", "s-"),
+                  ("prefiltered", [r["aov_seconds"] + r["prefilter_seconds"] for r in rows],
+                   "denoised, prefiltered guides", "^:"),
+                  ("kept", den_t, "denoised, emission kept out", "v--")]
+        for row, (measure, label) in enumerate((("relmse", "relative MSE"), ("rmse", "RMSE"))):
+            axis = axes[row][column]
+            for key, seconds, legend, style in curves:
+                values = [r[key][measure] for r in rows]
+                axis.loglog(seconds, values, style, label=legend)
+                if key in ("raw", "denoised"):
+                    for r, t, v in zip(rows, seconds, values):
+                        axis.annotate(str(r["spp"]), (t, v), textcoords="offset points", xytext=(4, 3), fontsize=7)
+            if measure == "relmse":
+                axis.axhline(floor, color="grey", lw=0.8, ls="--", label="reference noise")
+            axis.set_title(f"{name}: {label} (labels: spp)")
+            axis.set_xlabel("seconds (denoised: render + denoise)")
+            axis.set_ylabel(label)
+            axis.grid(True, which="both", alpha=0.3)
+            axis.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    fig.savefig(path, dpi=90)
 
 
 def contact_sheet(results, refs, spps, path):
@@ -277,7 +285,7 @@ def contact_sheet(results, refs, spps, path):
         rows.append(np.concatenate(padded, axis=1))
     width = max(r.shape[1] for r in rows)
     sheet = np.concatenate([np.pad(r, ((0, 2), (0, width - r.shape[1]), (0, 0)), constant_values=255) for r in rows])
-    iio.imwrite(path, sheet)
+    iio.imwrite(path, np.repeat(np.repeat(sheet, 2, axis=0), 2, axis=1))   # pixels doubled: small images
 
 
 def main():
@@ -318,7 +326,8 @@ def main():
         f"{load_before:.1f} at the start on 2 shared cores, so times carry some 10-20% jitter (one render each). "
         "Times: raw = kernel seconds of the colour-only render; denoised = kernel seconds of the render with "
         "the albedo and normal AOVs plus the wall time of Open Image Denoise (CPU, hdr, high quality); "
-        "prefiltered = the same with the guides denoised first (cleanAux). Equal-time raw: a colour-only "
+        "prefiltered = the same with the guides denoised first (cleanAux); emission kept = the emission AOV "
+        "left out of the filter and added back (`--denoise-keep-emission`). Equal-time raw: a colour-only "
         f"render given the denoised time. Relative MSE: mean of (x - ref)^2 / (ref^2 + {EPSILON:g}). "
         "Discussion: `docs/denoising.md`. Plot: `docs/denoising-plot.png`; images (per scene raw and "
         f"denoised at {', '.join(str(s) for s in (4, 16, 256) if s in args.spps)} spp, then the reference): "
