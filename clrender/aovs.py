@@ -30,7 +30,6 @@ import numpy as np
 SAMPLE_AOVS = ("albedo", "normal", "emission", "variance")
 PIXEL_CENTRE_AOVS = ("depth", "object_id")
 AOV_NAMES = SAMPLE_AOVS + PIXEL_CENTRE_AOVS
-DENOISER_AOVS = ("albedo", "normal")   # what the denoiser (denoise.py) takes beside the colour
 
 
 def parse_aovs(names, source="aovs"):

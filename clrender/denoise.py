@@ -13,10 +13,29 @@ times the cost): docs/denoising.md measures both.
 pyoidn is an optional dependency: `pip install -e '.[denoise]'`.
 """
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 
 INSTALL_HINT = "pip install 'clrender[denoise]' (or: pip install pyoidn)"
+
+
+@dataclass(frozen=True)
+class DenoiseSettings:
+    """How a render is denoised: `prefilter` the guides first; `keep_emission` (the emission AOV)
+    out of the filter."""
+    prefilter: bool = False
+    keep_emission: bool = False
+
+    def aovs(self):
+        """The AOVs the denoiser takes beside the colour."""
+        return ("albedo", "normal") + (("emission",) if self.keep_emission else ())
+
+
+def denoise_render(image, aovs, settings):
+    """`image` denoised with its AOVs (name -> array, holding settings.aovs())."""
+    return denoise(image, aovs["albedo"], aovs["normal"], settings.prefilter,
+                   aovs["emission"] if settings.keep_emission else None)
 
 
 class DenoiserUnavailable(RuntimeError):

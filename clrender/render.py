@@ -6,8 +6,8 @@ import numpy as np
 import pyopencl as cl
 
 from . import layout
-from .aovs import DENOISER_AOVS, aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
-from .denoise import check_denoiser, denoise as denoise_image
+from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
+from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device
@@ -129,9 +129,10 @@ class Renderer:
         raw one; `denoise_prefilter` denoises the guides first, `denoise_keep_emission` leaves the
         emission AOV out of the filter and adds it back (clrender/denoise.py, docs/denoising.md)."""
         names = parse_aovs(aovs)
-        if denoise:
+        denoising = DenoiseSettings(denoise_prefilter, denoise_keep_emission) if denoise else None
+        if denoising:
             check_denoiser()   # before the render, not after it
-            names = parse_aovs(names + DENOISER_AOVS + (("emission",) if denoise_keep_emission else ()))
+            names = parse_aovs(names + denoising.aovs())
         kernel = self._kernel(needs_sample_aovs(names))
         settings = self.scene.render
         if spp is None:
@@ -175,10 +176,8 @@ class Renderer:
         except KeyboardInterrupt:
             self.queue.finish()
             raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers, seconds,
-                                                 aov_buffer, names, denoise, denoise_prefilter,
-                                                 denoise_keep_emission)) from None
-        return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names,
-                            denoise, denoise_prefilter, denoise_keep_emission)
+                                                 aov_buffer, names, denoising)) from None
+        return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names, denoising)
 
     def _kernel(self, sample_aovs):
         """The colour-only kernel, or the one that also accumulates the sample-level AOVs."""
@@ -201,8 +200,7 @@ class Renderer:
         target = int(count * self.pass_seconds / elapsed)
         return max(1, min(target, count * 4))
 
-    def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names,
-                denoise, denoise_prefilter, denoise_keep_emission):
+    def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds, aov_buffer, names, denoising):
         width, height = self.scene.camera.resolution
         accumulator = np.empty((height * width, 4), np.float32)
         discarded = np.empty(1, np.int32)
@@ -225,10 +223,9 @@ class Renderer:
             sample_images = sample_aov_images(aov_sums, accumulator, width, height)
         aovs = aov_images(names, aux, sample_images)
         noisy, denoise_seconds = None, 0.0
-        if denoise:
+        if denoising:
             start = time.perf_counter()
-            noisy, image = image, denoise_image(image, aovs["albedo"], aovs["normal"], denoise_prefilter,
-                                                aovs["emission"] if denoise_keep_emission else None)
+            noisy, image = image, denoise_render(image, aovs, denoising)
             denoise_seconds = time.perf_counter() - start
         # Ink goes on after denoising: it is exact, and the denoiser would blur it.
         image, alpha = apply_outlines(image, aux, self.scene.outlines)
