@@ -17,12 +17,15 @@ Each worker process keeps a Renderer (device context, built program, scene buffe
 scene is scattered to every worker once, not shipped per task. docs/distributed.md has the
 design, the set-up of a cluster and the measured scaling.
 """
+import logging
 import math
+import signal
 import threading
 import time
 import uuid
 import warnings
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import replace
 
 import numpy as np
@@ -162,6 +165,34 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
         _cancel(client, running)
         for job in jobs.values():
             job.scene_future.release()
+
+
+@contextmanager
+def dask_client(workers=None, scheduler=None, timeout=60):
+    """A distributed.Client of a new LocalCluster of `workers` processes with one thread each
+    (one device context each), or of the cluster whose scheduler is at `scheduler`
+    (tcp://HOST:PORT), waiting up to `timeout` seconds for its first worker."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        with Client(scheduler, timeout=timeout) as client:
+            try:
+                client.wait_for_workers(1, timeout=timeout)
+            except TimeoutError:
+                raise DistributedRenderError(f"no worker joined the scheduler at {scheduler} within "
+                                             f"{timeout} s; start one with `dask worker {scheduler}`") from None
+            yield client
+        return
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR, preload=[__name__]) as cluster, Client(cluster) as client:
+        yield client
+
+
+def dask_setup(worker):
+    """Dask's preload hook, run as each worker of `dask_client`'s LocalCluster starts (restarts
+    too): Ctrl-C in the terminal reaches these processes as well; they ignore it, and the client
+    cancels their chunks and writes what it has."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def horizontal_strips(width, height, count):

@@ -1,0 +1,180 @@
+"""Distributed rendering on a LocalCluster of 2 worker processes (one thread each) gives exactly
+the local render: any strips, any chunking, a worker killed mid-render, batches, the CLI."""
+import logging
+import os
+import shutil
+import signal
+
+import numpy as np
+import pytest
+
+import clrender
+from clrender import distributed
+from clrender.cli import _output_paths, main
+from clrender.render import RenderInterrupted
+from conftest import TEST_DEVICE
+
+pytest.importorskip("distributed", reason="dask[distributed] is not installed: pip install -e '.[distributed]'")
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+def small(path, resolution, **render):
+    scene = clrender.load_scene(path)
+    scene.camera.resolution = resolution
+    for name, value in render.items():
+        setattr(scene.render, name, value)
+    return scene
+
+
+def local(scene, spp, **options):
+    return clrender.Renderer(scene, TEST_DEVICE, **options).render(spp=spp)
+
+
+def assert_identical(result, expected):
+    assert np.array_equal(result.image, expected.image)
+    assert result.samples == expected.samples
+    assert result.discarded_samples == expected.discarded_samples
+    for name in ("depth", "normal", "object_id"):
+        assert np.array_equal(result.aux[name], expected.aux[name]), name
+
+
+def test_cornell_box_is_bit_identical_for_any_strips_and_chunks(client):
+    scene = small("scenes/cornell_box.json", (40, 30), seed=4)
+    expected = local(scene, 7)
+    # Strips of 6 rows (chunks of 2 samples, then sized from the measured rate), of 1 and of 30.
+    for tiles, samples_per_chunk in ((5, 2), (5, None), (30, 3), (1, 7)):
+        result = distributed.render(scene, client, 7, device=TEST_DEVICE, tiles=tiles,
+                                    samples_per_chunk=samples_per_chunk)
+        assert_identical(result, expected)
+
+
+def test_cloud_scene_is_bit_identical(client):
+    scene = small("scenes/cloud_cornell_box.json", (24, 24), max_depth=8)
+    result = distributed.render(scene, client, 3, device=TEST_DEVICE, tiles=4, samples_per_chunk=2)
+    assert_identical(result, local(scene, 3))
+
+
+def test_outlines_and_a_mesh_file_the_workers_never_see(client, tmp_path):
+    # The toon character: ink outlines from the aux buffers span strip boundaries; its mesh is
+    # loaded on the client only (the file is gone before the render), shipped in the scene.
+    for name in ("toon_character.json", "toon_character.obj"):
+        shutil.copy(f"scenes/{name}", tmp_path / name)
+    scene = small(tmp_path / "toon_character.json", (48, 40))
+    (tmp_path / "toon_character.obj").unlink()
+    expected = local(scene, 2)
+    assert expected.outline_alpha is not None and expected.outline_alpha.max() > 0
+    result = distributed.render(scene, client, 2, device=TEST_DEVICE, tiles=6, samples_per_chunk=1)
+    assert_identical(result, expected)
+    assert np.array_equal(result.outline_alpha, expected.outline_alpha)
+
+
+def test_batch_yields_every_scene_identical_to_its_local_render(client):
+    scenes = [small("scenes/cornell_box.json", (24, 16), seed=seed) for seed in (1, 2)]
+    scenes.append(small("scenes/toon_cornell_box.json", (20, 20)))
+    results = dict(distributed.render_many(scenes, client, 3, device=TEST_DEVICE, samples_per_chunk=2))
+    assert sorted(results) == [0, 1, 2]
+    for index, scene in enumerate(scenes):
+        assert_identical(results[index], local(scene, 3))
+
+
+def test_interrupted_render_returns_each_strip_as_far_as_it_got(client):
+    scene = small("scenes/cornell_box.json", (32, 24), seed=9)
+
+    def interrupt(done, spp, seconds):
+        if done >= 0.5 * spp:
+            raise KeyboardInterrupt
+
+    with pytest.raises(RenderInterrupted) as interrupted:
+        distributed.render(scene, client, 12, device=TEST_DEVICE, tiles=4, samples_per_chunk=2,
+                           progress=interrupt)
+    partial = interrupted.value.result
+    assert 0 <= partial.samples < 12
+    # Every strip holds the first 0, 2, ... samples of the sequence, normalised by its own count:
+    # each row equals that row of a local render of that many samples (or is black).
+    renders = {0: np.zeros_like(partial.image), **{k: local(scene, k).image for k in range(2, 13, 2)}}
+    counts = [next(k for k, image in renders.items() if np.array_equal(image[row], partial.image[row]))
+              for row in range(24)]
+    assert partial.samples == min(counts)
+    assert all(len(set(counts[top:top + 6])) == 1 for top in range(0, 24, 6))   # strips of 6 rows
+
+
+def test_worker_killed_mid_render_changes_nothing(client):
+    scene = small("scenes/cornell_box.json", (40, 30), seed=2)
+    killed = []
+
+    def kill_a_worker(done, spp, seconds):
+        if not killed and done >= 0.3 * spp:
+            address, pid = sorted(client.run(os.getpid).items())[0]
+            os.kill(pid, signal.SIGKILL)
+            killed.append((address, done))
+
+    result = distributed.render(scene, client, 160, device=TEST_DEVICE, tiles=5, samples_per_chunk=4,
+                                progress=kill_a_worker)
+    assert killed and killed[0][1] < 160
+    assert_identical(result, local(scene, 160))
+
+
+def test_chunk_failing_on_every_try_names_the_worker(client):
+    scene = small("scenes/cornell_box.json", (8, 8))
+    with pytest.raises(distributed.DistributedRenderError, match=r"worker tcp://.*no OpenCL device matches"):
+        distributed.render(scene, client, 1, device="no such device")
+
+
+def test_strips_cover_the_image_once():
+    for height, count in ((30, 8), (30, 100), (7, 1), (1, 3), (100, 7)):
+        strips = distributed.horizontal_strips(11, height, count)
+        rows = [row for _, top, _, n in strips for row in range(top, top + n)]
+        assert rows == list(range(height)) and len({n for *_, n in strips[:-1]}) <= 1
+
+
+def test_output_paths_for_batches(tmp_path):
+    scenes = [tmp_path / "a" / "shot.json", tmp_path / "b" / "shot.json"]
+    assert _output_paths(f"{tmp_path}/out/", scenes[:1]) == [tmp_path / "out" / "shot.exr"]
+    assert _output_paths(str(tmp_path / "f_{index:03d}.png"), scenes) == [tmp_path / "f_000.png",
+                                                                          tmp_path / "f_001.png"]
+    for output, message in ((f"{tmp_path}/out/", "would both write"),
+                            (str(tmp_path / "{stem}.png"), "would both write"),
+                            (str(tmp_path / "one.exr"), "need a folder"),
+                            (str(tmp_path / "{name}.exr"), "bad pattern"),
+                            (str(tmp_path / "{index}.gif"), "unsupported output format")):
+        with pytest.raises(ValueError, match=message):
+            _output_paths(output, scenes)
+
+
+def test_cli_renders_on_local_workers(tmp_path, capsys):
+    path = tmp_path / "box.json"
+    path.write_text(_scene_json("scenes/cornell_box.json", resolution=[16, 12], seed=1, spp=3))
+    assert main(["render", str(path), "-o", str(tmp_path / "box.exr"), "--workers", "2", "--quiet",
+                 "--device", TEST_DEVICE]) == 0
+    image = clrender.load_image(tmp_path / "box.exr")
+    assert np.array_equal(image, local(clrender.load_scene(path), 3).image)
+    assert "on 2 Dask workers" in capsys.readouterr().err
+
+
+def test_cli_renders_a_batch_on_a_running_cluster(client, tmp_path):
+    paths = []
+    for seed in (1, 2, 3):
+        paths.append(tmp_path / f"shot{seed}.json")
+        paths[-1].write_text(_scene_json("scenes/cornell_box.json", resolution=[16, 12], seed=seed, spp=2))
+    assert main(["render", *map(str, paths), "-o", str(tmp_path / "out" / "frame_{index:02d}.exr"),
+                 "--scheduler", client.scheduler.address, "--quiet", "--device", TEST_DEVICE]) == 0
+    for index, path in enumerate(paths):
+        image = clrender.load_image(tmp_path / "out" / f"frame_{index:02d}.exr")
+        assert np.array_equal(image, local(clrender.load_scene(path), 2).image)
+
+
+def _scene_json(path, resolution, **render):
+    import json
+
+    data = json.loads(open(path).read())
+    data["camera"]["resolution"] = resolution
+    data.setdefault("render", {}).update(render)
+    return json.dumps(data)
