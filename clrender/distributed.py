@@ -104,7 +104,7 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
     frames = len(scenes) if hasattr(scenes, "__len__") else None
     waiting = iter(enumerate(scenes))
     jobs, running = {}, {}        # scene index -> _Job; future key -> (job, tile index, future)
-    finished = as_completed(with_results=True)
+    finished = as_completed(loop=client.loop, with_results=True)   # not the default client's loop
     frames_done, start = 0, time.perf_counter()
 
     def submit(job, tile):
@@ -137,7 +137,7 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
 
     try:
         start_scenes()
-        for future, (state, device_name) in finished:
+        for future, (state, device_name) in _chunk_results(finished):
             job, tile, _ = running.pop(future.key)
             job.update(tile, state, device_name)
             if state.samples < job.spp:
@@ -154,13 +154,6 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
     except KeyboardInterrupt:
         _cancel(client, running)
         raise RenderInterrupted([(j.index, j.result()) for j in jobs.values()]) from None
-    except DistributedRenderError:
-        _cancel(client, running)
-        raise
-    except Exception as e:
-        # KilledWorker (every worker that ran the chunk died) and other scheduler errors.
-        _cancel(client, running)
-        raise DistributedRenderError(f"chunk failed: {type(e).__name__}: {e}") from None
     finally:
         _cancel(client, running)
         for job in jobs.values():
@@ -259,6 +252,16 @@ class _Job:
         result = image_result(self.scene, merge_strips(self.scene, self.states))
         result.seconds = time.perf_counter() - self.started
         return result
+
+
+def _chunk_results(finished):
+    """(future, result) of each chunk as it finishes; a chunk's failure as DistributedRenderError."""
+    try:
+        yield from finished
+    except DistributedRenderError:
+        raise
+    except Exception as e:   # KilledWorker: every worker that ran the chunk died
+        raise DistributedRenderError(f"chunk failed: {type(e).__name__}: {e}") from None
 
 
 def _cancel(client, running):

@@ -4,6 +4,8 @@ import logging
 import os
 import shutil
 import signal
+import threading
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -83,6 +85,10 @@ def test_batch_yields_every_scene_identical_to_its_local_render(client):
     assert sorted(results) == [0, 1, 2]
     for index, scene in enumerate(scenes):
         assert_identical(results[index], local(scene, 3))
+    # Each worker made one device context, and built (or loaded) one program per kernel variant
+    # (the toon scene needs another) however many scenes and chunks it rendered.
+    counts = client.run(lambda: (len(distributed._contexts), len(clrender.device._programs)))
+    assert set(counts.values()) <= {(1, 1), (1, 2)}
 
 
 def test_interrupted_render_returns_each_strip_as_far_as_it_got(client):
@@ -106,20 +112,64 @@ def test_interrupted_render_returns_each_strip_as_far_as_it_got(client):
     assert all(len(set(counts[top:top + 6])) == 1 for top in range(0, 24, 6))   # strips of 6 rows
 
 
+@contextmanager
+def killing_busy_workers(client, when, again=False):
+    """While the block runs: once the event `when` is set, SIGKILL the process of a worker that
+    has a chunk assigned (with `again`, every 0.5 s). Yields the list of addresses killed."""
+    killed, stop = [], threading.Event()
+
+    def kill():
+        when.wait()
+        while not stop.is_set():
+            busy = [address for address, keys in sorted(client.processing().items()) if keys]
+            if busy:
+                os.kill(client.run(os.getpid, workers=busy[:1])[busy[0]], signal.SIGKILL)
+                killed.append(busy[0])
+                if not again:
+                    return
+                stop.wait(0.5)
+            else:
+                stop.wait(0.001)
+
+    thread = threading.Thread(target=kill, daemon=True)
+    thread.start()
+    try:
+        yield killed
+    finally:
+        stop.set()
+        when.set()
+        thread.join()
+
+
 def test_worker_killed_mid_render_changes_nothing(client):
     scene = small("scenes/cornell_box.json", (40, 30), seed=2)
-    killed = []
-
-    def kill_a_worker(done, spp, seconds):
-        if not killed and done >= 0.3 * spp:
-            address, pid = sorted(client.run(os.getpid).items())[0]
-            os.kill(pid, signal.SIGKILL)
-            killed.append((address, done))
-
-    result = distributed.render(scene, client, 160, device=TEST_DEVICE, tiles=5, samples_per_chunk=4,
-                                progress=kill_a_worker)
-    assert killed and killed[0][1] < 160
+    started = threading.Event()
+    pids = set(client.run(os.getpid).values())
+    with killing_busy_workers(client, started) as killed:
+        result = distributed.render(scene, client, 160, device=TEST_DEVICE, tiles=5, samples_per_chunk=4,
+                                    progress=lambda done, spp, seconds: done >= 0.3 * spp and started.set())
+    assert len(killed) == 1   # before the render ended
     assert_identical(result, local(scene, 160))
+    client.wait_for_workers(2)
+    assert set(client.run(os.getpid).values()) != pids   # the nanny started a new worker process
+
+
+def test_chunk_whose_workers_keep_dying_is_an_error_naming_the_worker(client):
+    scene = small("scenes/cornell_box.json", (40, 30))
+    started = threading.Event()
+
+    def allow_failures(count):
+        client.run_on_scheduler(lambda dask_scheduler: setattr(dask_scheduler, "allowed_failures", count))
+
+    allow_failures(0)   # the first death of a chunk's worker is its last
+    try:
+        with killing_busy_workers(client, started, again=True) as killed, \
+                pytest.raises(distributed.DistributedRenderError, match="KilledWorker") as error:
+            distributed.render(scene, client, 10 ** 5, device=TEST_DEVICE, tiles=5, samples_per_chunk=4,
+                               progress=lambda *_: started.set())
+    finally:
+        allow_failures(3)
+    assert any(address in str(error.value) for address in killed)
 
 
 def test_chunk_failing_on_every_try_names_the_worker(client):

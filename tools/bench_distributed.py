@@ -1,0 +1,92 @@
+"""Distributed rendering: the scaling of 2 Dask workers against 1, and the overhead per chunk.
+
+    python tools/bench_distributed.py [--scene scenes/cornell_box.json] [--resolution 128 96]
+                                      [--seconds 20] [--runs 3]
+
+This process and every worker use one PoCL thread (POCL_MAX_PTHREAD_COUNT=1), so a worker is one
+core. The spp is chosen so that one worker needs about --seconds. Per run, interleaved (so a
+change in the machine's load hits every configuration alike):
+  local     Renderer.render in this process (no Dask)
+  1 worker  distributed.render on a LocalCluster of 1 worker (default strips and chunks)
+  2 workers the same on a LocalCluster of 2 workers
+  small     1 worker, the same strips, chunks of spp/32 samples: many more chunks
+Efficiency = t(1 worker) / (2 t(2 workers)); overhead per chunk = (t(small) - t(1 worker with
+chunks of spp/2)) / (chunk count difference). Medians over the runs. Results: docs/distributed.md.
+"""
+import argparse
+import logging
+import math
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+os.environ["POCL_MAX_PTHREAD_COUNT"] = "1"   # before PoCL starts, here and in the workers
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import clrender  # noqa: E402
+from clrender import distributed  # noqa: E402
+
+
+def timed(function):
+    start = time.perf_counter()
+    result = function()
+    return time.perf_counter() - start, result
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", default="scenes/cornell_box.json")
+    parser.add_argument("--resolution", type=int, nargs=2, default=(128, 96))
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--device", default="cpu")
+    args = parser.parse_args()
+    from distributed import Client, LocalCluster
+
+    scene = clrender.load_scene(args.scene)
+    scene.camera.resolution = tuple(args.resolution)
+    renderer = clrender.Renderer(scene, args.device)
+    renderer.render(spp=1)
+    rate = renderer.render(spp=8).samples_per_second
+    spp = max(8, int(args.seconds * rate / math.prod(args.resolution)))
+    print(f"{args.scene} at {args.resolution[0]}x{args.resolution[1]}, {spp} spp, device {args.device}, "
+          f"1 PoCL thread per process; load average before: {os.getloadavg()[0]:.1f}")
+
+    def cluster(workers):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            silence_logs=logging.ERROR)
+
+    with cluster(1) as one, Client(one) as client1, cluster(2) as two, Client(two) as client2:
+        reference = renderer.render(spp=spp).image
+        for client in (client1, client2):   # warm-up: kernel loads and PoCL compiles per worker
+            distributed.render(scene, client, 2, device=args.device, samples_per_chunk=1)
+        tiles = 4
+        runs = {"local": [], "1 worker": [], "2 workers": [], "halves": [], "small": []}
+        for run in range(args.runs):
+            runs["local"].append(timed(lambda: renderer.render(spp=spp))[0])
+            for name, client in (("1 worker", client1), ("2 workers", client2)):
+                seconds, result = timed(lambda: distributed.render(scene, client, spp, device=args.device))
+                assert (result.image == reference).all(), "distributed image differs from the local one"
+                runs[name].append(seconds)
+            for name, per_chunk in (("halves", math.ceil(spp / 2)), ("small", max(1, spp // 32))):
+                runs[name].append(timed(lambda: distributed.render(
+                    scene, client1, spp, device=args.device, tiles=tiles, samples_per_chunk=per_chunk))[0])
+            print(f"run {run + 1}: " + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in runs.items()), flush=True)
+    median = {name: statistics.median(values) for name, values in runs.items()}
+    efficiencies = [a / (2 * b) for a, b in zip(runs["1 worker"], runs["2 workers"])]
+    chunks = {name: tiles * math.ceil(spp / per_chunk)
+              for name, per_chunk in (("halves", math.ceil(spp / 2)), ("small", max(1, spp // 32)))}
+    overheads = [(s - h) / (chunks["small"] - chunks["halves"]) for s, h in zip(runs["small"], runs["halves"])]
+    print(f"median seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in median.items()))
+    print(f"speed-up of 2 workers over 1: {median['1 worker'] / median['2 workers']:.2f}; "
+          f"efficiency {statistics.median(efficiencies):.2f} (runs: {', '.join(f'{e:.2f}' for e in efficiencies)})")
+    print(f"1 worker against the local render: {median['1 worker'] / median['local']:.3f}x the time")
+    print(f"overhead per chunk: {statistics.median(overheads) * 1000:.1f} ms "
+          f"({chunks['small']} against {chunks['halves']} chunks; runs: "
+          f"{', '.join(f'{o * 1000:.1f}' for o in overheads)} ms)")
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()
