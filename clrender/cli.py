@@ -173,7 +173,9 @@ def _render_distributed(args, outputs):
         with dask_client(args.workers, args.scheduler) as client:
             where = f"{len(client.scheduler_info()['workers'])} Dask workers"
             bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
-                       disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
+                       disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
+                       bar_format="{l_bar}{bar}| {n:.1f}/{total_fmt} {unit} [{elapsed}<{remaining}, "
+                                  + where + "]")
 
             def progress(done, total, seconds):
                 bar.update((done if batch else done * spp) - bar.n)
