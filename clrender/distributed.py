@@ -176,8 +176,10 @@ def dask_client(workers=None, scheduler=None, timeout=60):
                                              f"{timeout} s; start one with `dask worker {scheduler}`") from None
             yield client
         return
+    # Chunk failures reach the client as exceptions; the workers' own logs (e.g. a heartbeat cut
+    # off when the cluster closes after Ctrl-C) would only be tracebacks on the terminal.
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.ERROR, preload=[__name__]) as cluster, Client(cluster) as client:
+                      silence_logs=logging.CRITICAL, preload=[__name__]) as cluster, Client(cluster) as client:
         yield client
 
 

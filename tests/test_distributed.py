@@ -4,7 +4,10 @@ import logging
 import os
 import shutil
 import signal
+import subprocess
+import sys
 import threading
+import time
 from contextlib import contextmanager
 
 import numpy as np
@@ -219,6 +222,29 @@ def test_cli_renders_a_batch_on_a_running_cluster(client, tmp_path):
     for index, path in enumerate(paths):
         image = clrender.load_image(tmp_path / "out" / f"frame_{index:02d}.exr")
         assert np.array_equal(image, local(clrender.load_scene(path), 2).image)
+
+
+def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path):
+    # A terminal's Ctrl-C goes to the whole process group: the client and its local workers.
+    path = tmp_path / "box.json"
+    path.write_text(_scene_json("scenes/cornell_box.json", resolution=[32, 24], spp=10 ** 6))
+    command = [sys.executable, "-m", "clrender.cli", "render", str(path), "-o", str(tmp_path / "box.exr"),
+               "--workers", "2", "--device", TEST_DEVICE, "--chunk-seconds", "0.2"]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, start_new_session=True, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    seen = []
+    reader = threading.Thread(target=lambda: seen.extend(iter(lambda: process.stderr.read(1), "")))
+    reader.start()
+    deadline = time.monotonic() + 120
+    while " spp [" not in "".join(seen) and time.monotonic() < deadline:   # the bar is up
+        time.sleep(0.1)
+    time.sleep(1)   # chunks are flowing
+    os.killpg(process.pid, signal.SIGINT)
+    assert process.wait(timeout=60) == 130
+    reader.join()
+    err = "".join(seen)
+    assert "interrupted: partial image saved" in err and "Traceback" not in err, err[-3000:]
+    assert clrender.load_image(tmp_path / "box.exr").shape == (24, 32, 3)
 
 
 def _scene_json(path, resolution, **render):
