@@ -1,7 +1,7 @@
 """clrender: a physically based path tracer with OpenCL C kernels and a Python host.
 
     import clrender
-    scene = clrender.load_scene("scenes/cornell_box.json")
+    scene = clrender.load_scene("scenes/cornell_box.json")   # or a Mitsuba 3 .xml scene
     image = clrender.render(scene, spp=64)
     clrender.save_image(image, "cornell.png")
 """
@@ -10,11 +10,13 @@ from .device import choose_device, list_devices
 from .errors import KernelBuildError, SceneError
 from .image import load_image, save_image
 from .metrics import efficiency, mse, relative_mse, rmse
+from .mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
 from .render import Renderer, RenderInterrupted, RenderResult, render
 from .scene import load_scene, load_scene_dict
 
 __all__ = [
-    "KernelBuildError", "RenderInterrupted", "RenderResult", "Renderer", "SceneError",
+    "KernelBuildError", "MitsubaXmlError", "MitsubaXmlWarning", "RenderInterrupted", "RenderResult",
+    "Renderer", "SceneError",
     "choose_device", "distributed", "efficiency", "list_devices", "load_image", "load_scene", "load_scene_dict",
     "mse", "relative_mse", "render", "rmse", "save_image",
 ]

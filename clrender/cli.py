@@ -46,6 +46,7 @@ def _parser():
     render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+    _add_parameter_option(render)
     cluster = render.add_argument_group("distributed rendering (docs/distributed.md)").add_mutually_exclusive_group()
     cluster.add_argument("--workers", type=_positive_int, metavar="N",
                          help="render on a local Dask cluster of N worker processes")
@@ -57,11 +58,41 @@ def _parser():
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
     info.add_argument("scene", type=Path)
+    _add_parameter_option(info)
     info.set_defaults(run=_info)
 
     devices = commands.add_parser("devices", help="list OpenCL platforms and devices")
     devices.set_defaults(run=_devices)
     return parser
+
+
+def _add_parameter_option(parser):
+    parser.add_argument("-D", dest="parameters", action="append", default=[], metavar="NAME=VALUE",
+                        type=_parameter, help="Mitsuba XML scenes: set parameter $NAME (overrides its <default>)")
+
+
+def _parameter(text):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name, value
+
+
+def _load_scene(path, parameters):
+    """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
+    the translation notes that `info` shows (None for JSON)."""
+    from .scene import load_scene
+
+    parameters = dict(parameters)
+    if path.suffix.lower() != ".xml":
+        return load_scene(path, parameters=parameters), None
+    from . import mitsuba_xml
+
+    translation = mitsuba_xml.read_scene(path, parameters)
+    for message in translation.warnings:
+        print(f"clrender: warning: {message}", file=sys.stderr)
+    scene = mitsuba_xml.scene_from_translation(translation)
+    return scene, translation.notes
 
 
 def _number_at_least(convert, low, strict=False):
@@ -126,9 +157,8 @@ def _render_local(args, scene_path, output):
 
     from .image import save_image
     from .render import Renderer, RenderInterrupted
-    from .scene import load_scene
 
-    scene = load_scene(scene_path)
+    scene, _ = _load_scene(scene_path, args.parameters)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
     spp = args.spp or (None if args.time else scene.render.spp)
@@ -160,14 +190,14 @@ def _render_distributed(args, outputs):
     from .distributed import dask_client, render_many
     from .image import save_image
     from .render import RenderInterrupted
-    from .scene import load_scene
 
     if args.time is not None:
         raise ValueError("--time is not supported with --workers or --scheduler; use --spp")
     batch = len(args.scene) > 1
     # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
     # them on, so a long sequence is never in memory at once.
-    scenes = (load_scene(path) for path in args.scene) if batch else [load_scene(args.scene[0])]
+    scenes = (_load_scene(path, args.parameters)[0] for path in args.scene)
+    scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
     try:
         with dask_client(args.workers, args.scheduler) as client:
@@ -234,13 +264,14 @@ def _report(output, result, where, status, bar=None):
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
-    from .scene import load_scene
 
-    scene = load_scene(args.scene)
+    scene, notes = _load_scene(args.scene, args.parameters)
     arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
     width, height = scene.camera.resolution
     print(f"scene:      {args.scene}")
+    for index, note in enumerate(notes or []):
+        print(f"{'mitsuba:' if index == 0 else '':<12}{note}")
     print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")

@@ -88,7 +88,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["camera"]["up"][0, :3] = up
     p["frame"] = (width, height, first_sample, samples)
     p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
-    p["environment"] = (arrays.env_index, *arrays.env_size, 0)
+    p["environment"] = (arrays.env_index, *arrays.env_size, int(scene.render.hide_environment))
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
     step = settings.step if step is None else step

@@ -227,7 +227,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         }
 #endif
         if (!found) {
-            radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
+            // RenderParams.environment.w (render.hide_environment): camera rays that escape,
+            // through null boundaries or not, see black; the environment still lights the scene.
+            if (depth > 1 || scene->params->environment.w == 0)
+                radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
@@ -249,7 +252,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
         // counts as direct lighting, hence after the max-depth test), and the path ends.
         if (m.kind.x == MATERIAL_TOON) {
-            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, rng);
+            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, medium, rng);
             break;
         }
 #endif

@@ -53,7 +53,7 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
     out[k++] = sizeof(Material);
     out[k++] = OFFSET(m, kind); out[k++] = OFFSET(m, color); out[k++] = OFFSET(m, emission);
     out[k++] = OFFSET(m, params); out[k++] = OFFSET(m, toon_shadow); out[k++] = OFFSET(m, toon_bands);
-    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim);
+    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim); out[k++] = OFFSET(m, toon_ambient);
     out[k++] = sizeof(Emitter);
     out[k++] = OFFSET(e, kind); out[k++] = OFFSET(e, radiance); out[k++] = OFFSET(e, p0);
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
