@@ -1,17 +1,18 @@
 """Distributed rendering: the scaling of 2 Dask workers against 1, and the overhead per chunk.
 
     python tools/bench_distributed.py [--scene scenes/cornell_box.json] [--resolution 128 96]
-                                      [--seconds 20] [--runs 3]
+                                      [--seconds 20] [--runs 3] [--chunks 200]
 
 This process and every worker use one PoCL thread (POCL_MAX_PTHREAD_COUNT=1), so a worker is one
 core. The spp is chosen so that one worker needs about --seconds. Per run, interleaved (so a
 change in the machine's load hits every configuration alike):
-  local     Renderer.render in this process (no Dask)
-  1 worker  distributed.render on a LocalCluster of 1 worker (default strips and chunks)
-  2 workers the same on a LocalCluster of 2 workers
-  small     1 worker, the same strips, chunks of spp/32 samples: many more chunks
-Efficiency = t(1 worker) / (2 t(2 workers)); overhead per chunk = (t(small) - t(1 worker with
-chunks of spp/2)) / (chunk count difference). Medians over the runs. Results: docs/distributed.md.
+  local      Renderer.render in this process (no Dask)
+  1 worker   distributed.render on a LocalCluster of 1 worker (default strips and chunks)
+  2 workers  the same on a LocalCluster of 2 workers
+  overhead   1 worker, a 16x16 image in one strip: --chunks chunks of 1 sample against one chunk
+             of --chunks samples; the difference over (chunks - 1) is the cost of a chunk beyond
+             its kernel time (client round trip, scheduling, transfers, upload and download).
+Efficiency = t(1 worker) / (2 t(2 workers)). Medians over the runs. Results: docs/distributed.md.
 """
 import argparse
 import logging
@@ -40,6 +41,7 @@ def main():
     parser.add_argument("--resolution", type=int, nargs=2, default=(128, 96))
     parser.add_argument("--seconds", type=float, default=20.0)
     parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--chunks", type=int, default=200)
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args()
     from distributed import Client, LocalCluster
@@ -57,34 +59,33 @@ def main():
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                             silence_logs=logging.ERROR)
 
+    tiny = clrender.load_scene(args.scene)
+    tiny.camera.resolution = (16, 16)
     with cluster(1) as one, Client(one) as client1, cluster(2) as two, Client(two) as client2:
         reference = renderer.render(spp=spp).image
         for client in (client1, client2):   # warm-up: kernel loads and PoCL compiles per worker
             distributed.render(scene, client, 2, device=args.device, samples_per_chunk=1)
-        tiles = 4
-        runs = {"local": [], "1 worker": [], "2 workers": [], "halves": [], "small": []}
+            distributed.render(tiny, client, 2, device=args.device, tiles=1, samples_per_chunk=1)
+        runs = {"local": [], "1 worker": [], "2 workers": [], "one chunk": [], "many chunks": []}
         for run in range(args.runs):
             runs["local"].append(timed(lambda: renderer.render(spp=spp))[0])
             for name, client in (("1 worker", client1), ("2 workers", client2)):
                 seconds, result = timed(lambda: distributed.render(scene, client, spp, device=args.device))
                 assert (result.image == reference).all(), "distributed image differs from the local one"
                 runs[name].append(seconds)
-            for name, per_chunk in (("halves", math.ceil(spp / 2)), ("small", max(1, spp // 32))):
+            for name, per_chunk in (("one chunk", args.chunks), ("many chunks", 1)):
                 runs[name].append(timed(lambda: distributed.render(
-                    scene, client1, spp, device=args.device, tiles=tiles, samples_per_chunk=per_chunk))[0])
+                    tiny, client1, args.chunks, device=args.device, tiles=1, samples_per_chunk=per_chunk))[0])
             print(f"run {run + 1}: " + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in runs.items()), flush=True)
     median = {name: statistics.median(values) for name, values in runs.items()}
     efficiencies = [a / (2 * b) for a, b in zip(runs["1 worker"], runs["2 workers"])]
-    chunks = {name: tiles * math.ceil(spp / per_chunk)
-              for name, per_chunk in (("halves", math.ceil(spp / 2)), ("small", max(1, spp // 32)))}
-    overheads = [(s - h) / (chunks["small"] - chunks["halves"]) for s, h in zip(runs["small"], runs["halves"])]
-    print(f"median seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in median.items()))
+    overheads = [(many - one) / (args.chunks - 1) for one, many in zip(runs["one chunk"], runs["many chunks"])]
+    print("median seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in median.items()))
     print(f"speed-up of 2 workers over 1: {median['1 worker'] / median['2 workers']:.2f}; "
           f"efficiency {statistics.median(efficiencies):.2f} (runs: {', '.join(f'{e:.2f}' for e in efficiencies)})")
     print(f"1 worker against the local render: {median['1 worker'] / median['local']:.3f}x the time")
     print(f"overhead per chunk: {statistics.median(overheads) * 1000:.1f} ms "
-          f"({chunks['small']} against {chunks['halves']} chunks; runs: "
-          f"{', '.join(f'{o * 1000:.1f}' for o in overheads)} ms)")
+          f"(runs: {', '.join(f'{o * 1000:.1f}' for o in overheads)} ms)")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 
 
