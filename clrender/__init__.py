@@ -11,10 +11,11 @@ from .errors import KernelBuildError, SceneError
 from .image import load_image, save_image
 from .metrics import efficiency, mse, relative_mse, rmse
 from .mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
-from .render import Renderer, RenderInterrupted, RenderResult, render
+from .render import Accumulation, Renderer, RenderInterrupted, RenderResult, render
 from .scene import load_scene, load_scene_dict
 
 __all__ = [
+    "Accumulation",
     "KernelBuildError", "MitsubaXmlError", "MitsubaXmlWarning", "RenderInterrupted", "RenderResult",
     "Renderer", "SceneError",
     "choose_device", "distributed", "efficiency", "list_devices", "load_image", "load_scene", "load_scene_dict",
