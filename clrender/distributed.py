@@ -229,7 +229,8 @@ class _Job:
         if samples == 0:
             return 1   # calibration: the rate is not known yet
         target = int(samples * chunk_seconds / max(seconds, 1e-6))
-        return max(1, min(target, 16 * samples, remaining))
+        # At most half of what is left: the last chunks shrink, so the workers finish together.
+        return max(1, min(target, 16 * samples, math.ceil(remaining / 2)))
 
     def update(self, tile, state, device_name):
         previous = self.states[tile]
