@@ -12,7 +12,9 @@ change in the machine's load hits every configuration alike):
   overhead   1 worker, a 16x16 image in one strip: --chunks chunks of 1 sample against one chunk
              of --chunks samples; the difference over (chunks - 1) is the cost of a chunk beyond
              its kernel time (client round trip, scheduling, transfers, upload and download).
-Efficiency = t(1 worker) / (2 t(2 workers)). Medians over the runs. Results: docs/distributed.md.
+Efficiency = t(1 worker) / (2 t(2 workers)). Medians over the runs. Also the CPU time of all the
+processes (this one with its in-process scheduler, and the workers) per render: unlike wall time
+it hardly depends on what else runs on the machine. Results: docs/distributed.md.
 """
 import argparse
 import logging
@@ -29,10 +31,26 @@ import clrender  # noqa: E402
 from clrender import distributed  # noqa: E402
 
 
+def cpu_seconds():
+    """CPU time of this process (client, in-process scheduler) and its children (the workers)."""
+    import psutil
+
+    processes = [psutil.Process()] + psutil.Process().children(recursive=True)
+    total = 0.0
+    for process in processes:
+        try:
+            times = process.cpu_times()
+            total += times.user + times.system
+        except psutil.NoSuchProcess:
+            pass
+    return total
+
+
 def timed(function):
-    start = time.perf_counter()
+    """(wall seconds, CPU seconds of every process involved, result)."""
+    start, cpu = time.perf_counter(), cpu_seconds()
     result = function()
-    return time.perf_counter() - start, result
+    return time.perf_counter() - start, cpu_seconds() - cpu, result
 
 
 def main():
@@ -57,26 +75,33 @@ def main():
 
     def cluster(workers):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                            silence_logs=logging.ERROR)
+                            silence_logs=logging.CRITICAL)
 
     tiny = clrender.load_scene(args.scene)
     tiny.camera.resolution = (16, 16)
-    with cluster(1) as one, Client(one) as client1, cluster(2) as two, Client(two) as client2:
-        reference = renderer.render(spp=spp).image
-        for client in (client1, client2):   # warm-up: kernel loads and PoCL compiles per worker
-            distributed.render(scene, client, 2, device=args.device, samples_per_chunk=1)
-            distributed.render(tiny, client, 2, device=args.device, tiles=1, samples_per_chunk=1)
-        runs = {"local": [], "1 worker": [], "2 workers": [], "one chunk": [], "many chunks": []}
-        for run in range(args.runs):
-            runs["local"].append(timed(lambda: renderer.render(spp=spp))[0])
-            for name, client in (("1 worker", client1), ("2 workers", client2)):
-                seconds, result = timed(lambda: distributed.render(scene, client, spp, device=args.device))
+    reference = renderer.render(spp=spp).image
+    runs = {"local": [], "1 worker": [], "2 workers": [], "one chunk": [], "many chunks": []}
+    cpu = {"local": [], "1 worker": [], "2 workers": []}
+    for run in range(args.runs):
+        seconds, cpu_time, _ = timed(lambda: renderer.render(spp=spp))
+        runs["local"].append(seconds)
+        cpu["local"].append(cpu_time)
+        # One cluster at a time, so the CPU time counts only the processes at work.
+        for workers, name in ((1, "1 worker"), (2, "2 workers")):
+            with cluster(workers) as local_cluster, Client(local_cluster) as client:
+                # Warm-up: kernel loads and PoCL compiles per worker process.
+                distributed.render(scene, client, 2, device=args.device, samples_per_chunk=1)
+                distributed.render(tiny, client, 2, device=args.device, tiles=1, samples_per_chunk=1)
+                seconds, cpu_time, result = timed(lambda: distributed.render(scene, client, spp, device=args.device))
                 assert (result.image == reference).all(), "distributed image differs from the local one"
                 runs[name].append(seconds)
-            for name, per_chunk in (("one chunk", args.chunks), ("many chunks", 1)):
-                runs[name].append(timed(lambda: distributed.render(
-                    tiny, client1, args.chunks, device=args.device, tiles=1, samples_per_chunk=per_chunk))[0])
-            print(f"run {run + 1}: " + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in runs.items()), flush=True)
+                cpu[name].append(cpu_time)
+                if workers == 1:
+                    for chunks, per_chunk in (("one chunk", args.chunks), ("many chunks", 1)):
+                        runs[chunks].append(timed(lambda: distributed.render(
+                            tiny, client, args.chunks, device=args.device, tiles=1, samples_per_chunk=per_chunk))[0])
+        print(f"run {run + 1}: " + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in runs.items())
+              + f"; load average {os.getloadavg()[0]:.1f}", flush=True)
     median = {name: statistics.median(values) for name, values in runs.items()}
     efficiencies = [a / (2 * b) for a, b in zip(runs["1 worker"], runs["2 workers"])]
     overheads = [(many - one) / (args.chunks - 1) for one, many in zip(runs["one chunk"], runs["many chunks"])]
@@ -84,6 +109,10 @@ def main():
     print(f"speed-up of 2 workers over 1: {median['1 worker'] / median['2 workers']:.2f}; "
           f"efficiency {statistics.median(efficiencies):.2f} (runs: {', '.join(f'{e:.2f}' for e in efficiencies)})")
     print(f"1 worker against the local render: {median['1 worker'] / median['local']:.3f}x the time")
+    cpu_median = {name: statistics.median(values) for name, values in cpu.items()}
+    print("median CPU seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in cpu_median.items())
+          + f"; 1 worker {cpu_median['1 worker'] / cpu_median['local']:.3f}x and 2 workers "
+          f"{cpu_median['2 workers'] / cpu_median['local']:.3f}x the local render's")
     print(f"overhead per chunk: {statistics.median(overheads) * 1000:.1f} ms "
           f"(runs: {', '.join(f'{o * 1000:.1f}' for o in overheads)} ms)")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
