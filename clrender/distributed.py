@@ -97,8 +97,7 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
         raise ValueError(f"samples_per_chunk must be >= 1, got {samples_per_chunk}")
     if not chunk_seconds > 0:
         raise ValueError(f"chunk_seconds must be positive, got {chunk_seconds}")
-    from distributed import as_completed
-
+    as_completed = _dask().as_completed
     options = (device, volume_method, step, raymarch_multiple_scattering, seed, max_depth)
     token = uuid.uuid4().hex[:8]
     frames = len(scenes) if hasattr(scenes, "__len__") else None
@@ -165,10 +164,9 @@ def dask_client(workers=None, scheduler=None, timeout=60):
     """A distributed.Client of a new LocalCluster of `workers` processes with one thread each
     (one device context each), or of the cluster whose scheduler is at `scheduler`
     (tcp://HOST:PORT), waiting up to `timeout` seconds for its first worker."""
-    from distributed import Client, LocalCluster
-
+    dask_distributed = _dask()
     if scheduler:
-        with Client(scheduler, timeout=timeout) as client:
+        with dask_distributed.Client(scheduler, timeout=timeout) as client:
             try:
                 client.wait_for_workers(1, timeout=timeout)
             except TimeoutError:
@@ -178,8 +176,10 @@ def dask_client(workers=None, scheduler=None, timeout=60):
         return
     # Chunk failures reach the client as exceptions; the workers' own logs (e.g. a heartbeat cut
     # off when the cluster closes after Ctrl-C) would only be tracebacks on the terminal.
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.CRITICAL, preload=[__name__]) as cluster, Client(cluster) as client:
+    cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                            dashboard_address=":0", silence_logs=logging.CRITICAL,
+                                            preload=[__name__])
+    with cluster, dask_distributed.Client(cluster) as client:
         yield client
 
 
@@ -255,6 +255,16 @@ class _Job:
         result = image_result(self.scene, merge_strips(self.scene, self.states))
         result.seconds = time.perf_counter() - self.started
         return result
+
+
+def _dask():
+    """The `distributed` package, or an error saying how to install it."""
+    try:
+        import distributed
+    except ImportError:
+        raise DistributedRenderError("distributed rendering needs Dask: pip install 'clrender[distributed]' "
+                                     "(or 'dask[distributed]')") from None
+    return distributed
 
 
 def _chunk_results(finished):
