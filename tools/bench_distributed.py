@@ -4,7 +4,10 @@
                                       [--seconds 20] [--runs 3] [--chunks 200]
 
 This process and every worker use one PoCL thread (POCL_MAX_PTHREAD_COUNT=1), so a worker is one
-core. The spp is chosen so that one worker needs about --seconds. Per run, interleaved (so a
+core, and every worker starts its own session (os.setsid in the preload hook below): with Linux's
+autogroup scheduling the CPU is shared between sessions, so on a busy shared machine two worker
+processes of one session would get no more CPU than one; in sessions of their own each gets a
+share of its own, like a core of its own. The spp is chosen so that one worker needs about --seconds. Per run, interleaved (so a
 change in the machine's load hits every configuration alike):
   local      Renderer.render in this process (no Dask)
   1 worker   distributed.render on a LocalCluster of 1 worker (default strips and chunks)
@@ -29,6 +32,11 @@ os.environ["POCL_MAX_PTHREAD_COUNT"] = "1"   # before PoCL starts, here and in t
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import clrender  # noqa: E402
 from clrender import distributed  # noqa: E402
+
+
+def dask_setup(worker):
+    """Dask preload hook of the benchmark's workers: a session (autogroup) of their own."""
+    os.setsid()
 
 
 def cpu_seconds():
@@ -75,7 +83,7 @@ def main():
 
     def cluster(workers):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                            silence_logs=logging.CRITICAL)
+                            silence_logs=logging.CRITICAL, preload=[str(Path(__file__).resolve())])
 
     tiny = clrender.load_scene(args.scene)
     tiny.camera.resolution = (16, 16)
