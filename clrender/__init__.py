@@ -5,17 +5,19 @@
     image = clrender.render(scene, spp=64)
     clrender.save_image(image, "cornell.png")
 """
+from . import distributed
 from .device import choose_device, list_devices
 from .errors import KernelBuildError, SceneError
 from .image import load_image, save_image
 from .metrics import efficiency, mse, relative_mse, rmse
 from .mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
-from .render import Renderer, RenderInterrupted, RenderResult, render
+from .render import Accumulation, Renderer, RenderInterrupted, RenderResult, render
 from .scene import load_scene, load_scene_dict
 
 __all__ = [
+    "Accumulation",
     "KernelBuildError", "MitsubaXmlError", "MitsubaXmlWarning", "RenderInterrupted", "RenderResult",
     "Renderer", "SceneError",
-    "choose_device", "efficiency", "list_devices", "load_image", "load_scene", "load_scene_dict",
+    "choose_device", "distributed", "efficiency", "list_devices", "load_image", "load_scene", "load_scene_dict",
     "mse", "relative_mse", "render", "rmse", "save_image",
 ]

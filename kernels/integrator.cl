@@ -1,6 +1,7 @@
-// The megakernel: one work-item per pixel adds `frame.w` samples to its accumulator.
+// The megakernel: one work-item per pixel of the tile adds `frame.w` samples to its accumulator.
 // Samples are taken in index order and added one by one, so the sum is the same however the
-// samples are split into launches.
+// samples are split into launches; the random numbers and the camera ray are keyed by the pixel
+// of the full image, so a pixel's sum is also the same whichever tile holds it (distributed.py).
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -51,14 +52,16 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global int* discarded_samples,
                           __global float4* aux_geometry,
                           __global int* aux_object) {
-    int x = get_global_id(0), y = get_global_id(1);
+    int tx = get_global_id(0), ty = get_global_id(1);
+    if (tx >= params->tile.z || ty >= params->tile.w) return;
+    int x = params->tile.x + tx, y = params->tile.y + ty;
     int width = params->frame.x, height = params->frame.y;
-    if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
                    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data};
-    int pixel = y * width + x;
-    if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
-    float4 sum = accumulator[pixel];
+    int pixel = y * width + x;            // keys the random numbers
+    int slot = ty * params->tile.z + tx;  // in this tile's buffers
+    if (params->frame.z == 0) write_aux(&scene, x, y, slot, aux_geometry, aux_object);
+    float4 sum = accumulator[slot];
     int discarded = 0;
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
@@ -70,6 +73,6 @@ __kernel void render_pass(__constant RenderParams* params,
         discarded += finite ? 0 : 1;
         sum += (float4)(finite ? radiance : (float3)(0.0f), 1.0f);
     }
-    accumulator[pixel] = sum;
+    accumulator[slot] = sum;
     if (discarded > 0) atomic_add(discarded_samples, discarded);
 }
