@@ -78,6 +78,9 @@ def sample_aov_images(aov_sums, colour_sums, width, height):
 
 def aov_images(names, aux, sample_images):
     """The images of `names` from the pixel-centre record `aux` and the sample-level images."""
+    missing = [n for n in names if n in SAMPLE_AOVS and n not in sample_images]
+    if missing:
+        raise ValueError(f"AOV {missing[0]!r} was not accumulated (start the Accumulation with sample_aovs)")
     hit = aux["object_id"] >= 0
     pixel_centre = {"depth": np.where(hit, aux["depth"], np.float32(np.inf)).astype(np.float32),
                     "object_id": aux["object_id"]}

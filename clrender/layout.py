@@ -71,6 +71,7 @@ RENDER_PARAMS = np.dtype([
     ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
+    ("tile", I4),          # the pixels of this pass: first column, first row, width, height
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums

@@ -1,6 +1,8 @@
-// The megakernel: one work-item per pixel adds `frame.w` samples to its accumulator.
+// The megakernel: one work-item per pixel of the tile adds `frame.w` samples to its accumulator.
 // Samples are taken in index order and added one by one, so the sum is the same however the
-// samples are split into launches. With AOVS the sample-level AOVs accumulate beside it (aovs.h).
+// samples are split into launches; the random numbers and the camera ray are keyed by the pixel
+// of the full image, so a pixel's sum is also the same whichever tile holds it (distributed.py).
+// With AOVS the sample-level AOVs accumulate beside it (aovs.h).
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -53,16 +55,18 @@ __kernel void render_pass(__constant RenderParams* params,
                           __global float4* aux_geometry,
                           __global int* aux_object,
                           __global AovSums* aov_sums) {
-    int x = get_global_id(0), y = get_global_id(1);
+    int tx = get_global_id(0), ty = get_global_id(1);
+    if (tx >= params->tile.z || ty >= params->tile.w) return;
+    int x = params->tile.x + tx, y = params->tile.y + ty;
     int width = params->frame.x, height = params->frame.y;
-    if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
                    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data};
-    int pixel = y * width + x;
-    if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
-    float4 sum = accumulator[pixel];
+    int pixel = y * width + x;            // keys the random numbers
+    int slot = ty * params->tile.z + tx;  // in this tile's buffers
+    if (params->frame.z == 0) write_aux(&scene, x, y, slot, aux_geometry, aux_object);
+    float4 sum = accumulator[slot];
 #if AOVS
-    AovSums aovs = aov_sums[pixel];
+    AovSums aovs = aov_sums[slot];
 #endif
     int discarded = 0;
     int first = params->frame.z;
@@ -80,9 +84,9 @@ __kernel void render_pass(__constant RenderParams* params,
 #endif
         sum += (float4)(value, 1.0f);
     }
-    accumulator[pixel] = sum;
+    accumulator[slot] = sum;
 #if AOVS
-    aov_sums[pixel] = aovs;
+    aov_sums[slot] = aovs;
 #endif
     if (discarded > 0) atomic_add(discarded_samples, discarded);
 }

@@ -67,7 +67,7 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
-    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights);
+    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
     out[k++] = OFFSET(a, colour_m2);

@@ -59,6 +59,7 @@ typedef struct {
     float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first non-triangle emitter (lights follow the triangles)
+    int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
 } RenderParams;
 
 // Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose
