@@ -46,6 +46,18 @@ def _parser():
     render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+    render.add_argument("--aov", default="", metavar="NAMES",
+                        help="auxiliary outputs, comma-separated: albedo, normal, emission, variance, depth, object_id "
+                             "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
+    render.add_argument("--denoise", action="store_true",
+                        help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
+    render.add_argument("--denoise-prefilter", action="store_true",
+                        help="with --denoise, denoise the albedo and normal guides first (slower; see docs/denoising.md)")
+    render.add_argument("--denoise-keep-emission", action="store_true",
+                        help="with --denoise, leave emitters and the environment seen directly out of the denoiser "
+                             "(exact emitters, raw anti-aliasing noise at their edges; see docs/denoising.md)")
+    render.add_argument("--keep-noisy", action="store_true",
+                        help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
     _add_parameter_option(render)
     cluster = render.add_argument_group("distributed rendering (docs/distributed.md)").add_mutually_exclusive_group()
     cluster.add_argument("--workers", type=_positive_int, metavar="N",
@@ -112,11 +124,19 @@ _positive_float = _number_at_least(float, 0.0, strict=True)
 
 
 def _render(args):
+    from .aovs import parse_aovs
+
     outputs = _output_paths(args.output, args.scene)
+    aovs = parse_aovs(args.aov, source="--aov")
+    for flag in ("keep_noisy", "denoise_prefilter", "denoise_keep_emission"):
+        if getattr(args, flag) and not args.denoise:
+            raise ValueError(f"--{flag.replace('_', '-')}: only with --denoise")
     if args.workers or args.scheduler:
+        if aovs or args.denoise:
+            raise ValueError("--aov and --denoise are not supported with --workers or --scheduler yet")
         return _render_distributed(args, outputs)
     for scene_path, output in zip(args.scene, outputs):
-        status = _render_local(args, scene_path, output)
+        status = _render_local(args, scene_path, output, aovs)
         if status:
             return status
     return 0
@@ -152,7 +172,7 @@ def _output_paths(output, scene_paths):
     return paths
 
 
-def _render_local(args, scene_path, output):
+def _render_local(args, scene_path, output, aovs):
     from tqdm import tqdm
 
     from .image import save_image
@@ -171,13 +191,15 @@ def _render_local(args, scene_path, output):
 
     try:
         result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
-                                 time_limit=args.time)
+                                 time_limit=args.time, aovs=aovs, denoise=args.denoise,
+                                 denoise_prefilter=args.denoise_prefilter,
+                                 denoise_keep_emission=args.denoise_keep_emission)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result
         status = 130
     bar.close()
-    save_image(result.image, output, exposure=args.exposure)
+    save_image(result.image, output, exposure=args.exposure, layers=_layers(args, aovs, result))
     _report(output, result, renderer.device.name.strip(), status)
     return status
 
@@ -250,10 +272,19 @@ def _stop(results):
     return []
 
 
+def _layers(args, aovs, result):
+    """The extra layers to write beside the image: the AOVs asked for, the noisy image."""
+    layers = {name: result.aovs[name] for name in aovs}
+    if args.keep_noisy:
+        layers["noisy"] = result.noisy_image
+    return layers
+
+
 def _report(output, result, where, status, bar=None):
     line = (f"{output}: {result.samples} spp in {result.seconds:.2f} s, "
             f"{result.samples_per_second / 1e6:.2f} M samples/s on {where}"
             + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
+            + (f", denoised in {result.denoise_seconds:.2f} s" if result.noisy_image is not None else "")
             + (" (interrupted: partial image saved)" if status else ""))
     if bar is not None:
         bar.write(line, file=sys.stderr)

@@ -1,7 +1,8 @@
 // Auxiliary per-pixel buffers: the first surface seen through the pixel centre. Written once per
 // render (by the launch holding sample 0) and read by the host for ink outlines (outlines.py);
-// also returned by the API for denoisers and debugging. The centre ray makes them deterministic:
-// independent of the seed, the sample count and how samples are split into launches.
+// also the source of the depth and object_id AOVs (clrender/aovs.py). The centre ray makes them
+// deterministic: independent of the seed, the sample count and how samples are split into
+// launches, and never a blend of two surfaces (an object id cannot be averaged).
 #ifndef CLRENDER_AUX_BUFFERS_H
 #define CLRENDER_AUX_BUFFERS_H
 

@@ -7,6 +7,8 @@
 #ifndef CLRENDER_PATH_H
 #define CLRENDER_PATH_H
 
+#include "aovs.h"
+
 // A path that keeps crossing null boundaries (e.g. coincident surfaces) must still end.
 #define MAX_NULL_CROSSINGS 1024
 
@@ -143,7 +145,8 @@ bool survive_roulette(float3* throughput, float eta_scale, int depth, int rr_dep
     return true;
 }
 
-float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
+// The radiance of one camera path; with AOVS, *aov receives its first non-delta vertex (aovs.h).
+float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     int max_depth = scene->params->config.x;
     int rr_depth = scene->params->config.y;
     float3 radiance = (float3)(0.0f);
@@ -193,6 +196,9 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #else
             MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
 #endif
+#if AOVS
+            if (event.scattered) aov_record_medium(aov, md, throughput, eta_scale);
+#endif
             throughput *= event.weight;
             if (event.scattered) {
                 if (depth == max_depth || is_black(throughput)) break;
@@ -227,6 +233,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         }
 #endif
         if (!found) {
+#if AOVS
+            aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
+                              depth > 1 || scene->params->environment.w == 0);
+#endif
             // RenderParams.environment.w (render.hide_environment): camera rays that escape,
             // through null boundaries or not, see black; the environment still lights the scene.
             if (depth > 1 || scene->params->environment.w == 0)
@@ -242,6 +252,9 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
             if (++null_crossings > MAX_NULL_CROSSINGS) break;
             continue;
         }
+#endif
+#if AOVS
+        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
 #endif
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);

@@ -62,4 +62,10 @@ typedef struct {
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
 } RenderParams;
 
+// Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose
+// w counts the samples: albedo.xyz, normal.xyz and emission.xyz summed over the samples;
+// colour_m2.xyz the sum of squared deviations of the colour samples from their mean (Welford).
+// The w fields are unused.
+typedef struct { float4 albedo; float4 normal; float4 emission; float4 colour_m2; } AovSums;
+
 #endif
