@@ -109,7 +109,14 @@ RENDER_PARAMS = np.dtype([
     ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
+    ("tile", I4),          # the pixels of this pass: first column, first row, width, height
 ])
+
+# Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
+# whose w counts the samples: albedo, normal and emission (xyz) summed over the samples, colour_m2
+# (xyz) the sum of squared deviations of the colour samples from their mean; w unused.
+# clrender/aovs.py turns them into images.
+AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("emission", F4), ("colour_m2", F4))
 
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,
@@ -121,6 +128,7 @@ STRUCTS = {
     "Medium": MEDIUM,
     "Camera": CAMERA,
     "RenderParams": RENDER_PARAMS,
+    "AovSums": AOV_SUMS,
 }
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the

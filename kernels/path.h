@@ -22,6 +22,7 @@
 #include "materials/toon.h"
 #include "media/medium.h"
 #include "media/transport.h"
+#include "aovs.h"
 
 // Radiance from the environment along an escaped ray; the MIS weight uses the pdf with which
 // the previous vertex sampled this direction.
@@ -77,7 +78,8 @@ bool survive_roulette(float3* throughput, float eta_scale, int depth, int rr_dep
     return true;
 }
 
-float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
+// The radiance of one camera path; with AOVS, *aov receives its first non-delta vertex (aovs.h).
+float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     int max_depth = scene->params->config.x;
     int rr_depth = scene->params->config.y;
     float3 radiance = (float3)(0.0f);
@@ -101,6 +103,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #if MEDIA
         if (medium >= 0) {
             MediumSample ms = sample_medium(scene, medium, ray, found ? hit.t : INFINITY, rng);
+            if (ms.event == MEDIUM_EVENT_SCATTER) aov_record_medium(aov, scene->media + medium, throughput, eta_scale);
             throughput *= ms.weight;
             prev_pdf_w *= ms.pdf_ratio;
             if (ms.event == MEDIUM_EVENT_ABSORB || is_black(throughput)) break;
@@ -121,6 +124,8 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         }
 #endif
         if (!found) {
+            aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
+                              depth > 1 || scene->params->environment.w == 0);
             // RenderParams.environment.w (render.hide_environment): camera rays that escape,
             // through null boundaries or not, see black; the environment still lights the scene.
             if (depth > 1 || scene->params->environment.w == 0)
@@ -137,6 +142,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
             continue;
         }
 #endif
+        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
         if (depth == max_depth) break;

@@ -49,6 +49,13 @@ typedef struct {
     float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first non-triangle emitter (lights follow the triangles)
+    int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
 } RenderParams;
+
+// Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose
+// w counts the samples: albedo.xyz, normal.xyz and emission.xyz summed over the samples;
+// colour_m2.xyz the sum of squared deviations of the colour samples from their mean (Welford).
+// The w fields are unused.
+typedef struct { float4 albedo; float4 normal; float4 emission; float4 colour_m2; } AovSums;
 
 #endif
