@@ -106,7 +106,7 @@ RENDER_PARAMS = np.dtype([
     ("config", I4),        # max depth, roulette depth, seed, emitter count
     ("environment", I4),   # emitter index, image width, image height, hide from camera rays (1/0)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
-    ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
+    ("volume", F4),        # grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height

@@ -46,7 +46,7 @@ typedef struct {
     int4 environment;  // x emitter index (-1: none), y image width, z image height,
                        // w hide the environment from camera rays (1/0)
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
-    float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
+    float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first non-triangle emitter (lights follow the triangles)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
