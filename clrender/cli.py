@@ -34,7 +34,7 @@ def _parser():
                         help="render for this long (kernel time); with --spp, whichever comes first")
     render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
     render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
-    render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
+    render.add_argument("--device", help="device index, 'cpu', 'gpu', or a part of a platform or device name, e.g. 'pocl', 'intel' (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
     render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.add_argument("--volume-method", choices=("null", "raymarch"),
@@ -164,7 +164,7 @@ def _devices(args):
         mark = "*" if device.int_ptr == default.int_ptr else " "
         print(f"{mark} {index}: {device.name.strip()} [{platform.name.strip()}, "
               f"{device.version.strip()}, {device.max_compute_units} compute units]")
-    print("(* = default; choose with --device INDEX|cpu|gpu|NAME or CLRENDER_DEVICE)")
+    print("(* = default; choose with --device INDEX|cpu|gpu|NAME (platform or device) or CLRENDER_DEVICE)")
     return 0
 
 

@@ -1,6 +1,7 @@
 // The megakernel: one work-item per pixel adds `frame.w` samples to its accumulator.
 // Samples are taken in index order and added one by one, so the sum is the same however the
 // samples are split into launches.
+#include "portability.h"
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -33,7 +34,7 @@
 #include "path.h"
 #include "aux_buffers.h"
 
-__kernel void render_pass(__constant RenderParams* params,
+KERNEL void render_pass(__constant RenderParams* params,
                           __global const WideBvhNode* nodes,
                           __global const Triangle* triangles,
                           __global const TriangleShading* shading,

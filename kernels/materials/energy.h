@@ -14,6 +14,7 @@
 // with specular_albedo_table below, so they come from the very code that renders.
 #ifndef CLRENDER_ENERGY_H
 #define CLRENDER_ENERGY_H
+#include "portability.h"
 #if DIELECTRIC
 
 // ALBEDO_TABLE_SIZE comes from clrender/layout.py.
@@ -61,7 +62,7 @@ float specular_albedo(bool dielectric, float eta, float alpha, float cos_o) {
 
 // Fills the tables of one material: global size (2, ALBEDO_TABLE_SIZE); side 0 has wo outside
 // (eta = ior / exterior_ior), side 1 inside. A conductor has only side 0.
-__kernel void specular_albedo_table(__global const Material* materials, int material,
+KERNEL void specular_albedo_table(__global const Material* materials, int material,
                                     __global float* tables) {
     int side = get_global_id(0), k = get_global_id(1);
     Material m = materials[material];
