@@ -175,7 +175,9 @@ KERNEL void fresnel_refract_values(__global const float2* cos_eta, __global floa
     float3 wo = (float3)(sqrt(fmax(0.0f, 1.0f - cos_i * cos_i)), 0.0f, cos_i);
     float3 wt = (float3)(0.0f);
     if (!refract(wo, (float3)(0.0f, 0.0f, 1.0f), eta, &wt)) wt = (float3)(0.0f);
-    out[i] = (float4)(fresnel_dielectric(cos_i, eta), wt);
+    // Components spelled out: clang widens a float3 after a scalar with an undefined lane,
+    // on which Oclgrind 21.10's uninitialised-value checker crashes (docs/portability.md).
+    out[i] = (float4)(fresnel_dielectric(cos_i, eta), wt.x, wt.y, wt.z);
 }
 
 // GGX around +z: D(h), G1(cos_o), and the visible-normal density of h seen from wo.

@@ -18,7 +18,9 @@
 #if DIELECTRIC
 
 // ALBEDO_TABLE_SIZE comes from clrender/layout.py.
+#ifndef ALBEDO_GRID          // (tests/test_oclgrind.py shrinks it: the simulator is slow)
 #define ALBEDO_GRID 192      // u-grid per table entry: ALBEDO_GRID^2 visible normals
+#endif
 
 float albedo_table_mu(int k) {
     float s = (float)k / (float)(ALBEDO_TABLE_SIZE - 1);
