@@ -35,21 +35,28 @@ RESOLUTION = (8, 8)
 mf = cl.mem_flags
 
 
-def render(scene, device, method=None, local_size=None, **settings):
+def render(scene, device, method=None, local_size=None, launches=2, **settings):
+    """`launches` of one sample each (a later one adds to the accumulator of the earlier)."""
     renderer = clrender.Renderer(scene, device, local_size=local_size, volume_method=method, **settings)
-    result = renderer.render(spp=2, samples_per_pass=1, max_depth=min(scene.render.max_depth, 4), seed=1)
+    result = renderer.render(spp=launches, samples_per_pass=1, max_depth=min(scene.render.max_depth, 4), seed=1)
     return {"discarded": result.discarded_samples, "finite": bool(np.all(np.isfinite(result.image)))}
 
 
+def add(a, b):
+    return {"discarded": a["discarded"] + b["discarded"], "finite": a["finite"] and b["finite"]}
+
+
 def run_combination(case, device):
-    scene, method = feature_scene(case["features"], RESOLUTION)
+    features = case["features"]
+    scene, method = feature_scene(features, RESOLUTION)
     info = render(scene, device, method)
-    if method == "raymarch":   # both of its next-event paths: every step, or one per segment
-        more = render(scene, device, method, raymarch_multiple_scattering=True)
-        info = {"discarded": info["discarded"] + more["discarded"], "finite": info["finite"] and more["finite"]}
-    if case["features"]["MEDIA"]:   # hero-only free-flight sampling
-        renderer = clrender.Renderer(scene, device, volume_method=method, spectral_mis=False)
-        info["discarded"] += renderer.render(spp=1, max_depth=3, seed=2).discarded_samples
+    # Run-time switches, on a quarter of the pixels: ray marching's other next-event path (one
+    # light sample per segment instead of per step), and hero-only free-flight sampling.
+    small, _ = feature_scene(features, (4, 4))
+    if method == "raymarch":
+        info = add(info, render(small, device, method, launches=1, raymarch_multiple_scattering=True))
+    if features["MEDIA"]:
+        info = add(info, render(small, device, method, launches=1, spectral_mis=False))
     return info
 
 
