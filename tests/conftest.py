@@ -28,6 +28,20 @@ def queue(context):
     return cl.CommandQueue(context)
 
 
+@pytest.fixture(autouse=True)
+def no_discarded_samples(monkeypatch):
+    """Every render of the suite must be free of non-finite samples (the renderer drops them as
+    black and counts them, which would hide a bias): checked after each Renderer.render."""
+    render = clrender.Renderer.render
+
+    def checked(self, *args, **kwargs):
+        result = render(self, *args, **kwargs)
+        assert result.discarded_samples == 0, f"{result.discarded_samples} non-finite samples were discarded"
+        return result
+
+    monkeypatch.setattr(clrender.Renderer, "render", checked)
+
+
 def no_features(**overrides):
     """Every feature absent, except the overrides."""
     features = {name: values[0] for name, values in FEATURE_VALUES.items()}

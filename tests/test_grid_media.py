@@ -558,6 +558,8 @@ HARD_MEDIA = {
     "transparent_channels": ({"procedural": "noise_cloud", "resolution": [12, 12, 12]},
                              {"sigma_a": [0, 0, 5], "sigma_s": [0, 2, 0]}, {}),
     "peaked_phase": ({"procedural": "noise_cloud", "resolution": [12, 12, 12]}, {"sigma_t": 4.0, "albedo": 0.9, "g": 0.999}, {}),
+    "g_rounds_to_one": ({"procedural": "noise_cloud", "resolution": [12, 12, 12]},
+                        {"sigma_t": 4.0, "albedo": 0.9, "g": -0.99999999}, {}),
 }
 
 
