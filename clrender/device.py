@@ -20,7 +20,6 @@ from .errors import KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
-_programs = {}  # in-memory cache: (context id, key of device, source and options) -> Program
 
 
 def kernel_dir():
@@ -132,11 +131,19 @@ def build_program(context, features, entry="integrator.cl"):
     identity = "\n".join([device.platform.name, device.platform.version, device.name,
                           device.driver_version, options, source])
     key = hashlib.sha256(identity.encode()).hexdigest()
-    program = _programs.get((id(context), key))
-    if program is None:
-        program = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
-        _programs[(id(context), key)] = program
-    return program
+    programs = _memory_cache(context)
+    if key not in programs:
+        programs[key] = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
+    return programs[key]
+
+
+def _memory_cache(context):
+    """The programs built for `context`, kept on the context object itself: a cache keyed by
+    id(context) handed a collected context's program to a new context that got the same id
+    (Intel's runtime then fails with INVALID_CONTEXT)."""
+    if not hasattr(context, "_clrender_programs"):
+        context._clrender_programs = {}
+    return context._clrender_programs
 
 
 def _binary_path(key):

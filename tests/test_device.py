@@ -1,4 +1,5 @@
 """Device choice, the program cache and the error metrics."""
+import gc
 import os
 
 import numpy as np
@@ -25,15 +26,25 @@ def test_device_choice_by_kind_index_and_environment(monkeypatch):
 
 def test_programs_are_cached_in_memory_and_on_disk(device, tmp_path, monkeypatch):
     monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(device_module, "_programs", {})
     context = cl.Context([device])
     first = build_program(context, no_features())
     assert build_program(context, no_features()) is first          # memory
     assert build_program(context, no_features(TOON=1)) is not first  # other defines
     assert any(os.scandir(tmp_path))                                # disk: binaries were stored
-    monkeypatch.setattr(device_module, "_programs", {})
     again = build_program(cl.Context([device]), no_features())      # a new context, from disk
     assert again is not first and again.get_info(cl.program_info.NUM_DEVICES) == 1
+
+
+def test_a_program_always_belongs_to_the_context_it_is_built_for(device):
+    # Contexts created and collected one after another often reuse an id(): the memory cache
+    # must not hand over a collected context's program (on Intel's runtime: INVALID_CONTEXT).
+    for _ in range(20):
+        context = cl.Context([device])
+        program = build_program(context, no_features())
+        assert program.get_info(cl.program_info.CONTEXT).int_ptr == context.int_ptr
+        cl.Kernel(program, "render_pass")
+        del context, program
+        gc.collect()
 
 
 def test_metrics():
