@@ -1,5 +1,10 @@
-"""Shared fixtures: one OpenCL context for the session (the CPU device unless
-$CLRENDER_TEST_DEVICE names another) and helpers for scenes built in code."""
+"""Shared fixtures: one OpenCL context for the session and helpers for scenes built in code.
+
+The device: $CLRENDER_TEST_DEVICE, as clrender.choose_device reads it (an index, 'cpu', 'gpu' or a
+platform or device name: 'pocl', 'intel', 'nvidia'); default 'cpu'. A name matching devices of
+several platforms is an error, so the suite never runs on another implementation than the one
+named. The chosen device is printed in pytest's header.
+"""
 import os
 
 import numpy as np
@@ -16,6 +21,15 @@ TEST_DEVICE = os.environ.get("CLRENDER_TEST_DEVICE", "cpu")
 @pytest.fixture(scope="session")
 def device():
     return clrender.choose_device(TEST_DEVICE)
+
+
+def pytest_report_header(config):
+    try:
+        chosen = clrender.choose_device(TEST_DEVICE)
+    except (RuntimeError, ValueError) as e:
+        return f"clrender test device {TEST_DEVICE!r}: {e}"
+    return (f"clrender test device {TEST_DEVICE!r}: {chosen.name.strip()} [{chosen.platform.name.strip()}, "
+            f"{chosen.driver_version.strip()}]")
 
 
 @pytest.fixture(scope="session")
