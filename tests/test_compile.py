@@ -4,7 +4,8 @@ import pytest
 
 from clrender import KernelBuildError, device as device_module
 from clrender.device import build_program, kernel_dir, kernel_source
-from clrender.features import all_feature_combinations, describe
+from clrender.feature_scenes import feature_scene
+from clrender.features import all_feature_combinations, describe, scene_features
 
 
 @pytest.mark.parametrize("features", list(all_feature_combinations()), ids=describe)
@@ -26,6 +27,13 @@ def test_build_error_carries_the_compiler_log(context, tmp_path, monkeypatch):
         build_program(context, {}, entry="broken.cl")
     assert "undefined_name" in str(error.value)
     assert "broken.cl" in str(error.value)  # #line markers name the file, not the assembled text
+
+
+def test_every_combination_has_a_scene_that_needs_exactly_it():
+    # The scenes the Oclgrind tests and `clrender info --kernel` run (clrender/feature_scenes.py).
+    for features in all_feature_combinations():
+        scene, method = feature_scene(features)
+        assert scene_features(scene, method) == features, describe(features)
 
 
 def test_every_entry_point_is_declared_kernel():
