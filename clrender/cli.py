@@ -175,13 +175,13 @@ def _kernel_table(args):
     width, height = args.resolution
     print(f"device: {device.name.strip()} [{device.platform.name.strip()}, {device.driver_version.strip()}]")
     launch = "" if args.no_launch else f"  1-spp launch at {width}x{height}"
-    print(f"{'features':<62} {'private B':>9} {'multiple':>8} {'max wg':>6}{launch}")
+    print(f"{'features':<66} {'private B':>9} {'multiple':>8} {'max wg':>6}{launch}")
     for features in all_feature_combinations():
         f = kernel_figures(context, features)
         if not args.no_launch:
             f.launch_seconds = combination_launch_seconds(device, features, (width, height))
         seconds = "" if f.launch_seconds is None else f"  {f.launch_seconds:10.4f} s"
-        print(f"{describe(features):<62} {f.private_bytes:>9} {f.preferred_multiple:>8} {f.max_work_group:>6}{seconds}",
+        print(f"{describe(features):<66} {f.private_bytes:>9} {f.preferred_multiple:>8} {f.max_work_group:>6}{seconds}",
               flush=True)
     return 0
 

@@ -35,23 +35,23 @@
 #include "aux_buffers.h"
 
 KERNEL void render_pass(__constant RenderParams* params,
-                          __global const WideBvhNode* nodes,
-                          __global const Triangle* triangles,
-                          __global const TriangleShading* shading,
-                          __global const TriangleInfo* info,
-                          __global const Material* materials,
-                          __global const Medium* media,
-                          __global const Emitter* emitters,
-                          __global const float* emitter_cdf,
-                          __global const float4* env_texels,
-                          __global const float* env_cdf,
-                          __global const float* specular_albedo,
-                          __global const float* grid_data,
-                          __global const float* majorant_data,
-                          __global float4* accumulator,
-                          __global int* discarded_samples,
-                          __global float4* aux_geometry,
-                          __global int* aux_object) {
+                        __global const WideBvhNode* nodes,
+                        __global const Triangle* triangles,
+                        __global const TriangleShading* shading,
+                        __global const TriangleInfo* info,
+                        __global const Material* materials,
+                        __global const Medium* media,
+                        __global const Emitter* emitters,
+                        __global const float* emitter_cdf,
+                        __global const float4* env_texels,
+                        __global const float* env_cdf,
+                        __global const float* specular_albedo,
+                        __global const float* grid_data,
+                        __global const float* majorant_data,
+                        __global float4* accumulator,
+                        __global int* discarded_samples,
+                        __global float4* aux_geometry,
+                        __global int* aux_object) {
     int x = get_global_id(0), y = get_global_id(1);
     int width = params->frame.x, height = params->frame.y;
     if (x >= width || y >= height) return;

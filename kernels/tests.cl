@@ -36,10 +36,10 @@
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
 KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
-                            __global TriangleShading* sh, __global TriangleInfo* info,
-                            __global Material* m, __global Emitter* e, __global Medium* md,
-                            __global Camera* c,
-                            __global RenderParams* p, __global int* out) {
+                          __global TriangleShading* sh, __global TriangleInfo* info,
+                          __global Material* m, __global Emitter* e, __global Medium* md,
+                          __global Camera* c,
+                          __global RenderParams* p, __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
     out[k++] = OFFSET(node, lo_x); out[k++] = OFFSET(node, hi_x); out[k++] = OFFSET(node, lo_y);
@@ -73,8 +73,8 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
 
 // ----- BVH: closest hit per ray ------------------------------------------------------------
 KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const Triangle* triangles,
-                         __global const float4* origins, __global const float4* directions,
-                         __global float* hit_t, __global int* hit_triangle, __global int* any_hit) {
+                       __global const float4* origins, __global const float4* directions,
+                       __global float* hit_t, __global int* hit_triangle, __global int* any_hit) {
     int i = get_global_id(0);
     Hit hit;
     hit.t = INFINITY;
@@ -109,8 +109,8 @@ KERNEL void sample_directions(int routine, float g, uint seed, __global float4* 
 
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
 KERNEL void sample_environment(__constant RenderParams* params, __global const float4* texels,
-                                 __global const float* env_cdf, uint seed,
-                                 __global float4* out, __global float4* radiance) {
+                               __global const float* env_cdf, uint seed,
+                               __global float4* out, __global float4* radiance) {
     int i = get_global_id(0);
     Scene scene;
     scene.params = params;
@@ -141,8 +141,8 @@ SurfacePoint test_surface_point(int front_face, float3 ns) {
 // One sample of sample_bsdf per work-item, for wo[i]: (wi, pdf_w) and (weight, eta * (delta ? -1 : 1)).
 // albedo: the material's energy-compensation tables (or one unused float).
 KERNEL void sample_bsdf_values(__global const Material* material, __global const float* albedo,
-                                 int front_face, float4 ns, __global const float4* wo, uint seed,
-                                 __global float4* out_wi, __global float4* out_weight) {
+                               int front_face, float4 ns, __global const float4* wo, uint seed,
+                               __global float4* out_wi, __global float4* out_weight) {
     int i = get_global_id(0);
     Material m = *material;
     Scene scene;
@@ -156,8 +156,8 @@ KERNEL void sample_bsdf_values(__global const Material* material, __global const
 
 // eval_bsdf (f * |cos|) and sample_bsdf_pdf for pairs (wo[i], wi[i]).
 KERNEL void eval_bsdf_values(__global const Material* material, __global const float* albedo,
-                               int front_face, float4 ns, __global const float4* wo,
-                               __global const float4* wi, __global float4* out) {
+                             int front_face, float4 ns, __global const float4* wo,
+                             __global const float4* wi, __global float4* out) {
     int i = get_global_id(0);
     Material m = *material;
     Scene scene;
@@ -182,7 +182,7 @@ KERNEL void fresnel_refract_values(__global const float2* cos_eta, __global floa
 
 // GGX around +z: D(h), G1(cos_o), and the visible-normal density of h seen from wo.
 KERNEL void microfacet_values(float alpha, __global const float4* wo, __global const float4* h,
-                                __global float4* out) {
+                              __global float4* out) {
     int i = get_global_id(0);
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
     out[i] = (float4)(ggx_d(n, h[i].xyz, alpha), ggx_g1(wo[i].z, alpha),
@@ -191,7 +191,7 @@ KERNEL void microfacet_values(float alpha, __global const float4* wo, __global c
 
 // Visible normals sampled for wo[i].
 KERNEL void sample_vndf_values(float alpha, __global const float4* wo, uint seed,
-                                 __global float4* out) {
+                               __global float4* out) {
     int i = get_global_id(0);
     Rng rng = rng_for_sample((uint)i, 2u, seed);
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
@@ -204,10 +204,10 @@ KERNEL void sample_vndf_values(float alpha, __global const float4* wo, uint seed
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
 // sign picks the side), and report both hits: (first triangle, second triangle, second t).
 KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
-                              __global const TriangleShading* shading,
-                              __global const TriangleInfo* info, __global const float4* origins,
-                              __global const float4* directions, __global const float4* leave,
-                              __global float4* out) {
+                            __global const TriangleShading* shading,
+                            __global const TriangleInfo* info, __global const float4* origins,
+                            __global const float4* directions, __global const float4* leave,
+                            __global float4* out) {
     int i = get_global_id(0);
     Scene scene;
     scene.nodes = nodes;
@@ -240,8 +240,8 @@ Scene media_scene(__constant RenderParams* params, __global const Medium* media,
 
 // Density of medium points[i].w at world point points[i].xyz.
 KERNEL void grid_lookup(__constant RenderParams* params, __global const Medium* media,
-                          __global const float* grid_data, __global const float* majorant_data,
-                          __global const float4* points, __global float* out) {
+                        __global const float* grid_data, __global const float* majorant_data,
+                        __global const float4* points, __global float* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     out[i] = medium_density(&scene, media + (int)points[i].w, points[i].xyz);
@@ -250,10 +250,10 @@ KERNEL void grid_lookup(__constant RenderParams* params, __global const Medium* 
 // The majorant segments of ray i (at most max_segments: (t0, t1, d_max, d_min)), their count,
 // and over `samples` jittered points per segment: max(density - d_max), min(density - d_min).
 KERNEL void majorant_walk(__constant RenderParams* params, __global const Medium* media,
-                            __global const float* grid_data, __global const float* majorant_data,
-                            int medium, __global const float4* origins, __global const float4* dirs,
-                            float t_max, int max_segments, int samples, uint seed,
-                            __global float4* segments, __global int* counts, __global float2* bounds) {
+                          __global const float* grid_data, __global const float* majorant_data,
+                          int medium, __global const float4* origins, __global const float4* dirs,
+                          float t_max, int max_segments, int samples, uint seed,
+                          __global float4* segments, __global int* counts, __global float2* bounds) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     __global const Medium* m = media + medium;
@@ -279,9 +279,9 @@ KERNEL void majorant_walk(__constant RenderParams* params, __global const Medium
 // medium: ratio tracking (null scattering: xyz the estimate, w the tentative collisions) or
 // marching (w 0). `spectral_mis` as RenderParams.media.y (null scattering only).
 KERNEL void transmittance_estimates(__constant RenderParams* params, __global const Medium* media,
-                                      __global const float* grid_data, __global const float* majorant_data,
-                                      int medium, float4 origin, float4 dir, float t_max, uint seed,
-                                      int spectral_mis, __global float4* out) {
+                                    __global const float* grid_data, __global const float* majorant_data,
+                                    int medium, float4 origin, float4 dir, float t_max, uint seed,
+                                    int spectral_mis, __global float4* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     Rng rng = rng_for_sample((uint)i, 0u, seed);
@@ -301,9 +301,9 @@ KERNEL void transmittance_estimates(__constant RenderParams* params, __global co
 // Delta tracking over one medium segment: the chain weight when the ray passes (its expectation
 // is the transmittance per channel), 0 when it scatters or is absorbed; w the collisions.
 KERNEL void delta_pass_estimates(__constant RenderParams* params, __global const Medium* media,
-                                   __global const float* grid_data, __global const float* majorant_data,
-                                   int medium, float4 origin, float4 dir, float t_max, uint seed,
-                                   int spectral_mis, __global float4* out) {
+                                 __global const float* grid_data, __global const float* majorant_data,
+                                 int medium, float4 origin, float4 dir, float t_max, uint seed,
+                                 int spectral_mis, __global float4* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     Rng rng = rng_for_sample((uint)i, 0u, seed);

@@ -65,7 +65,7 @@ float specular_albedo(bool dielectric, float eta, float alpha, float cos_o) {
 // Fills the tables of one material: global size (2, ALBEDO_TABLE_SIZE); side 0 has wo outside
 // (eta = ior / exterior_ior), side 1 inside. A conductor has only side 0.
 KERNEL void specular_albedo_table(__global const Material* materials, int material,
-                                    __global float* tables) {
+                                  __global float* tables) {
     int side = get_global_id(0), k = get_global_id(1);
     Material m = materials[material];
     bool dielectric = m.kind.x == MATERIAL_DIELECTRIC;
