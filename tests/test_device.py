@@ -1,5 +1,4 @@
 """Device choice, the program cache and the error metrics."""
-import gc
 import os
 from types import SimpleNamespace
 
@@ -67,16 +66,15 @@ def test_programs_are_cached_in_memory_and_on_disk(device, tmp_path, monkeypatch
     assert again is not first and again.get_info(cl.program_info.NUM_DEVICES) == 1
 
 
-def test_a_program_always_belongs_to_the_context_it_is_built_for(device):
-    # Contexts created and collected one after another often reuse an id(): the memory cache
-    # must not hand over a collected context's program (on Intel's runtime: INVALID_CONTEXT).
-    for _ in range(20):
-        context = cl.Context([device])
+def test_a_program_always_belongs_to_the_context_it_is_built_for(device, monkeypatch):
+    # A collected context's id() is reused by later objects (pyopencl's Program lets go of its
+    # context after a source build): a memory cache keyed by id(context) once handed a dead
+    # context's program to a new context (Intel's runtime: INVALID_CONTEXT). Here every id()
+    # in the device module coincides, which keying by id could not survive.
+    monkeypatch.setattr(device_module, "id", lambda obj: 0, raising=False)
+    for context in [cl.Context([device]), cl.Context([device])]:
         program = build_program(context, no_features())
         assert program.get_info(cl.program_info.CONTEXT).int_ptr == context.int_ptr
-        cl.Kernel(program, "render_pass")
-        del context, program
-        gc.collect()
 
 
 def test_metrics():
