@@ -3,7 +3,8 @@
 The device: $CLRENDER_TEST_DEVICE, as clrender.choose_device reads it (an index, 'cpu', 'gpu' or a
 platform or device name: 'pocl', 'intel', 'nvidia'); default 'cpu'. A name matching devices of
 several platforms is an error, so the suite never runs on another implementation than the one
-named. The chosen device is printed in pytest's header.
+named; command-line tests get it through $CLRENDER_DEVICE. The device is printed in pytest's
+header.
 """
 import os
 
@@ -16,6 +17,8 @@ from clrender.device import build_program
 from clrender.features import FEATURE_VALUES
 
 TEST_DEVICE = os.environ.get("CLRENDER_TEST_DEVICE", "cpu")
+# The command line run by the tests (subprocesses) renders on the same device.
+os.environ.setdefault("CLRENDER_DEVICE", TEST_DEVICE)
 
 
 @pytest.fixture(scope="session")
