@@ -180,11 +180,15 @@ def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
         kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
+        if m.index_matched:
+            kind = "interface"
         record = out[i]
         _set(record, "kind", layout.MATERIAL_KINDS[kind])
         _set(record, "one_sided", int(not m.two_sided))
         _set(record, "emission", m.emission)
-        if kind in ("dielectric", "conductor"):
+        if kind == "interface":   # the transmittance of the boundary
+            _set(record, "color", m.tint if m.index_matched else 1.0)
+        elif kind in ("dielectric", "conductor"):
             _set(record, "color", m.tint)
             _set(record, "ior", m.ior)
             _set(record, "exterior_ior", m.exterior_ior)
@@ -210,8 +214,6 @@ def needs_albedo_table(material):
     kind = int(_get(material, "kind"))
     if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
         return False
-    if kind == layout.MATERIAL_KINDS["dielectric"] and _get(material, "ior") == _get(material, "exterior_ior"):
-        return False  # index-matched: the interface is skipped, rough or not
     roughness = _get(material, "roughness")
     return bool(roughness * roughness >= np.float32(1e-3))
 

@@ -38,7 +38,7 @@ def _parser():
                         help="render for this long (kernel time); with --spp, whichever comes first")
     render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
     render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
-    render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
+    render.add_argument("--device", help="device index, 'cpu', 'gpu', or a part of a platform or device name, e.g. 'pocl', 'intel' (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
     render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.add_argument("--volume-method", choices=("null", "raymarch"),
@@ -73,7 +73,15 @@ def _parser():
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
-    info.add_argument("scene", type=Path)
+    info.add_argument("scene", type=Path, nargs="?", help="a scene (optional with --kernel)")
+    info.add_argument("--kernel", action="store_true",
+                      help="the render kernel's private memory per work-item, preferred work-group multiple "
+                           "and one-sample launch time on the device: for the scene, or without a scene for "
+                           "every feature combination (docs/portability.md)")
+    info.add_argument("--device", help="device for --kernel (as for render)")
+    info.add_argument("--resolution", type=_positive_int, nargs=2, metavar=("W", "H"), default=(256, 256),
+                      help="--kernel without a scene: image size of the combinations' scenes (default 256 256)")
+    info.add_argument("--no-launch", action="store_true", help="--kernel: leave out the launch timing")
     _add_parameter_option(info)
     info.set_defaults(run=_info)
 
@@ -303,6 +311,10 @@ def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
 
+    if args.scene is None:
+        if not args.kernel:
+            raise ValueError("info needs a scene (or --kernel for every feature combination)")
+        return _kernel_table(args)
     scene, notes = _load_scene(args.scene, args.parameters)
     arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
@@ -329,6 +341,41 @@ def _info(args):
     o = scene.outlines
     print("outlines:   " + (f"width {o.width:g} px, depth threshold {o.depth_threshold:g}, "
                             f"crease angle {o.crease_angle:g} deg" if o.enabled else "off"))
+    if args.kernel:
+        from .kernel_info import scene_figures
+        from .render import Renderer
+
+        renderer = Renderer(scene, args.device)
+        figures = scene_figures(renderer, launch=not args.no_launch)
+        print(f"device:     {renderer.device.name.strip()} [{renderer.device.platform.name.strip()}]")
+        print(f"kernel:     {figures.private_bytes} bytes private memory per work-item, work-group "
+              f"multiple {figures.preferred_multiple}, at most {figures.max_work_group}")
+        if figures.launch_seconds is not None:
+            print(f"launch:     {figures.launch_seconds:.3f} s for one sample per pixel "
+                  f"(the renderer's shortest launch; longer ones aim at 0.25 s)")
+    return 0
+
+
+def _kernel_table(args):
+    import pyopencl as cl
+
+    from .device import choose_device
+    from .features import all_feature_combinations, describe
+    from .kernel_info import combination_launch_seconds, kernel_figures
+
+    device = choose_device(args.device)
+    context = cl.Context([device])
+    width, height = args.resolution
+    print(f"device: {device.name.strip()} [{device.platform.name.strip()}, {device.driver_version.strip()}]")
+    launch = "" if args.no_launch else f"  1-spp launch at {width}x{height}"
+    print(f"{'features':<66} {'private B':>9} {'multiple':>8} {'max wg':>6}{launch}")
+    for features in all_feature_combinations():
+        f = kernel_figures(context, features)
+        if not args.no_launch:
+            f.launch_seconds = combination_launch_seconds(device, features, (width, height))
+        seconds = "" if f.launch_seconds is None else f"  {f.launch_seconds:10.4f} s"
+        print(f"{describe(features):<66} {f.private_bytes:>9} {f.preferred_multiple:>8} {f.max_work_group:>6}{seconds}",
+              flush=True)
     return 0
 
 
@@ -357,7 +404,7 @@ def _devices(args):
         mark = "*" if device.int_ptr == default.int_ptr else " "
         print(f"{mark} {index}: {device.name.strip()} [{platform.name.strip()}, "
               f"{device.version.strip()}, {device.max_compute_units} compute units]")
-    print("(* = default; choose with --device INDEX|cpu|gpu|NAME or CLRENDER_DEVICE)")
+    print("(* = default; choose with --device INDEX|cpu|gpu|NAME (platform or device) or CLRENDER_DEVICE)")
     return 0
 
 

@@ -2,8 +2,9 @@
 // with the power heuristic; Russian roulette on the throughput after the roulette depth.
 // Depth counts scattering vertices after the camera: depth 1 sees emitters directly, so max
 // depth 1 renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
-// Index-matched boundaries (MATERIAL_INTERFACE) only switch the current medium; they are not
-// path vertices. Media are reached only through media/medium.h and media/transport.h.
+// Index-matched boundaries (MATERIAL_INTERFACE: interfaces and index-matched dielectrics) only
+// switch the current medium and transmit their colour (the dielectric's tint, else 1); they are
+// not path vertices. Media are reached only through media/medium.h and media/transport.h.
 //
 // MIS weights use the pdf of the technique that did not produce the sample, measured the same
 // way: prev_pdf_w is the directional pdf of the last vertex times the transmittance pdf ratio
@@ -136,6 +137,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         Material m = scene->materials[sp.material];
 #if MEDIA
         if (material_is_interface(&m)) {
+            throughput *= material_boundary_transmittance(&m);
             medium = medium_beyond(&sp);
             ray.origin = spawn_ray_origin(&sp, ray.direction);
             if (++null_crossings > MAX_NULL_CROSSINGS) break;

@@ -26,10 +26,9 @@ float3 material_toon_rim_color(const Material* m) { return m->toon_rim.xyz; }
 float material_toon_rim_threshold(const Material* m) { return m->toon_rim.w; }
 float3 material_toon_ambient(const Material* m) { return m->toon_ambient.xyz; }
 
-// A dielectric with the same index on both sides: a smooth pass-through (eta exactly 1).
-bool material_is_index_matched(const Material* m) { return material_ior(m) == material_exterior_ior(m); }
-
-// An index-matched boundary: only separates media, not a path vertex.
+// An index-matched boundary (an interface, or a dielectric with the same index on both sides):
+// only separates media and transmits its colour, not a path vertex.
 bool material_is_interface(const Material* m) { return material_kind(m) == MATERIAL_INTERFACE; }
+float3 material_boundary_transmittance(const Material* m) { return material_color(m); }
 
 #endif

@@ -114,7 +114,7 @@ bool majorant_next(const Scene* scene, __global const Medium* m, MajorantIterato
 // Density at distance t along the iterator's ray.
 float majorant_ray_density(const Scene* scene, __global const Medium* m, const MajorantIterator* it,
                            float t) {
-    return grid_density(scene, m, it->voxel_origin + t * it->voxel_dir);
+    return medium_is_grid(m) ? grid_density(scene, m, it->voxel_origin + t * it->voxel_dir) : 1.0f;
 }
 
 #endif

@@ -17,7 +17,8 @@
 
 #if MEDIA
 // Transmittance from origin towards a light dist away (INFINITY for distant lights) through
-// index-matched boundaries and the media between them; 0 when anything else blocks it.
+// index-matched boundaries (times their colour) and the media between them; 0 when anything
+// else blocks it.
 // *pdf_ratio: the product of the segments' transmittance pdf ratios, unidirectional over light
 // technique (media/medium.h), by which MIS multiplies the other technique's directional pdf.
 float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float dist, int medium,
@@ -40,6 +41,7 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
         SurfacePoint sp = surface_point(scene, &hit, dir);
         Material m = scene->materials[sp.material];
         if (!material_is_interface(&m)) return (float3)(0.0f);
+        tr *= material_boundary_transmittance(&m);
         medium = medium_beyond(&sp);
         origin = spawn_ray_origin(&sp, dir);
     }
