@@ -30,6 +30,7 @@ from clrender.energy import fill_albedo_tables
 from clrender.feature_scenes import feature_scene
 from clrender.features import FEATURE_VALUES
 from clrender.render import render_params
+from test_layout import ORDER as STRUCT_ORDER
 
 MARK = "@@oclgrind-case"
 RESOLUTION = (8, 8)
@@ -98,9 +99,7 @@ def run_test_kernels(case, device):
     kernel = lambda name: cl.Kernel(program, name)
     rng = np.random.default_rng(1)
     n = 4
-    names = ["WideBvhNode", "Triangle", "TriangleShading", "TriangleInfo", "Material", "Emitter",
-             "Medium", "Camera", "RenderParams"]
-    structs = [cl.Buffer(context, mf.READ_WRITE, layout.STRUCTS[name].itemsize) for name in names]
+    structs = [cl.Buffer(context, mf.READ_WRITE, layout.STRUCTS[name].itemsize) for name in STRUCT_ORDER]
     kernel("struct_layout")(queue, (1,), None, *structs, *outputs(context, 256))
 
     v0 = rng.uniform(-1, 1, (6, 3))

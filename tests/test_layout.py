@@ -8,8 +8,9 @@ from clrender import layout
 from clrender.device import kernel_dir, kernel_source
 from conftest import build_test_kernels
 
-ORDER = ["WideBvhNode", "Triangle", "TriangleShading", "TriangleInfo", "Material", "Emitter",
-         "Medium", "Camera", "RenderParams", "AovSums"]
+ORDER = [  # the argument order of struct_layout in kernels/tests.cl
+    "WideBvhNode", "Triangle", "TriangleShading", "TriangleInfo", "Material", "Emitter",
+    "Medium", "Camera", "RenderParams", "AovSums"]
 
 
 def expected_layout():
