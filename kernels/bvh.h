@@ -1,6 +1,7 @@
 // Closest-hit and any-hit traversal of the two-child BVH (layout in types.h).
 #ifndef CLRENDER_BVH_H
 #define CLRENDER_BVH_H
+#include "types.h"
 
 // Each wide level pushes at most 3 siblings and the binary tree is at most 63 deep (bvh.py), so
 // 3 * 62 + 1 entries always suffice (on GPUs the array lives in local memory either way).

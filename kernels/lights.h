@@ -2,6 +2,11 @@
 // lights. One emitter is picked per shading point with probability proportional to its power.
 #ifndef CLRENDER_LIGHTS_H
 #define CLRENDER_LIGHTS_H
+#include "types.h"
+#include "math.h"
+#include "rng.h"
+#include "sampling.h"
+#include "scene.h"
 
 typedef struct {
     float3 wi;        // unit direction towards the light
