@@ -1,24 +1,57 @@
 """Command line: render, info, devices.
 
-Exit codes: 0 success, 1 bad input or failed build, 130 interrupted (the partial image is saved).
+Exit codes (docs/errors.md): 0 success, 2 bad arguments, 3 bad scene, 4 device problem, 5 file
+I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a render in progress
+saves its partial image first), 1 only for a bug in clrender (with its traceback).
+Imports are deferred so that a signal during start-up is handled like any other.
 """
 import argparse
+import contextlib
+import signal
 import sys
+import warnings
 from pathlib import Path
 
-import numpy as np
-
-from .errors import KernelBuildError, SceneError
+from .errors import ArgumentError, ClrenderError, Interrupted
 
 
 def main(argv=None):
-    parser = _parser()
-    args = parser.parse_args(argv)
     try:
-        return args.run(args)
-    except (SceneError, KernelBuildError, ValueError, RuntimeError, OSError) as e:
+        with _plain_warnings(), _interrupt_on_termination():
+            args = _parser().parse_args(argv)
+            return args.run(args)
+    except ClrenderError as e:
         print(f"clrender: error: {e}", file=sys.stderr)
-        return 1
+        return e.exit_code
+    except KeyboardInterrupt as e:
+        print("clrender: interrupted", file=sys.stderr)
+        return 128 + getattr(e, "signal", signal.SIGINT)
+
+
+@contextlib.contextmanager
+def _interrupt_on_termination():
+    """SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render as Ctrl-C
+    does (the launch in flight finishes, the partial image is saved) instead of killing it."""
+    def interrupt(signum, frame):
+        raise Interrupted(signum)
+
+    previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def _plain_warnings():
+    """Warnings (e.g. a rebuilt kernel cache entry) as one `clrender: warning:` line."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"clrender: warning: {message}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 def _parser():
@@ -29,18 +62,19 @@ def _parser():
     render.add_argument("scene", type=Path)
     render.add_argument("-o", "--output", type=Path, required=True,
                         help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB)")
-    render.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
-    render.add_argument("--time", type=float, metavar="SECONDS",
+    render.add_argument("--spp", type=_setting("spp"), help="samples per pixel (default: the scene's)")
+    render.add_argument("--time", type=_setting("time_limit"), metavar="SECONDS",
                         help="render for this long (kernel time); with --spp, whichever comes first")
-    render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
-    render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
+    render.add_argument("--seed", type=_setting("seed"), help="random seed (default: the scene's)")
+    render.add_argument("--max-depth", type=_setting("max_depth"), help="longest path (default: the scene's)")
     render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
-    render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
+    render.add_argument("--exposure", type=_setting("exposure"), default=0.0,
+                        help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.add_argument("--volume-method", choices=("null", "raymarch"),
                         help="grid media: null-scattering path integral (unbiased) or ray marching "
                              "(biased preview) (default: the scene's, else null)")
-    render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
+    render.add_argument("--step", type=_setting("step"), help="ray-marching step in scene units (default: the scene's)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
     render.set_defaults(run=_render)
@@ -54,32 +88,33 @@ def _parser():
     return parser
 
 
-def _number_at_least(convert, low, strict=False):
-    """An argparse type: `convert(text)`, finite and >= low (> low if strict)."""
+def _setting(name):
+    """An argparse type for a render setting, bounded as in the scene and the API (limits.py)."""
+    from . import limits
+
+    integer = limits.SETTINGS[name][0]
+
     def parse(text):
-        value = convert(text)
-        if not (value > low if strict else value >= low) or value == float("inf"):
-            bound = "a positive number" if strict and low == 0 else f">= {low}"
-            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
-        return value
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {'an integer' if integer else 'a number'}, "
+                                             f"got {limits.show(text)}") from None
+        try:
+            return limits.setting(name, value)
+        except ArgumentError as e:
+            raise argparse.ArgumentTypeError(e.message) from None
     return parse
-
-
-_positive_int = _number_at_least(int, 1)
-_non_negative_int = _number_at_least(int, 0)
-_positive_float = _number_at_least(float, 0.0, strict=True)
 
 
 def _render(args):
     from tqdm import tqdm
 
-    from .image import LDR_SUFFIXES, save_image
+    from .image import check_output_path, save_image
     from .render import Renderer, RenderInterrupted
     from .scene import load_scene
 
-    suffix = args.output.suffix.lower()
-    if suffix != ".exr" and suffix not in LDR_SUFFIXES:
-        raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
+    check_output_path(args.output, "--output")
     scene = load_scene(args.scene)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
@@ -97,7 +132,7 @@ def _render(args):
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result
-        status = 130
+        status = 128 + interrupted.signal
     bar.close()
     save_image(result.image, args.output, exposure=args.exposure)
     print(f"{args.output}: {result.samples} spp in {result.seconds:.2f} s, "
@@ -148,7 +183,7 @@ def _describe_medium(medium):
     nx, ny, nz = grid.resolution
     lo, hi = grid.world_bounds()
     return (f"grid {nx}x{ny}x{nz} ({grid.source}), density max {float(grid.density.max()):.4g}, "
-            f"{np.count_nonzero(high == 0)}/{high.size} empty majorant blocks of {grid.block}^3, "
+            f"{int((high == 0).sum())}/{high.size} empty majorant blocks of {grid.block}^3, "
             f"box {_fmt(lo)}-{_fmt(hi)}, {coefficients} per unit density")
 
 

@@ -4,23 +4,26 @@ The kernel source is assembled on the host: #include "x.h" lines are expanded (e
 with #line markers so compiler messages name the right file, and the layout enumerations are
 prepended. The assembled text is therefore the complete input: its hash, with the device, driver and
 options, keys an in-memory cache and a disk cache of program binaries ($CLRENDER_CACHE_DIR,
-default ~/.cache/clrender).
+default ~/.cache/clrender). A disk entry carries the driver's identity and a checksum of the
+binary, verified before the binary reaches the driver (a truncated binary crashes PoCL).
 """
+import contextlib
 import hashlib
 import os
 import re
 import tempfile
+import warnings
 from importlib import resources
 from pathlib import Path
 
 import pyopencl as cl
 
 from . import layout
-from .errors import KernelBuildError
+from .errors import ArgumentError, DeviceError, KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
-_programs = {}  # in-memory cache: (context id, key of device, source and options) -> Program
+_programs = {}  # in-memory cache: (context id, key of device, source and options) -> (context, Program)
 
 
 def kernel_dir():
@@ -30,9 +33,13 @@ def kernel_dir():
 
 
 def list_devices():
-    """All OpenCL devices as (index, platform, device), in a stable order."""
+    """All OpenCL devices as (index, platform, device), in a stable order; none without a driver."""
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:   # the ICD loader found no platform at all (PLATFORM_NOT_FOUND_KHR)
+        return []
     found = []
-    for platform in cl.get_platforms():
+    for platform in platforms:
         for device in platform.get_devices():
             found.append((len(found), platform, device))
     return found
@@ -46,7 +53,7 @@ def choose_device(spec=None):
     spec = spec if spec is not None else os.environ.get("CLRENDER_DEVICE")
     devices = list_devices()
     if not devices:
-        raise RuntimeError("no OpenCL device found: install an OpenCL driver (e.g. pocl-opencl-icd)")
+        raise DeviceError("no OpenCL device found: install an OpenCL driver (e.g. pocl-opencl-icd)")
     if spec is None or str(spec).strip() == "":
         gpus = [d for _, _, d in devices if d.type & cl.device_type.GPU]
         return gpus[0] if gpus else devices[0][2]
@@ -54,7 +61,8 @@ def choose_device(spec=None):
     if spec.isdigit():
         index = int(spec)
         if index >= len(devices):
-            raise ValueError(f"device index {index} out of range: {len(devices)} device(s); see `clrender devices`")
+            raise ArgumentError("device", f"index {index} out of range: {len(devices)} device(s); "
+                                          "see `clrender devices`")
         return devices[index][2]
     kinds = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU, "accelerator": cl.device_type.ACCELERATOR}
     if spec.lower() in kinds:
@@ -62,7 +70,7 @@ def choose_device(spec=None):
     else:
         matches = [d for _, _, d in devices if spec.lower() in d.name.lower()]
     if not matches:
-        raise ValueError(f"no OpenCL device matches {spec!r}; see `clrender devices`")
+        raise ArgumentError("device", f"no OpenCL device matches {spec!r}; see `clrender devices`")
     return matches[0]
 
 
@@ -103,30 +111,69 @@ def build_program(context, features, entry="integrator.cl"):
     """Build the program for `features`, or fetch it from the memory or disk cache."""
     source = kernel_source(entry)
     options = f"{BUILD_OPTIONS} {define_options(features)}"
-    device = context.devices[0]
-    identity = "\n".join([device.platform.name, device.platform.version, device.name,
-                          device.driver_version, options, source])
+    identity = "\n".join([_device_identity(context.devices[0]), options, source])
     key = hashlib.sha256(identity.encode()).hexdigest()
-    program = _programs.get((id(context), key))
-    if program is None:
+    cached_context, program = _programs.get((id(context), key), (None, None))
+    if cached_context is not context:   # (an id can be reused once its context is gone)
         program = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
-        _programs[(id(context), key)] = program
+        _programs[(id(context), key)] = (context, program)
     return program
 
 
+class KernelCacheWarning(UserWarning):
+    """A disk cache entry was damaged or foreign and has been rebuilt."""
+
+
+_CACHE_MAGIC = b"clrender kernel cache 1\n"
+
+
 def _binary_path(key):
-    return Path(cache_dir()) / f"{key}.bin"
+    return Path(cache_dir()) / f"{key}.clbin"
+
+
+def _device_identity(device):
+    return "\n".join([device.platform.name, device.platform.version, device.name, device.driver_version])
+
+
+def _cache_entry(binary, identity):
+    """magic, identity length (8 bytes), identity, SHA-256 of the binary (32 bytes), binary."""
+    identity = identity.encode()
+    return (_CACHE_MAGIC + len(identity).to_bytes(8, "little") + identity
+            + hashlib.sha256(binary).digest() + binary)
+
+
+def _cached_binary(entry, identity):
+    """The binary stored in a cache entry, or the reason it cannot be trusted."""
+    if not entry.startswith(_CACHE_MAGIC):
+        return None, "unknown format"
+    at = len(_CACHE_MAGIC)
+    size = int.from_bytes(entry[at:at + 8], "little")
+    stored = entry[at + 8:at + 8 + size]
+    if stored != identity.encode():
+        return None, "built by another driver"
+    checksum = entry[at + 8 + size:at + 40 + size]
+    binary = entry[at + 40 + size:]
+    if len(checksum) < 32 or not binary or hashlib.sha256(binary).digest() != checksum:
+        return None, "checksum mismatch (truncated or corrupted)"
+    return binary, None
 
 
 def _load_binary(context, key, options):
     path = _binary_path(key)
-    if not path.is_file():
+    try:
+        entry = path.read_bytes()
+    except OSError:
+        return None    # no entry (or unreadable): build from source
+    binary, problem = _cached_binary(entry, _device_identity(context.devices[0]))
+    if binary is None:
+        warnings.warn(f"kernel cache entry {path} is unusable ({problem}); rebuilding it",
+                      KernelCacheWarning, stacklevel=3)
         return None
     try:
-        program = cl.Program(context, context.devices, [path.read_bytes()])
+        program = cl.Program(context, context.devices, [binary])
         return program.build(options=options)
     except cl.Error:
-        return None  # a stale or foreign binary (driver update): rebuild from source
+        return None  # a binary the driver no longer accepts (e.g. after an update): rebuild
 
 
 def _build_from_source(context, source, options, key, entry):
@@ -140,8 +187,21 @@ def _build_from_source(context, source, options, key, entry):
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key}.")
         with os.fdopen(fd, "wb") as f:
-            f.write(binary)
+            f.write(_cache_entry(binary, _device_identity(context.devices[0])))
         os.replace(tmp, path)
     except OSError:
         pass  # an unwritable cache only costs the next process a rebuild
     return program
+
+
+@contextlib.contextmanager
+def device_errors():
+    """Errors of the OpenCL runtime (and host memory) as DeviceError; usable as a decorator."""
+    try:
+        yield
+    except cl.MemoryError as e:
+        raise DeviceError(f"the OpenCL device ran out of memory ({e}); render a smaller image or scene") from None
+    except MemoryError:
+        raise DeviceError("out of host memory; render a smaller image or scene") from None
+    except cl.Error as e:
+        raise DeviceError(f"OpenCL error: {e}") from None

@@ -1,16 +1,20 @@
 """Progressive rendering: short kernel launches that each add a few samples per pixel."""
+import os
+import signal
 import time
 from dataclasses import dataclass
 
 import numpy as np
 import pyopencl as cl
 
-from . import layout
+from . import layout, limits
 from .outlines import apply_outlines, aux_dict
 from .arrays import build_scene_arrays
-from .device import build_program, choose_device
+from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
+from .errors import ArgumentError, SceneError
 from .features import scene_features
+from .scene import Scene, load_scene, load_scene_dict
 
 
 @dataclass
@@ -31,7 +35,7 @@ class RenderResult:
         return self.samples * w * h / self.seconds if self.seconds > 0 else 0.0
 
 
-MAX_SPP = 2 ** 31 - 1   # sample indices are int32 in the kernel
+MAX_SPP = limits.MAX_SPP   # per-pixel sample counts are float32 in the accumulator
 
 
 def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True,
@@ -47,7 +51,8 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["camera"]["right"][0, :3] = right
     p["camera"]["up"][0, :3] = up
     p["frame"] = (width, height, first_sample, samples)
-    p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
+    # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
+    p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))
     p["environment"] = (arrays.env_index, *arrays.env_size, 0)
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
@@ -61,30 +66,51 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
 
 
 class RenderInterrupted(KeyboardInterrupt):
-    """Ctrl-C during a render; `result` holds the image of the samples completed so far."""
+    """Ctrl-C (or SIGTERM/SIGHUP, see errors.Interrupted) during a render; `result` holds the
+    image of the samples completed so far, `signal` the signal number."""
 
-    def __init__(self, result):
+    def __init__(self, result, signal=signal.SIGINT):
         super().__init__("render interrupted")
         self.result = result
+        self.signal = signal
+
+
+def as_scene(scene):
+    """A Scene from a Scene, a dict with the JSON structure, or the path of a scene file."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, dict):
+        return load_scene_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    raise ArgumentError("scene", f"must be a Scene, a scene dict or a file path, got {type(scene).__name__}")
 
 
 class Renderer:
     """A scene uploaded to one device with its specialised kernel, ready to render many times."""
 
+    @device_errors()
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
                  volume_method=None, step=None, raymarch_multiple_scattering=None):
-        """`volume_method` ("null" or "raymarch"), `step` (> 0, scene units) and
-        `raymarch_multiple_scattering` override the scene's render settings for grid media."""
-        if step is not None and not (np.isfinite(step) and step > 0):
-            raise ValueError(f"step must be a positive number, got {step!r}")
-        self.scene = scene
-        self.device = device if isinstance(device, cl.Device) else choose_device(device)
-        self.context = cl.Context([self.device])
+        """`scene`: a Scene, a scene dict or a file path. `device`: an OpenCL device, a context
+        (whose built programs are reused), or a choice for `choose_device`. `volume_method`
+        ("null" or "raymarch"), `step` (> 0, scene units) and `raymarch_multiple_scattering`
+        override the scene's render settings for grid media."""
+        self.scene = scene = as_scene(scene)
+        step = None if step is None else limits.setting("step", step)
+        limits.number(pass_seconds, "pass_seconds", low=0.0, low_open=True)
+        if isinstance(device, cl.Context):
+            self.context, self.device = device, device.devices[0]
+        else:
+            self.device = device if isinstance(device, cl.Device) else choose_device(device)
+            self.context = cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
         self.features = scene_features(scene, volume_method)
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
+        _check_image_fits(scene, self.device)
         self.arrays = build_scene_arrays(scene)
+        _check_arrays_fit(self.arrays, self.ARRAYS, self.device)
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
         self.local_size = local_size
@@ -110,6 +136,7 @@ class Renderer:
         data = array if array.size else np.zeros(1, array.dtype)
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
 
+    @device_errors()
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
                samples_per_pass=None, time_limit=None):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
@@ -117,6 +144,11 @@ class Renderer:
         `samples_per_pass`; the image does not depend on the split. With `time_limit` (seconds of
         kernel time) rendering stops after the launch that reaches it, or at `spp` if given."""
         settings = self.scene.render
+        given = dict(spp=spp, seed=seed, max_depth=max_depth, rr_depth=rr_depth,
+                     samples_per_pass=samples_per_pass, time_limit=time_limit)
+        for name, value in given.items():
+            if value is not None:
+                limits.setting(name, value)
         if spp is None:
             spp = MAX_SPP if time_limit is not None else settings.spp
         seed = settings.seed if seed is None else seed
@@ -152,10 +184,10 @@ class Renderer:
                     per_pass = self._next_pass_size(count, elapsed)
                 if progress is not None:
                     progress(done, spp, seconds)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as interrupt:
             self.queue.finish()
-            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers,
-                                                 seconds)) from None
+            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers, seconds),
+                                    getattr(interrupt, "signal", signal.SIGINT)) from None
         return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds)
 
     def _global_size(self, width, height):
@@ -191,8 +223,39 @@ class Renderer:
                             int(discarded[0]), aux=aux, outline_alpha=alpha)
 
 
+def _check_image_fits(scene, device):
+    """The accumulator and auxiliary buffers of the image fit the device (checked before any
+    allocation: a 16384^2 image needs 5 GiB)."""
+    width, height = scene.camera.resolution
+    largest = width * height * 16
+    total = width * height * (16 + 16 + 4)
+    if largest > device.max_mem_alloc_size or total > device.global_mem_size:
+        raise SceneError("camera.resolution", f"{width} x {height} pixels need {total / 2**20:.0f} MiB of "
+                                              f"buffers; {device.name.strip()} allocates at most "
+                                              f"{device.max_mem_alloc_size / 2**20:.0f} MiB at once and "
+                                              f"{device.global_mem_size / 2**20:.0f} MiB in all")
+
+
+# Where in the scene each device array comes from, for messages about its size.
+_ARRAY_ORIGINS = {"nodes": "shapes", "triangles": "shapes", "shading": "shapes", "info": "shapes",
+                  "materials": "materials", "media": "media", "emitters": "shapes", "emitter_cdf": "shapes",
+                  "env_texels": "lights", "env_cdf": "lights", "specular_albedo": "materials",
+                  "grid_data": "media", "majorant_data": "media"}
+
+
+def _check_arrays_fit(arrays, names, device):
+    sizes = {name: getattr(arrays, name).nbytes for name in names}
+    name = max(sizes, key=sizes.get)
+    if sizes[name] > device.max_mem_alloc_size or sum(sizes.values()) > device.global_mem_size:
+        raise SceneError(_ARRAY_ORIGINS.get(name, ""),
+                         f"the scene needs {sum(sizes.values()) / 2**20:.0f} MiB on the device ({name}: "
+                         f"{sizes[name] / 2**20:.0f} MiB); {device.name.strip()} allocates at most "
+                         f"{device.max_mem_alloc_size / 2**20:.0f} MiB at once")
+
+
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
            step=None):
-    """Render `scene` and return the linear float32 (H, W, 3) image."""
+    """Render `scene` (a Scene, a scene dict or a file path) and return the linear float32
+    (H, W, 3) image."""
     return Renderer(scene, device, volume_method=volume_method, step=step).render(
         spp=spp, seed=seed, max_depth=max_depth, progress=progress).image

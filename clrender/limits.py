@@ -1,0 +1,100 @@
+"""What the device can hold: the one place where numbers from users are checked.
+
+The kernel reads int32 integers, a uint32 seed and float32 reals, so a number that is valid
+JSON, a valid Python int or a finite float64 may still not fit (`render.seed` 2^32, `rr_depth`
+1e12, a radiance of 1e39 that rounds to infinity, a radius of 1e-50 that rounds to 0). The scene
+loader (errors name the JSON path), the command line (the flag) and the API (the parameter) all
+check through `number` and `float32_values`, and the render settings they share are bounded by
+one table, `SETTINGS`. docs/errors.md and docs/scene-format.md list the limits.
+"""
+import math
+import numbers
+import reprlib
+
+import numpy as np
+
+from .errors import ArgumentError
+
+INT32_MAX = 2**31 - 1
+UINT32_MAX = 2**32 - 1
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+MAX_SPP = 2**24            # the accumulator counts samples per pixel in float32: exact up to 2^24
+MAX_DEPTH = 1024           # path vertices
+MAX_RESOLUTION = 16384     # pixels per image side
+MAX_EXPOSURE = 64.0        # stops: 2^64 keeps any float32 radiance's tone mapping finite in float64
+MAX_TRIANGLES = 2**28      # triangle, node and emitter indices are int32 with room for the BVH
+MAX_TRANSFORM_CONDITION = 1e12   # largest / smallest stretch of a transform: beyond, it is singular
+
+# Render settings shared by the scene's `render` object, the CLI flags and the API parameters:
+# name -> (integer?, low, high, low excluded?).
+SETTINGS = {
+    "spp": (True, 1, MAX_SPP, False),
+    "max_depth": (True, 1, MAX_DEPTH, False),
+    "rr_depth": (True, 1, INT32_MAX, False),
+    "seed": (True, 0, UINT32_MAX, False),
+    "samples_per_pass": (True, 1, MAX_SPP, False),
+    "step": (False, 0.0, None, True),
+    "time_limit": (False, 0.0, None, True),
+    "exposure": (False, -MAX_EXPOSURE, MAX_EXPOSURE, False),
+}
+
+
+def number(value, where, error=ArgumentError, low=None, high=None, low_open=False, integer=False):
+    """`value` as an int (integer=True: int32 unless `high` says more, as for the uint32 seed)
+    or a float that stays finite in float32, within [low, high] (low excluded when
+    `low_open`, also after rounding to float32); otherwise raises `error(where, message)`."""
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral if integer else numbers.Real)):
+        raise error(where, f"must be {kind}, got {show(value)}")
+    if integer:
+        value = int(value)
+        low = -INT32_MAX - 1 if low is None else low
+        high = INT32_MAX if high is None else high      # above int32 only where asked (seeds)
+    else:
+        try:
+            value = float(value)
+        except OverflowError:
+            raise error(where, f"is too large, got {show(value)}") from None
+        if not math.isfinite(value):
+            raise error(where, f"must be finite, got {show(value)}")
+        if abs(value) > FLOAT32_MAX:
+            raise error(where, f"is beyond the float32 range (+-{FLOAT32_MAX:.4g}), got {show(value)}")
+    if low is not None and (value <= low if low_open else value < low):
+        raise error(where, f"must be {'>' if low_open else '>='} {low}, got {show(value)}")
+    if high is not None and value > high:
+        raise error(where, f"must be <= {high}, got {show(value)}")
+    if low_open and not integer and low is not None and float(np.float32(value)) <= low:
+        raise error(where, f"rounds to {low} in float32, got {show(value)}")
+    return value
+
+
+def setting(name, value, where=None, error=ArgumentError):
+    """A render setting (`SETTINGS`) from the scene, a flag or a parameter; `where` defaults to
+    the setting's name."""
+    integer, low, high, low_open = SETTINGS[name]
+    return number(value, where or name, error, low=low, high=high, low_open=low_open, integer=integer)
+
+
+def float32_values(values, where, error=ArgumentError):
+    """Raise unless every value of an array stays finite in float32 (a derived quantity such as
+    sigma * scale, or a vertex read from a file)."""
+    values = np.asarray(values, dtype=float)
+    bad = ~np.isfinite(values) | (np.abs(values) > FLOAT32_MAX)
+    if np.any(bad):
+        worst = values[bad].flat[0]
+        raise error(where, f"must be finite in float32 (|x| <= {FLOAT32_MAX:.4g}), got {worst!r}")
+    return values
+
+
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxstring, _SHORT.maxlong, _SHORT.maxother = 3, 40, 40, 40
+
+
+def show(value):
+    """A short rendering of any value for a message: a 400-digit integer, a long string or a
+    list nested 10^5 deep stay readable (and repr cannot recurse or refuse)."""
+    try:
+        return _SHORT.repr(value)
+    except (RecursionError, ValueError):
+        return f"a {type(value).__name__}"
