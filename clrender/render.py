@@ -46,7 +46,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     width, height = camera.resolution
     forward, right, up = camera.basis()
     p = np.zeros(1, layout.RENDER_PARAMS)
-    p["camera"]["origin"][0, :3] = camera.position
+    p["camera"]["origin"][0, :3] = camera.position * arrays.length_scale
     p["camera"]["forward"][0, :3] = forward
     p["camera"]["right"][0, :3] = right
     p["camera"]["up"][0, :3] = up
@@ -59,6 +59,8 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     step = settings.step if step is None else step
     multiple = (settings.raymarch_multiple_scattering if raymarch_multiple_scattering is None
                 else raymarch_multiple_scattering)
+    # A step beyond float32 (a tiny scene keeping the default) is one step through anything.
+    step = min(step * arrays.length_scale, limits.FLOAT32_MAX)
     p["volume"] = (step, float(bool(multiple)), 0, 0)
     p["scene_sphere"] = arrays.scene_sphere
     p["lights"] = (arrays.first_light, 0, 0, 0)
@@ -212,6 +214,7 @@ class Renderer:
         cl.enqueue_copy(self.queue, discarded, discarded_buffer)
         cl.enqueue_copy(self.queue, geometry, aux_buffers[0])
         cl.enqueue_copy(self.queue, object_id, aux_buffers[1])
+        geometry[:, 3] /= self.arrays.length_scale      # depth in scene units
         # The w channel counts the samples each pixel received, so an interrupted render is
         # normalised exactly by what was done.
         counts = accumulator[:, 3:4]
