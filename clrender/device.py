@@ -40,7 +40,11 @@ def list_devices():
         return []
     found = []
     for platform in platforms:
-        for device in platform.get_devices():
+        try:
+            devices = platform.get_devices()
+        except cl.Error:   # a platform without devices (DEVICE_NOT_FOUND)
+            continue
+        for device in devices:
             found.append((len(found), platform, device))
     return found
 

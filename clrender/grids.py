@@ -67,7 +67,8 @@ def check_density(array):
         return f"has {array.size} voxels, more than the limit of {MAX_VOXELS}"
     if not np.issubdtype(array.dtype, np.number) or np.iscomplexobj(array):
         return f"must hold real numbers, got dtype {array.dtype}"
-    values = array.astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):   # beyond float32: caught just below
+        values = array.astype(np.float32)
     if not (np.all(np.isfinite(values)) and np.all(values >= 0)):
         return "must be finite and non-negative"
     return None

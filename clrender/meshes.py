@@ -96,11 +96,15 @@ def load_mesh_file(path: Path, smooth: bool):
     vertex that is not a finite float32 number, or a face naming a vertex that does not exist."""
     import trimesh
 
-    loaded = trimesh.load(str(path), force="mesh", process=False)
+    with np.errstate(all="ignore"):   # a malformed file is reported below, not by numpy warnings
+        loaded = trimesh.load(str(path), force="mesh", process=False)
     vertices = np.asarray(loaded.vertices, dtype=float)
     faces = np.asarray(loaded.faces, dtype=np.int64)
     if len(faces) == 0:
         raise ValueError("the file holds no triangles")
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise ValueError(f"expected 3D vertices and triangles, got vertices of shape {vertices.shape} "
+                         f"and faces of shape {faces.shape}")
     bad = ~np.all(np.isfinite(vertices) & (np.abs(vertices) <= np.finfo(np.float32).max), axis=1)
     if np.any(bad):
         index = int(np.flatnonzero(bad)[0])
