@@ -77,6 +77,9 @@ def device_length_scale(scene):
 
 
 def build_scene_arrays(scene):
+    count = sum(len(shape.mesh.faces) for shape in scene.shapes)
+    if count > limits.MAX_TRIANGLES:   # before the triangles are gathered and the BVH is built
+        raise SceneError("shapes", f"{count} triangles, more than the limit of {limits.MAX_TRIANGLES}")
     scale = device_length_scale(scene)
     v0, v1, v2, normals, info = _gather_triangles(scene, scale)
     keep = _has_float32_area(v0, v1, v2)

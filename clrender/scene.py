@@ -5,13 +5,14 @@ docs/scene-format.md documents each field, its default and valid range.
 """
 import json
 import numbers
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from . import grids, limits, meshes
-from .errors import SceneError
+from .errors import ArgumentError, SceneError
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
@@ -280,10 +281,16 @@ class _Node:
 # --------------------------------------------------------------------------------------------
 def load_scene(path):
     """Load and validate a JSON scene file; relative file paths resolve against its folder."""
-    path = Path(path)
+    path = _path_argument(path, "path")
     scene = load_scene_dict(read_json(path), base_dir=path.parent)
     scene.path = path
     return scene
+
+
+def _path_argument(value, where):
+    if not isinstance(value, (str, os.PathLike)):
+        raise ArgumentError(where, f"must be a file path, got {type(value).__name__}")
+    return Path(value)
 
 
 _BOMS = {b"\xff\xfe\x00\x00": "UTF-32", b"\x00\x00\xfe\xff": "UTF-32", b"\xff\xfe": "UTF-16",
@@ -358,7 +365,7 @@ def _first_duplicate_key(document):
 
 def load_scene_dict(data, base_dir="."):
     """Build a Scene from a dict with the JSON scene structure (see docs/scene-format.md)."""
-    base_dir = Path(base_dir)
+    base_dir = _path_argument(base_dir, "base_dir")
     root = _Node(data, "")
     camera = _read_camera(root.child("camera"))
     render = _read_render(root.child("render", {}))
