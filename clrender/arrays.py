@@ -171,8 +171,12 @@ def _check_no_shape_vanishes(scene, info, keep):
     total = np.bincount(info[:, 1], minlength=len(scene.shapes))
     kept = np.bincount(info[keep, 1], minlength=len(scene.shapes))
     for index in np.flatnonzero((total > 0) & (kept == 0)):
+        sizes = [float(np.ptp(s.mesh.vertices, axis=0).max()) for s in scene.shapes]
+        largest = int(np.argmax(sizes))
         raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {scene.shapes[index].name!r} "
-                                             "are degenerate at the scene's scale (no area in float32)")
+                                             f"are degenerate at the scene's scale (no area in float32; "
+                                             f"the scene spans {scene_extent(scene):.3g} units, "
+                                             f"shapes[{largest}] {scene.shapes[largest].name!r} {sizes[largest]:.3g})")
 
 
 def _gather_triangles(scene, scale=1.0):

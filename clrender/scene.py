@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from . import grids, limits, meshes
-from .errors import ArgumentError, SceneError
+from .errors import ArgumentError, FileError, SceneError
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
@@ -199,12 +199,21 @@ class Scene:
 _MISSING = object()
 
 
+def _json_kind(value):
+    """The JSON name of a value's type, for messages."""
+    for kind, name in ((bool, "true/false"), (type(None), "null"), (dict, "an object"), (list, "a list"),
+                       (str, "a string"), (numbers.Number, "a number")):
+        if isinstance(value, kind):
+            return name
+    return type(value).__name__
+
+
 class _Node:
     """A JSON object with its place in the file, for reading fields with checks."""
 
     def __init__(self, data, where):
         if not isinstance(data, dict):
-            raise SceneError(where, f"must be an object, got {type(data).__name__}")
+            raise SceneError(where, f"must be an object, got {_json_kind(data)}")
         self.data = data
         self.where = where
         self.read = set()
@@ -266,7 +275,7 @@ class _Node:
     def items(self, key):
         value = self.raw(key, [])
         if not isinstance(value, list):
-            raise SceneError(self.at(key), f"must be a list, got {type(value).__name__}")
+            raise SceneError(self.at(key), f"must be a list, got {_json_kind(value)}")
         return [_Node(item, f"{self.at(key)}[{i}]") for i, item in enumerate(value)]
 
     def finish(self):
@@ -709,8 +718,8 @@ def _read_environment(node, base_dir):
             raise SceneError(node.at("file"), f"file not found: {path}")
         try:
             image = load_image(path)
-        except Exception as e:
-            raise SceneError(node.at("file"), f"cannot load image {path}: {e}") from None
+        except FileError as e:
+            raise SceneError(node.at("file"), e.message) from None
         if not np.all(np.isfinite(image)) or np.any(image < 0):
             raise SceneError(node.at("file"), "image must be finite and non-negative")
         limits.float32_values(image.max() * scale, node.at("scale"), SceneError)
