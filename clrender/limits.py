@@ -13,7 +13,7 @@ import reprlib
 
 import numpy as np
 
-from .errors import ArgumentError
+from .errors import ArgumentError, SceneError
 
 INT32_MAX = 2**31 - 1
 UINT32_MAX = 2**32 - 1
@@ -98,3 +98,39 @@ def show(value):
         return _SHORT.repr(value)
     except (RecursionError, ValueError):
         return f"a {type(value).__name__}"
+
+
+# --------------------------------------------------------------------------------------------
+# Memory of the device (checked before anything is allocated)
+# --------------------------------------------------------------------------------------------
+PIXEL_BYTES = 16 + 16 + 4   # accumulator float4, aux geometry float4, aux object id int
+
+# Where in the scene each device array comes from, for messages about its size.
+ARRAY_ORIGINS = {"nodes": "shapes", "triangles": "shapes", "shading": "shapes", "info": "shapes",
+                 "emitters": "shapes", "emitter_cdf": "shapes", "materials": "materials",
+                 "specular_albedo": "materials", "media": "media", "grid_data": "media",
+                 "majorant_data": "media", "env_texels": "lights", "env_cdf": "lights"}
+
+
+def check_image_fits(resolution, device):
+    """The image's buffers fit `device` (an OpenCL device): the accumulator in one allocation,
+    all of them in its memory. A 16384^2 image needs 9 GiB."""
+    width, height = resolution
+    if width * height * 16 > device.max_mem_alloc_size or width * height * PIXEL_BYTES > device.global_mem_size:
+        raise SceneError("camera.resolution", f"{width} x {height} pixels need {width * height * PIXEL_BYTES / 2**20:.0f} "
+                                              f"MiB of buffers; {_memory_of(device)}")
+
+
+def check_arrays_fit(arrays, device):
+    """The scene's arrays (name -> numpy array) fit `device`, each in one allocation."""
+    sizes = {name: array.nbytes for name, array in arrays.items()}
+    name = max(sizes, key=sizes.get)
+    if sizes[name] > device.max_mem_alloc_size or sum(sizes.values()) > device.global_mem_size:
+        raise SceneError(ARRAY_ORIGINS.get(name, ""), f"the scene needs {sum(sizes.values()) / 2**20:.0f} MiB on the "
+                                                      f"device ({name}: {sizes[name] / 2**20:.0f} MiB); "
+                                                      f"{_memory_of(device)}")
+
+
+def _memory_of(device):
+    return (f"{device.name.strip()} allocates at most {device.max_mem_alloc_size / 2**20:.0f} MiB at once "
+            f"and {device.global_mem_size / 2**20:.0f} MiB in all")

@@ -1,5 +1,4 @@
 """Progressive rendering: short kernel launches that each add a few samples per pixel."""
-import os
 import signal
 import time
 from dataclasses import dataclass
@@ -12,9 +11,8 @@ from .outlines import apply_outlines, aux_dict
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
-from .errors import ArgumentError, SceneError
 from .features import scene_features
-from .scene import Scene, load_scene, load_scene_dict
+from .scene import as_scene
 
 
 @dataclass
@@ -71,21 +69,10 @@ class RenderInterrupted(KeyboardInterrupt):
     """Ctrl-C (or SIGTERM/SIGHUP, see errors.Interrupted) during a render; `result` holds the
     image of the samples completed so far, `signal` the signal number."""
 
-    def __init__(self, result, signal=signal.SIGINT):
+    def __init__(self, result, signum=signal.SIGINT):
         super().__init__("render interrupted")
         self.result = result
-        self.signal = signal
-
-
-def as_scene(scene):
-    """A Scene from a Scene, a dict with the JSON structure, or the path of a scene file."""
-    if isinstance(scene, Scene):
-        return scene
-    if isinstance(scene, dict):
-        return load_scene_dict(scene)
-    if isinstance(scene, (str, os.PathLike)):
-        return load_scene(scene)
-    raise ArgumentError("scene", f"must be a Scene, a scene dict or a file path, got {type(scene).__name__}")
+        self.signal = signum
 
 
 class Renderer:
@@ -110,9 +97,9 @@ class Renderer:
         self.features = scene_features(scene, volume_method)
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
-        _check_image_fits(scene, self.device)
+        limits.check_image_fits(scene.camera.resolution, self.device)
         self.arrays = build_scene_arrays(scene)
-        _check_arrays_fit(self.arrays, self.ARRAYS, self.device)
+        limits.check_arrays_fit({name: getattr(self.arrays, name) for name in self.ARRAYS}, self.device)
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
         self.local_size = local_size
@@ -224,36 +211,6 @@ class Renderer:
         image, alpha = apply_outlines(image, aux, self.scene.outlines)
         return RenderResult(image, int(counts.min()) if counts.size else 0, seconds,
                             int(discarded[0]), aux=aux, outline_alpha=alpha)
-
-
-def _check_image_fits(scene, device):
-    """The accumulator and auxiliary buffers of the image fit the device (checked before any
-    allocation: a 16384^2 image needs 5 GiB)."""
-    width, height = scene.camera.resolution
-    largest = width * height * 16
-    total = width * height * (16 + 16 + 4)
-    if largest > device.max_mem_alloc_size or total > device.global_mem_size:
-        raise SceneError("camera.resolution", f"{width} x {height} pixels need {total / 2**20:.0f} MiB of "
-                                              f"buffers; {device.name.strip()} allocates at most "
-                                              f"{device.max_mem_alloc_size / 2**20:.0f} MiB at once and "
-                                              f"{device.global_mem_size / 2**20:.0f} MiB in all")
-
-
-# Where in the scene each device array comes from, for messages about its size.
-_ARRAY_ORIGINS = {"nodes": "shapes", "triangles": "shapes", "shading": "shapes", "info": "shapes",
-                  "materials": "materials", "media": "media", "emitters": "shapes", "emitter_cdf": "shapes",
-                  "env_texels": "lights", "env_cdf": "lights", "specular_albedo": "materials",
-                  "grid_data": "media", "majorant_data": "media"}
-
-
-def _check_arrays_fit(arrays, names, device):
-    sizes = {name: getattr(arrays, name).nbytes for name in names}
-    name = max(sizes, key=sizes.get)
-    if sizes[name] > device.max_mem_alloc_size or sum(sizes.values()) > device.global_mem_size:
-        raise SceneError(_ARRAY_ORIGINS.get(name, ""),
-                         f"the scene needs {sum(sizes.values()) / 2**20:.0f} MiB on the device ({name}: "
-                         f"{sizes[name] / 2**20:.0f} MiB); {device.name.strip()} allocates at most "
-                         f"{device.max_mem_alloc_size / 2**20:.0f} MiB at once")
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,

@@ -288,6 +288,17 @@ class _Node:
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
+def as_scene(scene):
+    """A Scene from a Scene, a dict with the JSON structure, or the path of a scene file."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, dict):
+        return load_scene_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    raise ArgumentError("scene", f"must be a Scene, a scene dict or a file path, got {type(scene).__name__}")
+
+
 def load_scene(path):
     """Load and validate a JSON scene file; relative file paths resolve against its folder."""
     path = _path_argument(path, "path")
