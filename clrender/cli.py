@@ -9,6 +9,7 @@ import argparse
 import contextlib
 import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 
@@ -35,6 +36,9 @@ def _interrupt_on_termination():
     def interrupt(signum, frame):
         raise Interrupted(signum)
 
+    if threading.current_thread() is not threading.main_thread():   # only it receives signals
+        yield
+        return
     previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGTERM, signal.SIGHUP)}
     try:
         yield

@@ -153,6 +153,8 @@ def _cached_binary(entry, identity):
     at = len(_CACHE_MAGIC)
     size = int.from_bytes(entry[at:at + 8], "little")
     stored = entry[at + 8:at + 8 + size]
+    if len(entry) < at + 8 + size + 32:
+        return None, "truncated"
     if stored != identity.encode():
         return None, "built by another driver"
     checksum = entry[at + 8 + size:at + 40 + size]

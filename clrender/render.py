@@ -11,6 +11,7 @@ from .outlines import apply_outlines, aux_dict
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
+from .errors import ArgumentError
 from .features import scene_features
 from .scene import as_scene
 
@@ -115,6 +116,8 @@ class Renderer:
     def update_array(self, name, array):
         """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an
         edited density grid (`grid_data`, with its `majorant_data`) between renders."""
+        if name not in self.ARRAYS:
+            raise ArgumentError("name", f"unknown array {name!r}; valid: {', '.join(self.ARRAYS)}")
         index = self.ARRAYS.index(name)
         array = np.asarray(array, dtype=getattr(self.arrays, name).dtype)
         setattr(self.arrays, name, array)

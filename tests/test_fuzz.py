@@ -59,6 +59,8 @@ class Renders:
             assert e.where, e
             return
         assert np.all(np.isfinite(result.image)), result.image
+        if result.discarded_samples:   # reported to the user; counted here to watch the rate
+            event("rendered with non-finite samples discarded")
 
 
 def load_or_explain(load, renders, names_its_place):
