@@ -20,7 +20,8 @@ UINT32_MAX = 2**32 - 1
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 MAX_SPP = 2**24            # the accumulator counts samples per pixel in float32: exact up to 2^24
-MAX_DEPTH = 1024           # path vertices
+MAX_DEPTH = 8192           # path vertices: deep enough for lossless furnaces, short launches where
+                           # roulette cannot end paths
 MAX_RESOLUTION = 16384     # pixels per image side
 MAX_EXPOSURE = 64.0        # stops: 2^64 keeps any float32 radiance's tone mapping finite in float64
 MAX_TRIANGLES = 2**28      # triangle, node and emitter indices are int32 with room for the BVH
