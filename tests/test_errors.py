@@ -361,8 +361,6 @@ def test_no_opencl_driver_gives_the_friendly_message(tmp_path):
         result = run_process(*args, env=env)
         assert result.returncode == EXIT_DEVICE, result.stderr
         assert "no OpenCL" in result.stderr and "Traceback" not in result.stderr
-    with pytest.raises(DeviceError):
-        raise DeviceError("a DeviceError is a clrender error")
 
 
 CACHED_BUILD = """
@@ -412,7 +410,6 @@ def test_each_error_class_has_its_exit_code(tmp_path):
     assert run_cli("render", scene, "-o", tmp_path / "o.png", "--device", "no-such-device")[0] == EXIT_ARGUMENTS
     assert run_cli("render", scene, "-o", tmp_path / "o.png", "--spp", "x")[0] == EXIT_ARGUMENTS
     assert run_cli("info", tmp_path / "missing.json")[0] == EXIT_SCENE
-    assert len({EXIT_ARGUMENTS, EXIT_SCENE, EXIT_DEVICE, EXIT_FILE, 1, 0}) == 6
     for error, code in ((ArgumentError("x", "y"), 2), (SceneError("x", "y"), 3), (DeviceError("x"), 4),
                         (FileError("x"), 5)):
         assert isinstance(error, clrender.ClrenderError) and error.exit_code == code
