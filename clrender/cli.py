@@ -3,11 +3,13 @@
 Exit codes (docs/errors.md): 0 success, 2 bad arguments, 3 bad scene, 4 device problem, 5 file
 I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a render in progress
 saves its partial image first), 1 only for a bug in clrender (with its traceback).
+Several scenes render as a batch; --workers/--scheduler render on a Dask cluster (distributed.py).
 Imports are deferred so that a signal during start-up is handled like any other.
 """
 import argparse
 import contextlib
 import signal
+import string
 import sys
 import threading
 import warnings
@@ -62,10 +64,12 @@ def _parser():
     parser = argparse.ArgumentParser(prog="clrender", description="OpenCL path tracer")
     commands = parser.add_subparsers(dest="command", required=True)
 
-    render = commands.add_parser("render", help="render a scene to an image")
-    render.add_argument("scene", type=Path)
-    render.add_argument("-o", "--output", type=Path, required=True,
-                        help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB)")
+    render = commands.add_parser("render", help="render scenes to images")
+    render.add_argument("scene", type=Path, nargs="+", help="scene file(s); several render as a batch")
+    render.add_argument("-o", "--output", required=True,
+                        help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB); for several "
+                             "scenes a folder (out/ writes out/STEM.exr) or a pattern with {stem} "
+                             "and/or {index} (out/frame_{index:04d}.png)")
     render.add_argument("--spp", type=_setting("spp"), help="samples per pixel (default: the scene's)")
     render.add_argument("--time", type=_setting("time_limit"), metavar="SECONDS",
                         help="render for this long (kernel time); with --spp, whichever comes first")
@@ -81,15 +85,83 @@ def _parser():
     render.add_argument("--step", type=_setting("step"), help="ray-marching step in scene units (default: the scene's)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+    render.add_argument("--aov", default="", metavar="NAMES",
+                        help="auxiliary outputs, comma-separated: albedo, normal, emission, variance, depth, object_id "
+                             "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
+    render.add_argument("--denoise", action="store_true",
+                        help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
+    render.add_argument("--denoise-prefilter", action="store_true",
+                        help="with --denoise, denoise the albedo and normal guides first (slower; see docs/denoising.md)")
+    render.add_argument("--denoise-keep-emission", action="store_true",
+                        help="with --denoise, leave emitters and the environment seen directly out of the denoiser "
+                             "(exact emitters, raw anti-aliasing noise at their edges; see docs/denoising.md)")
+    render.add_argument("--keep-noisy", action="store_true",
+                        help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
+    _add_parameter_option(render)
+    cluster = render.add_argument_group("distributed rendering (docs/distributed.md)").add_mutually_exclusive_group()
+    cluster.add_argument("--workers", type=_setting("workers"), metavar="N",
+                         help="render on a local Dask cluster of N worker processes")
+    cluster.add_argument("--scheduler", metavar="ADDRESS", help="render on the Dask cluster at tcp://HOST:PORT")
+    render.add_argument("--tiles", type=_setting("tiles"), help="with a cluster: image strips (default: 4 per worker thread)")
+    render.add_argument("--chunk-seconds", type=_setting("chunk_seconds"), default=3.0,
+                        help="with a cluster: kernel time per chunk of samples (default: 3)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
     info.add_argument("scene", type=Path)
+    _add_parameter_option(info)
     info.set_defaults(run=_info)
 
     devices = commands.add_parser("devices", help="list OpenCL platforms and devices")
     devices.set_defaults(run=_devices)
     return parser
+
+
+def _add_parameter_option(parser):
+    parser.add_argument("-D", dest="parameters", action="append", default=[], metavar="NAME=VALUE",
+                        type=_parameter, help="Mitsuba XML scenes: set parameter $NAME (overrides its <default>)")
+
+
+def _parameter(text):
+    from .mitsuba_xml import PARAMETER_NAME
+
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    if not PARAMETER_NAME.fullmatch(name):
+        raise argparse.ArgumentTypeError(f"{name!r} is not a parameter name (letters, digits and _, "
+                                         "not starting with a digit)")
+    return name, value
+
+
+def _parameters(args):
+    """The -D parameters as a dict: each given once, and only for Mitsuba XML scenes."""
+    parameters = {}
+    for name, value in args.parameters:
+        if name in parameters:
+            raise ArgumentError("-D", f"{name} given twice")
+        parameters[name] = value
+    scenes = args.scene if isinstance(args.scene, list) else [args.scene]
+    not_xml = [path for path in scenes if path.suffix.lower() != ".xml"]
+    if parameters and not_xml:
+        raise ArgumentError("-D", f"parameters apply to Mitsuba XML scenes only, not to {not_xml[0]}")
+    return parameters
+
+
+def _load_scene(path, parameters):
+    """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
+    the translation notes that `info` shows (None for JSON)."""
+    from .scene import load_scene
+
+    if path.suffix.lower() != ".xml":
+        return load_scene(path), None
+    from . import mitsuba_xml
+
+    translation = mitsuba_xml.read_scene(path, parameters)
+    for message in translation.warnings:
+        print(f"clrender: warning: {message}", file=sys.stderr)
+    scene = mitsuba_xml.scene_from_translation(translation)
+    return scene, translation.notes
 
 
 def _setting(name):
@@ -112,14 +184,91 @@ def _setting(name):
 
 
 def _render(args):
+    """Every argument and output path is checked before the first scene renders."""
+    from .aovs import parse_aovs
+
+    aovs = parse_aovs(args.aov, source="--aov")
+    for flag in ("keep_noisy", "denoise_prefilter", "denoise_keep_emission"):
+        if getattr(args, flag) and not args.denoise:
+            raise ArgumentError(f"--{flag.replace('_', '-')}", "only with --denoise")
+    parameters = _parameters(args)
+    layers = aovs + (("noisy",) if args.keep_noisy else ())
+    outputs = _output_paths(args.output, args.scene, layers)
+    _check_scene_files(args.scene)
+    cluster = "--workers" if args.workers else "--scheduler" if args.scheduler else None
+    if cluster:
+        for flag, given in (("--aov", aovs), ("--denoise", args.denoise), ("--time", args.time is not None)):
+            if given:
+                raise ArgumentError(flag, f"is not supported with {cluster} yet")
+        from .distributed import require_dask
+
+        require_dask(cluster)
+        return _render_distributed(args, outputs, parameters)
+    if args.tiles is not None:
+        raise ArgumentError("--tiles", "only with --workers or --scheduler")
+    if args.denoise:
+        from .denoise import check_denoiser
+
+        check_denoiser("--denoise")
+    for scene_path, output in zip(args.scene, outputs):
+        status = _render_local(args, scene_path, output, aovs, parameters)
+        if status:
+            return status
+    return 0
+
+
+def _check_scene_files(paths):
+    """Each scene file exists before a batch starts (its contents are read when it renders)."""
+    from .errors import SceneError
+
+    for path in paths:
+        if not path.is_file():
+            raise SceneError("", f"scene file not found: {path}" if not path.exists() else f"{path} is not a file")
+
+
+def _output_paths(output, scene_paths, layers=()):
+    """The image path of each scene, each checked (image.check_output_path; with 8-bit formats,
+    the files of the `layers` too): `output` itself for one scene; a folder (a path ending in /,
+    or for several scenes an existing folder) holds STEM.exr; a pattern names {stem} (the scene
+    file's name without its suffix) and/or {index} (its position, from 0; format specs allowed:
+    {index:04d}). One scene and an existing folder without the / is an error, not a guess."""
+    from .image import LDR_SUFFIXES, check_output_path, layer_path
+
+    is_folder = output.endswith(("/", "\\")) or (len(scene_paths) > 1 and Path(output).is_dir())
+    if "{" in output or is_folder:
+        pattern = str(Path(output) / "{stem}.exr") if is_folder else output
+        try:
+            fields = {field for _, field, _, _ in string.Formatter().parse(pattern) if field is not None}
+            if not fields <= {"stem", "index"}:   # no {0}, {stem.attribute}, {index[0]}
+                raise ValueError(f"unknown field {{{sorted(fields - {'stem', 'index'})[0]}}}")
+            paths = [Path(pattern.format(stem=p.stem, index=i)) for i, p in enumerate(scene_paths)]
+        except (KeyError, IndexError, ValueError) as e:
+            raise ArgumentError("--output", f"bad pattern {output!r} ({e}); use {{stem}} and {{index}}") from None
+    elif len(scene_paths) > 1:
+        raise ArgumentError("--output", f"{len(scene_paths)} scenes need a folder (out/) or a pattern "
+                                        "with {stem} or {index} (out/{stem}.exr), got " + repr(output))
+    else:
+        paths = [Path(output)]
+    seen = {}
+    for scene_path, path in zip(scene_paths, paths):
+        if path in seen:
+            raise ArgumentError("--output", f"{seen[path]} and {scene_path} would both write {path}; use {{index}}")
+        seen[path] = scene_path
+    for path in paths:
+        check_output_path(path, "--output")
+        if path.suffix.lower() in LDR_SUFFIXES:
+            for name in layers:
+                check_output_path(layer_path(path, name), "--output")
+    return paths
+
+
+def _render_local(args, scene_path, output, aovs, parameters):
     from tqdm import tqdm
 
-    from .image import check_output_path, save_image
+    from .image import save_image
     from .render import Renderer, RenderInterrupted
-    from .scene import load_scene
 
-    check_output_path(args.output, "--output")
-    scene = load_scene(args.scene)
+    scene, _ = _load_scene(scene_path, parameters)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
     spp = args.spp or (None if args.time else scene.render.spp)
@@ -132,30 +281,113 @@ def _render(args):
 
     try:
         result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
-                                 time_limit=args.time)
+                                 time_limit=args.time, aovs=aovs, denoise=args.denoise,
+                                 denoise_prefilter=args.denoise_prefilter,
+                                 denoise_keep_emission=args.denoise_keep_emission)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result
         status = 128 + interrupted.signal
     bar.close()
-    save_image(result.image, args.output, exposure=args.exposure)
-    print(f"{args.output}: {result.samples} spp in {result.seconds:.2f} s, "
-          f"{result.samples_per_second / 1e6:.2f} M samples/s on {renderer.device.name.strip()}"
-          + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
-          + (" (interrupted: partial image saved)" if status else ""), file=sys.stderr)
+    save_image(result.image, output, exposure=args.exposure, layers=_layers(args, aovs, result))
+    _report(output, result, renderer.device.name.strip(), status)
     return status
+
+
+def _render_distributed(args, outputs, parameters):
+    """Render the scenes on a Dask cluster; each image is written as soon as it is complete, and
+    on Ctrl-C (SIGTERM, SIGHUP) the scenes in flight are written as far as they got."""
+    from tqdm import tqdm
+
+    from .distributed import dask_client, render_many
+    from .image import save_image
+    from .render import RenderInterrupted
+
+    batch = len(args.scene) > 1
+    # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
+    # them on, so a long sequence is never in memory at once.
+    scenes = (_load_scene(path, parameters)[0] for path in args.scene)
+    scenes = scenes if batch else list(scenes)
+    spp = None if batch else args.spp or scenes[0].render.spp
+    with dask_client(args.workers, args.scheduler) as client:
+        where = f"{len(client.scheduler_info()['workers'])} Dask workers"
+        bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
+                   disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
+                   bar_format="{l_bar}{bar}| {n:.1f}/{total_fmt} {unit} [{elapsed}<{remaining}, "
+                              + where + "]")
+
+        def progress(done, total, seconds):
+            bar.update((done if batch else done * spp) - bar.n)
+
+        results = render_many(scenes, client, args.spp, args.seed, args.max_depth, args.device,
+                              args.volume_method, args.step, args.raymarch_multiple_scattering,
+                              args.tiles, args.chunk_seconds, progress=progress)
+        saving = []
+        try:
+            for index, result in results:
+                saving = [(index, result)]
+                save_image(result.image, outputs[index], exposure=args.exposure)
+                _report(outputs[index], result, where, 0, bar)
+                saving = []
+            bar.close()
+            return 0
+        except KeyboardInterrupt as interrupted:
+            partial = interrupted.result if isinstance(interrupted, RenderInterrupted) else _stop(results, interrupted)
+            status = 128 + getattr(interrupted, "signal", signal.SIGINT)
+            bar.close()
+            for index, result in saving:   # complete, but its write was interrupted
+                save_image(result.image, outputs[index], exposure=args.exposure)
+                _report(outputs[index], result, where, 0)
+            for index, result in partial:
+                save_image(result.image, outputs[index], exposure=args.exposure)
+                _report(outputs[index], result, where, status)
+            return status
+
+
+def _stop(results, interrupt):
+    """The partial results of a render_many generator interrupted (by `interrupt`) outside it."""
+    from .render import RenderInterrupted
+
+    try:
+        results.throw(interrupt)
+    except RenderInterrupted as interrupted:
+        return interrupted.result
+    except (StopIteration, KeyboardInterrupt):
+        pass
+    return []
+
+
+def _layers(args, aovs, result):
+    """The extra layers to write beside the image: the AOVs asked for, the noisy image."""
+    layers = {name: result.aovs[name] for name in aovs}
+    if args.keep_noisy:
+        layers["noisy"] = result.noisy_image
+    return layers
+
+
+def _report(output, result, where, status, bar=None):
+    line = (f"{output}: {result.samples} spp in {result.seconds:.2f} s, "
+            f"{result.samples_per_second / 1e6:.2f} M samples/s on {where}"
+            + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
+            + (f", denoised in {result.denoise_seconds:.2f} s" if result.noisy_image is not None else "")
+            + (" (interrupted: partial image saved)" if status else ""))
+    if bar is not None:
+        bar.write(line, file=sys.stderr)
+    else:
+        print(line, file=sys.stderr)
 
 
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
-    from .scene import load_scene
 
-    scene = load_scene(args.scene)
+    scene, notes = _load_scene(args.scene, _parameters(args))
     arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
     width, height = scene.camera.resolution
     print(f"scene:      {args.scene}")
+    for index, note in enumerate(notes or []):
+        print(f"{'mitsuba:' if index == 0 else '':<12}{note}")
     print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")

@@ -16,6 +16,19 @@ class ClrenderError(Exception):
         self.message = message
         super().__init__(f"{where}: {message}" if where else message)
 
+    def with_message(self, message):
+        """The same error (class and place) with another message, e.g. one saying more."""
+        return _rebuild(type(self), message, self.where)
+
+    def __reduce__(self):   # pickled between processes (Dask workers): same class, message, place
+        return _rebuild, (type(self), self.message, self.where)
+
+
+def _rebuild(cls, message, where):
+    error = cls.__new__(cls)
+    ClrenderError.__init__(error, message, where)
+    return error
+
 
 class ArgumentError(ClrenderError, ValueError):
     """An API argument or a command-line flag is invalid: fix the call or the command line."""
@@ -23,6 +36,14 @@ class ArgumentError(ClrenderError, ValueError):
 
     def __init__(self, where, message):
         super().__init__(message, where)
+
+
+class MissingDependency(ArgumentError):
+    """An option needs an optional extra that is not installed: install it, or drop the option."""
+
+
+class DenoiserUnavailable(MissingDependency):
+    """Denoising was asked for, and pyoidn (Intel Open Image Denoise) is not installed."""
 
 
 class SceneError(ClrenderError, ValueError):

@@ -21,6 +21,9 @@ FEATURE_VALUES = {
     # Grid media and how they are integrated: 0 none, 1 null-scattering path integral,
     # 2 ray marching (VOLUME_* in layout.py). Only the chosen method is compiled in.
     "GRID_MEDIA": tuple(VOLUME_METHODS.values()),
+    # Sample-level AOVs (albedo, normal, colour variance: kernels/aovs.h): decided by the render
+    # request, not the scene, so that colour-only renders carry none of their code.
+    "AOVS": (0, 1),
 }
 
 SPECULAR_MATERIALS = ("dielectric", "conductor")
@@ -35,9 +38,10 @@ def volume_method(scene, override=None):
     return method
 
 
-def scene_features(scene, volume_method_override=None):
+def scene_features(scene, volume_method_override=None, sample_aovs=False):
     """The feature values (name -> int) that `scene` needs; `volume_method_override` replaces
-    the scene's render.volume_method ("null" or "raymarch")."""
+    the scene's render.volume_method ("null" or "raymarch"); `sample_aovs`: whether the render
+    accumulates the sample-level AOVs (clrender/aovs.py)."""
     method = volume_method(scene, volume_method_override)   # checked even where unused
     environment = scene.environment
     if environment is None:
@@ -53,6 +57,7 @@ def scene_features(scene, volume_method_override=None):
         "DIELECTRIC": int(any(scene.materials[shape.material].type in SPECULAR_MATERIALS
                               for shape in scene.shapes)),
         "GRID_MEDIA": VOLUME_METHODS[method] if any(m.type == "grid" for m in scene.media) else 0,
+        "AOVS": int(bool(sample_aovs)),
     }
 
 

@@ -27,8 +27,10 @@ MAX_EXPOSURE = 64.0        # stops: 2^64 keeps any float32 radiance's tone mappi
 MAX_TRIANGLES = 2**28      # triangle, node and emitter indices are int32 with room for the BVH
 MAX_TRANSFORM_CONDITION = 1e12   # largest / smallest stretch of a transform: beyond, it is singular
 
-# Render settings shared by the scene's `render` object, the CLI flags and the API parameters:
-# name -> (integer?, low, high, low excluded?).
+MAX_LOCAL_WORKERS = 1024   # processes of a local Dask cluster, each with its own device context
+
+# Render settings shared by the scene's `render` object, the CLI flags and the API parameters
+# (local and distributed rendering): name -> (integer?, low, high, low excluded?).
 SETTINGS = {
     "spp": (True, 1, MAX_SPP, False),
     "max_depth": (True, 1, MAX_DEPTH, False),
@@ -38,6 +40,11 @@ SETTINGS = {
     "step": (False, 0.0, None, True),
     "time_limit": (False, 0.0, None, True),
     "exposure": (False, -MAX_EXPOSURE, MAX_EXPOSURE, False),
+    "workers": (True, 1, MAX_LOCAL_WORKERS, False),
+    "tiles": (True, 1, INT32_MAX, False),
+    "chunk_seconds": (False, 0.0, None, True),
+    "samples_per_chunk": (True, 1, MAX_SPP, False),
+    "scenes_in_flight": (True, 1, INT32_MAX, False),
 }
 
 
@@ -75,6 +82,13 @@ def setting(name, value, where=None, error=ArgumentError):
     the setting's name."""
     integer, low, high, low_open = SETTINGS[name]
     return number(value, where or name, error, low=low, high=high, low_open=low_open, integer=integer)
+
+
+def check_settings(**given):
+    """Check the settings given by name (None: not given) against `SETTINGS` (ArgumentError)."""
+    for name, value in given.items():
+        if value is not None:
+            setting(name, value)
 
 
 def float32_values(values, where, error=ArgumentError):

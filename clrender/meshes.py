@@ -70,6 +70,18 @@ def rectangle():
     return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), None)
 
 
+def disk(segments=128):
+    """The unit disk in the plane z = 0, facing +z: a fan of `segments` triangles whose polygon
+    has the disk's area (pi), so an emitting disk has the exact power."""
+    angles = 2 * np.pi * np.arange(segments) / segments
+    radius = np.sqrt(2 * np.pi / (segments * np.sin(2 * np.pi / segments)))
+    rim = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(segments)], axis=1)
+    vertices = np.concatenate([np.zeros((1, 3)), rim])
+    index = np.arange(segments)
+    faces = np.stack([np.zeros(segments, int), 1 + index, 1 + (index + 1) % segments], axis=1)
+    return Mesh(vertices, faces, None)
+
+
 def box():
     """The cube [-1, 1]^3 with outward-facing flat faces."""
     faces = []

@@ -7,6 +7,8 @@
 #ifndef CLRENDER_PATH_H
 #define CLRENDER_PATH_H
 
+#include "aovs.h"
+
 // A path that keeps crossing null boundaries (e.g. coincident surfaces) must still end.
 #define MAX_NULL_CROSSINGS 1024
 
@@ -143,7 +145,8 @@ bool survive_roulette(float3* throughput, float eta_scale, int depth, int rr_dep
     return true;
 }
 
-float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
+// The radiance of one camera path; with AOVS, *aov receives its first non-delta vertex (aovs.h).
+float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     int max_depth = scene->params->config.x;
     int rr_depth = scene->params->config.y;
     float3 radiance = (float3)(0.0f);
@@ -193,6 +196,9 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #else
             MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
 #endif
+#if AOVS
+            if (event.scattered) aov_record_medium(aov, md, throughput, eta_scale);
+#endif
             throughput *= event.weight;
             if (event.scattered) {
                 if (depth == max_depth || is_black(throughput)) break;
@@ -227,7 +233,14 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         }
 #endif
         if (!found) {
-            radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
+#if AOVS
+            aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
+                              depth > 1 || scene->params->environment.w == 0);
+#endif
+            // RenderParams.environment.w (render.hide_environment): camera rays that escape,
+            // through null boundaries or not, see black; the environment still lights the scene.
+            if (depth > 1 || scene->params->environment.w == 0)
+                radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
@@ -240,6 +253,9 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
             continue;
         }
 #endif
+#if AOVS
+        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
+#endif
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
         if (depth == max_depth) break;
@@ -249,7 +265,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
         // counts as direct lighting, hence after the max-depth test), and the path ends.
         if (m.kind.x == MATERIAL_TOON) {
-            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, rng);
+            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, medium, rng);
             break;
         }
 #endif

@@ -38,7 +38,7 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
                             __global TriangleShading* sh, __global TriangleInfo* info,
                             __global Material* m, __global Emitter* e, __global Medium* md,
                             __global Camera* c,
-                            __global RenderParams* p, __global int* out) {
+                            __global RenderParams* p, __global AovSums* a, __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
     out[k++] = OFFSET(node, lo_x); out[k++] = OFFSET(node, hi_x); out[k++] = OFFSET(node, lo_y);
@@ -53,7 +53,7 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
     out[k++] = sizeof(Material);
     out[k++] = OFFSET(m, kind); out[k++] = OFFSET(m, color); out[k++] = OFFSET(m, emission);
     out[k++] = OFFSET(m, params); out[k++] = OFFSET(m, toon_shadow); out[k++] = OFFSET(m, toon_bands);
-    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim);
+    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim); out[k++] = OFFSET(m, toon_ambient);
     out[k++] = sizeof(Emitter);
     out[k++] = OFFSET(e, kind); out[k++] = OFFSET(e, radiance); out[k++] = OFFSET(e, p0);
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
@@ -67,7 +67,10 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
-    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights);
+    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
+    out[k++] = sizeof(AovSums);
+    out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
+    out[k++] = OFFSET(a, colour_m2);
 }
 
 // ----- BVH: closest hit per ray ------------------------------------------------------------

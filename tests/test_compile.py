@@ -10,11 +10,16 @@ from clrender.features import all_feature_combinations, describe
 @pytest.mark.parametrize("features", list(all_feature_combinations()), ids=describe)
 def test_every_feature_combination_builds(context, features):
     program = build_program(context, features)
-    assert cl.Kernel(program, "render_pass").num_args == 18
+    assert cl.Kernel(program, "render_pass").num_args == 19
 
 
 def test_test_kernels_build_with_every_environment(context):
+    # tests.cl has no AOV kernels; the AOV code it reaches through path.h (grid media) is built
+    # with every combination above. Its builds are the slower ones: doubling this loop would add
+    # more than the 48 AOVS builds above did (docs/denoising.md, "Cost").
     for features in all_feature_combinations():
+        if features["AOVS"]:
+            continue
         assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 7
 
 

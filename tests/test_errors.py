@@ -283,10 +283,37 @@ def test_a_scene_scaled_by_a_power_of_two_renders_the_identical_image(factor):
     """The kernel's float32 arithmetic would overflow or underflow (black images at 1e12, NaN
     at 1e-12); it sees every scene at an ordinary size instead, scaled by a power of two, which
     is exact. Depths come back in the scene's units."""
-    reference = clrender.Renderer(scaled_cornell(1.0), "cpu").render(spp=4, seed=3)
-    scaled = clrender.Renderer(scaled_cornell(factor), "cpu").render(spp=4, seed=3)
+    reference = clrender.Renderer(scaled_cornell(1.0), "cpu").render(spp=4, seed=3, aovs=clrender.AOV_NAMES)
+    scaled = clrender.Renderer(scaled_cornell(factor), "cpu").render(spp=4, seed=3, aovs=clrender.AOV_NAMES)
     assert np.array_equal(scaled.image, reference.image) and scaled.discarded_samples == 0
     assert np.array_equal(scaled.aux["depth"], reference.aux["depth"] * factor)
+    for name in clrender.AOV_NAMES:   # the depth AOV in scene units too; the others do not scale
+        assert np.array_equal(scaled.aovs[name], reference.aovs[name] * (factor if name == "depth" else 1)), name
+
+
+def scaled_media(factor, kind, method):
+    """The Cornell box inside a medium (homogeneous fog or a procedural grid), everything scaled
+    by `factor`: lengths times it, extinction coefficients (per unit length) divided by it."""
+    data = scaled_cornell(factor)
+    if kind == "fog":
+        medium = {"name": "m", "sigma_t": 0.4 / factor, "albedo": 0.7}
+    else:
+        medium = {"name": "m", "type": "grid", "sigma_t": 3 / factor, "albedo": 0.9,
+                  "density": {"procedural": "sphere_falloff", "resolution": [8, 8, 8]},
+                  "transform": {"scale": factor, "translate": [-0.5 * factor, 0.5 * factor, -0.5 * factor]}}
+    data.update(media=[medium], medium="m")
+    data["render"].update(volume_method=method, step=0.05 * factor)
+    return data
+
+
+@pytest.mark.parametrize("factor", [2.0**-33, 2.0**33])
+@pytest.mark.parametrize("kind,method", [("fog", "null"), ("grid", "null"), ("grid", "raymarch")])
+def test_media_scaled_by_a_power_of_two_render_the_identical_image(factor, kind, method):
+    """Media coefficients, grid transforms and the ray-marching step follow the kernel's scale."""
+    reference = clrender.Renderer(scaled_media(1.0, kind, method), "cpu").render(spp=2, seed=5)
+    scaled = clrender.Renderer(scaled_media(factor, kind, method), "cpu").render(spp=2, seed=5)
+    assert reference.image.mean() > 0.01
+    assert np.array_equal(scaled.image, reference.image) and scaled.discarded_samples == 0
 
 
 @pytest.mark.parametrize("factor", [1e-20, 1e20])
@@ -333,6 +360,62 @@ def test_output_path_problems_are_found_before_rendering(tmp_path, monkeypatch, 
     result, stderr = run_cli("render", scene, "-o", make_output(tmp_path), "--quiet")
     assert result == code and message in stderr, stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["adir.png", "afile", "scene.json"]
+
+
+@pytest.mark.parametrize("output,extra,message", [
+    ("{stem}.png", (), "b.png: it is a directory"),                 # the second scene's output
+    ("{stem}.png", ("--aov", "albedo"), "a.albedo.png: it is a directory"),   # a side file of an AOV
+    ("out.png", (), "2 scenes need a folder"),
+    ("{stem}{0}.png", (), "bad pattern"),
+    ("{stem.upper}.png", (), "bad pattern"),
+    ("same.png", ("--workers", "2"), "2 scenes need a folder"),
+])
+def test_every_output_of_a_batch_is_checked_before_rendering(tmp_path, monkeypatch, output, extra, message):
+    (tmp_path / "b.png").mkdir()
+    (tmp_path / "a.albedo.png").mkdir()
+    scenes = [write_scene(tmp_path, tiny_scene(), name) for name in ("a.json", "b.json")]
+    monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("rendering started"))
+    code, stderr = run_cli("render", *scenes, "-o", tmp_path / output, "--quiet", *extra)
+    assert code in (EXIT_ARGUMENTS, EXIT_FILE) and message in stderr, stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.albedo.png", "a.json", "b.json", "b.png"]
+
+
+@pytest.mark.parametrize("scene,args,message", [
+    ("json", ("-D", "spp=2"), "-D: parameters apply to Mitsuba XML scenes only"),
+    ("xml", ("-D", "spp=2", "-D", "spp=3"), "-D: spp given twice"),
+    ("xml", ("-D", "1x=2"), "'1x' is not a parameter name"),
+    ("json", ("--tiles", "2"), "--tiles: only with --workers or --scheduler"),
+    ("json", ("--workers", "2", "--aov", "albedo"), "--aov: is not supported with --workers"),
+    ("json", ("--scheduler", "tcp://localhost:1", "--denoise"), "--denoise: is not supported with --scheduler"),
+    ("json", ("--workers", "2", "--time", "1"), "--time: is not supported with --workers"),
+    ("json", ("--workers", "0"), "--workers: must be >= 1"),
+    ("json", ("--chunk-seconds", "inf"), "--chunk-seconds: must be finite"),
+    ("json", ("--scheduler", "nowhere"), "scheduler: missing port number"),
+    ("json", ("--aov", "albedo,shadow"), "--aov: unknown AOV 'shadow'"),
+    ("json", ("--denoise-keep-emission",), "--denoise-keep-emission: only with --denoise"),
+])
+def test_flags_of_batches_clusters_aovs_and_xml_are_checked_before_rendering(tmp_path, monkeypatch, scene, args,
+                                                                             message):
+    path = write_scene(tmp_path, tiny_scene()) if scene == "json" else os.path.join(REPO, "scenes", "cornell_box.xml")
+    monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("rendering started"))
+    code, stderr = run_cli("render", path, "-o", tmp_path / "o.png", "--quiet", *args)
+    assert code == EXIT_ARGUMENTS and message in stderr, stderr
+    assert not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("module,flag,message", [
+    ("pyoidn", "--denoise", "--denoise: denoising needs Intel Open Image Denoise: pip install 'clrender[denoise]'"),
+    ("distributed", "--workers", "--workers: distributed rendering needs Dask: pip install 'clrender[distributed]'"),
+])
+def test_a_missing_optional_extra_is_an_argument_error_before_rendering(tmp_path, monkeypatch, module, flag,
+                                                                         message):
+    monkeypatch.setitem(sys.modules, module, None)   # `import module` now raises ImportError
+    monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("rendering started"))
+    extra = ("2",) if flag == "--workers" else ()
+    code, stderr = run_cli("render", write_scene(tmp_path, tiny_scene()), "-o", tmp_path / "o.png", flag, *extra)
+    assert code == EXIT_ARGUMENTS and message in stderr, stderr
+    assert issubclass(clrender.DenoiserUnavailable, clrender.MissingDependency)
+    assert issubclass(clrender.MissingDependency, clrender.ArgumentError)
 
 
 def test_missing_output_folders_are_made(tmp_path):

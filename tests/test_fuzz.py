@@ -15,6 +15,7 @@ import copy
 import json
 import math
 import os
+import re
 import struct
 import tempfile
 from pathlib import Path
@@ -54,7 +55,7 @@ class Renders:
         event("rendered")
         scene.camera.resolution = (4, 4)
         try:
-            result = clrender.Renderer(scene, self.context).render(spp=1, max_depth=3)
+            result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
         except SceneError as e:   # found at upload: degenerate shapes, sizes, scaled values
             assert e.where, e
             return
@@ -89,16 +90,17 @@ def colour():
 @st.composite
 def valid_scenes(draw):
     """A small valid scene using every kind of material, shape, light and medium."""
-    materials = [{"name": "white", "type": "diffuse", "albedo": draw(vec(0, 1))},
+    materials = [{"name": "white", "type": "diffuse", "albedo": draw(vec(0, 1)), "two_sided": draw(st.booleans())},
                  {"name": "lamp", "type": "emissive", "radiance": draw(st.floats(0.1, 20))}]
     extra = draw(st.sets(st.sampled_from(["glass", "metal", "toon", "boundary", "glow"])))
     if "glass" in extra:
         materials.append({"name": "glass", "type": "dielectric", "ior": draw(st.floats(1.01, 3)),
                           "roughness": draw(st.floats(0, 1)), "tint": draw(colour())})
     if "metal" in extra:
-        materials.append({"name": "metal", "type": "conductor", "roughness": draw(st.floats(0, 1))})
+        materials.append({"name": "metal", "type": "conductor", "roughness": draw(st.floats(0, 1)),
+                          "energy_compensation": draw(st.booleans()), "two_sided": draw(st.booleans())})
     if "toon" in extra:
-        materials.append({"name": "toon", "type": "toon", "color": draw(colour()),
+        materials.append({"name": "toon", "type": "toon", "color": draw(colour()), "ambient": draw(colour()),
                           "bands": draw(st.integers(1, 4)), "highlight": {"size": 0.05},
                           "rim": {"threshold": 0.3, "color": [1, 0.5, 0.5]}})
     if "boundary" in extra:
@@ -121,13 +123,15 @@ def valid_scenes(draw):
     shapes = [{"type": "rectangle", "material": "lamp",
                "transform": {"translate": [0, 2.5, 0], "rotate": [90, 0, 0], "scale": 0.5}}]
     for _ in range(draw(st.integers(1, 3))):
-        shape = {"type": draw(st.sampled_from(["box", "sphere", "rectangle"])),
+        shape = {"type": draw(st.sampled_from(["box", "sphere", "rectangle", "disk"])),
                  "material": draw(st.sampled_from(names)),
                  "transform": {"translate": draw(vec(-1, 1)), "rotate": draw(vec(-90, 90)),
                                "scale": draw(st.floats(0.2, 1.5))}}
         if shape["type"] == "sphere":
             shape["subdivisions"] = draw(st.integers(0, 2))
             shape["smooth"] = draw(st.booleans())
+        if shape["type"] == "disk":
+            shape["segments"] = draw(st.integers(3, 64))
         if medium_names and draw(st.booleans()):
             shape["interior"] = draw(st.sampled_from(medium_names))
         shapes.append(shape)
@@ -144,7 +148,8 @@ def valid_scenes(draw):
                    "fov": draw(st.floats(10, 90)), "resolution": [4, 4]},
         "render": {"spp": 1, "max_depth": draw(st.integers(1, 6)), "rr_depth": draw(st.integers(1, 4)),
                    "seed": draw(st.integers(0, 2**32 - 1)),
-                   "volume_method": draw(st.sampled_from(["null", "raymarch"])), "step": 0.1},
+                   "volume_method": draw(st.sampled_from(["null", "raymarch"])), "step": 0.1,
+                   "hide_environment": draw(st.booleans())},
         "materials": materials, "shapes": shapes, "lights": lights, "media": media,
     }
     if "cloud" in medium_names:
@@ -382,3 +387,55 @@ def test_generated_grid_files_load_or_explain(file, renders):
         (Path(folder) / name).write_bytes(content)
         load_or_explain(lambda: clrender.load_scene_dict(scene, base_dir=folder), renders,
                         lambda e: e.where.startswith("media[0]"))
+
+
+# ---------------------------------------------------------------------------------------------
+# Mitsuba XML scene files
+# ---------------------------------------------------------------------------------------------
+XML_SCENE = (Path(__file__).resolve().parent.parent / "scenes" / "cornell_box.xml").read_text()
+XML_VALUES = ["", "x", "0", "-1", "1e39", "1e-45", "nan", "inf", "-inf", "1e400", "99999999999", "2147483648",
+              "1, 2", "1, 2, 3, 4", "0, 0, 0", "true", "$undefined", "$spp", "&amp;", "1e308, 0, 0"]
+
+
+@st.composite
+def damaged_xml(draw):
+    """The Cornell box as Mitsuba XML, with an attribute value replaced, a line duplicated or
+    deleted, bytes inserted, or the text cut short; sometimes -D parameters of any value."""
+    text = XML_SCENE
+    kind = draw(st.sampled_from(["value", "value", "value", "duplicate_line", "delete_line", "insert",
+                                 "truncate", "none"]))
+    if kind == "value":
+        values = [m.span(1) for m in re.finditer(r'\b(?:value|name|type|id)="([^"]*)"', text)]
+        start, end = draw(st.sampled_from(values))
+        text = text[:start] + draw(st.one_of(st.sampled_from(XML_VALUES), st.text(max_size=6))) + text[end:]
+    elif kind in ("duplicate_line", "delete_line"):
+        lines = text.splitlines(keepends=True)
+        i = draw(st.integers(0, len(lines) - 1))
+        lines[i:i + 1] = [lines[i]] * (2 if kind == "duplicate_line" else 0)
+        text = "".join(lines)
+    data = text.encode("utf-8", "surrogatepass")
+    if kind == "insert":
+        i = draw(st.integers(0, len(data)))
+        data = data[:i] + draw(st.binary(min_size=1, max_size=8)) + data[i:]
+    elif kind == "truncate":
+        data = data[:draw(st.integers(0, len(data) - 1))]
+    parameters = draw(mostly(st.just({}), st.dictionaries(st.sampled_from(["spp", "resolution", "max_depth"]),
+                                                          st.sampled_from(XML_VALUES), max_size=2), odds=4))
+    return data, parameters
+
+
+@fuzz_settings(300)
+@given(file=damaged_xml())
+def test_damaged_mitsuba_xml_scenes_load_or_explain(file, renders):
+    """A damaged XML scene fails with an error at its XML line (or naming the file when it cannot
+    be parsed at all, or the scene field it became), or renders finite."""
+    import warnings
+
+    data, parameters = file
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # MitsubaXmlWarnings about approximations
+        path = Path(folder) / "scene.xml"
+        path.write_bytes(data)
+        load_or_explain(lambda: clrender.load_scene(path, parameters=parameters), renders,
+                        lambda e: re.match(r"scene\.xml(:\d+)?\b", e.where) or e.where.startswith(
+                            ("camera", "render", "materials", "shapes", "lights", "media")))

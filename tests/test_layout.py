@@ -6,7 +6,7 @@ from clrender import layout
 from conftest import build_test_kernels
 
 ORDER = ["WideBvhNode", "Triangle", "TriangleShading", "TriangleInfo", "Material", "Emitter",
-         "Medium", "Camera", "RenderParams"]
+         "Medium", "Camera", "RenderParams", "AovSums"]
 
 
 def expected_layout():

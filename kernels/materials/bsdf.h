@@ -40,6 +40,13 @@ float3 specular_energy_scale(const Scene* scene, const Material* m, const Surfac
 bool sides_agree(float a, float b) { return (a > 0.0f && b > 0.0f) || (a < 0.0f && b < 0.0f); }
 #endif
 
+// A one-sided material (Material.kind.y = 1; Mitsuba's BSDFs without `twosided`) seen from
+// behind its front face (the side the triangle winding faces) neither reflects nor transmits:
+// the path ends there and lights do not reach it.
+bool is_one_sided_back(const Material* m, const SurfacePoint* sp) {
+    return m->kind.y != 0 && !sp->front_face;
+}
+
 bool is_specular_material(const Material* m) {
     return m->kind.x == MATERIAL_DIELECTRIC || m->kind.x == MATERIAL_CONDUCTOR;
 }
@@ -55,6 +62,7 @@ bool material_is_delta(const Material* m) {
 
 float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                  float3 wi) {
+    if (is_one_sided_back(m, sp)) return (float3)(0.0f);
 #if DIELECTRIC
     if (is_specular_material(m)) {
         // A delta lobe has no finite value for a direction chosen elsewhere (light sampling).
@@ -71,6 +79,7 @@ float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, 
 }
 
 float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+    if (is_one_sided_back(m, sp)) return 0.0f;
 #if DIELECTRIC
     if (is_specular_material(m)) {
         if (material_is_delta(m)) return 0.0f;
@@ -117,6 +126,7 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
 
 BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                        Rng* rng) {
+    if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC
     if (is_specular_material(m)) {
         float rnl = rng_float(rng);
