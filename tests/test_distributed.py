@@ -67,6 +67,20 @@ def test_cloud_scene_is_bit_identical(client):
     assert_identical(result, local(scene, 3))
 
 
+def test_a_scene_the_kernel_sees_rescaled_is_bit_identical(client):
+    """A scene of 2^40 units reaches the kernel scaled by a power of two (arrays.length_scale):
+    strips and chunks do not change that, and depths come back in the scene's units."""
+    scene = small("scenes/cornell_box.json", (20, 16), seed=2)
+    reference = local(scene, 3)
+    for shape in scene.shapes:
+        shape.mesh.vertices = shape.mesh.vertices * 2.0**40
+    scene.camera.position, scene.camera.look_at = scene.camera.position * 2.0**40, scene.camera.look_at * 2.0**40
+    result = distributed.render(scene, client, 3, device=TEST_DEVICE, tiles=4, samples_per_chunk=2)
+    assert_identical(result, local(scene, 3))
+    assert np.array_equal(result.image, reference.image)
+    assert np.array_equal(result.aux["depth"], reference.aux["depth"] * 2.0**40)
+
+
 def test_outlines_and_a_mesh_file_the_workers_never_see(client, tmp_path):
     # The toon character: ink outlines from the aux buffers span strip boundaries; its mesh is
     # loaded on the client only (the file is gone before the render), shipped in the scene.

@@ -138,6 +138,33 @@ def test_renderer_arguments_are_checked(kwargs, where):
     assert error.value.where == where
 
 
+@pytest.mark.parametrize("kwargs,where", [
+    ({"aovs": ("albedo", "shadow")}, "aovs"), ({"aovs": 3}, "aovs"),
+])
+def test_aov_arguments_are_checked(kwargs, where):
+    renderer = clrender.Renderer(clrender.load_scene_dict(tiny_scene()), "cpu")
+    with pytest.raises(ArgumentError) as error:
+        renderer.render(**kwargs)
+    assert error.value.where == where
+
+
+def test_accumulate_keeps_the_limits_of_a_render():
+    """Renderer.accumulate (distributed rendering's step) is bounded as render is: per-pixel
+    counts stay within 2^24 across resumed chunks, and the tile lies in the image."""
+    renderer = clrender.Renderer(clrender.load_scene_dict(tiny_scene()), "cpu")
+    whole = clrender.Accumulation.start((0, 0, 4, 4))
+    done = renderer.accumulate(whole, 2)
+    for state, samples, where in ((whole, 0, "samples"), (whole, 2**24 + 1, "samples"), (done, 2**24 - 1, "samples"),
+                                  (clrender.Accumulation.start((2, 2, 4, 4)), 1, "state.tile"),
+                                  ("sums", 1, "state")):
+        with pytest.raises(ArgumentError) as error:
+            renderer.accumulate(state, samples)
+        assert error.value.where == where
+    with pytest.raises(ArgumentError, match="^max_depth"):
+        renderer.accumulate(done, 1, max_depth=10**9)
+    assert renderer.accumulate(done, 2**24 - 2, time_limit=1e-9).samples == 3   # at the limit: allowed
+
+
 def test_render_accepts_a_dict_or_a_path_and_rejects_other_things(tmp_path):
     data = tiny_scene()
     from_dict = clrender.render(data, spp=1, device="cpu")
