@@ -380,9 +380,11 @@ def _report(output, result, where, status, bar=None):
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
+    from .mitsuba_xml import errors_at_source
 
     scene, notes = _load_scene(args.scene, _parameters(args))
-    arrays = build_scene_arrays(scene)
+    with errors_at_source(scene):
+        arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
     width, height = scene.camera.resolution
     print(f"scene:      {args.scene}")

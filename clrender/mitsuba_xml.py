@@ -13,6 +13,7 @@ approximations (docs/mitsuba-xml.md) are MitsubaXmlWarnings.
 import re
 import warnings
 import xml.parsers.expat
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -525,6 +526,7 @@ def read_scene(path, parameters=None):
     elements = _expand(root, {k: str(v) for k, v in (parameters or {}).items()}, files)
     ids = _collect_ids(elements)
     reader = _Reader(ids, files)
+    reader.out.origins[""] = root.where()   # what no element accounts for: the file's <scene>
     by_tag = {}
     for element in elements:
         by_tag.setdefault(element.tag, []).append(element)
@@ -541,7 +543,7 @@ def read_scene(path, parameters=None):
     sensors = by_tag.get("sensor", [])
     if len(sensors) != 1:
         raise (sensors[1].error("clrender renders one sensor: keep a single <sensor>") if sensors
-               else MitsubaXmlError(path.name, "the scene has no <sensor> (clrender needs a camera)"))
+               else root.error("the scene has no <sensor> (clrender needs a camera)"))
     read_sensor(Plugin(sensors[0], ids), reader)
     for element in by_tag.get("shape", []):
         read_shape(Plugin(element, ids), reader)
@@ -574,18 +576,34 @@ def scene_from_translation(translation):
     try:
         scene = load_scene_dict(translation.scene)
     except SceneError as e:
-        origin = _origin(translation.origins, e.where)
-        if origin is None:
-            raise
-        raise MitsubaXmlError(origin, f"{e.message} (scene field {e.where})") from None
+        raise located(e, translation.origins) from None
     check_media_nesting(scene, translation)
+    scene.origins = translation.origins
     return scene
+
+
+def located(error, origins):
+    """A SceneError naming a scene field, at the XML element the field came from."""
+    origin = _origin(origins, error.where)
+    if origin is None or isinstance(error, MitsubaXmlError):
+        return error
+    return MitsubaXmlError(origin, f"{error.message} (scene field {error.where})")
+
+
+@contextmanager
+def errors_at_source(scene):
+    """SceneErrors found after loading (at upload: degenerate shapes, sizes for the device) name
+    the XML element of the field, for a scene read from XML."""
+    try:
+        yield
+    except SceneError as e:
+        raise located(e, scene.origins or {}) from None
 
 
 def _origin(origins, where):
     best = None
     for key in origins:
-        if where == key or where.startswith(key + ".") or where.startswith(key + "["):
+        if key in ("", where) or where.startswith(key + ".") or where.startswith(key + "["):
             if best is None or len(key) > len(best):
                 best = key
     return origins.get(best)

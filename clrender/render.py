@@ -16,6 +16,7 @@ from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
 from .errors import ArgumentError
 from .features import scene_features
+from .mitsuba_xml import errors_at_source
 from .scene import as_scene
 
 
@@ -166,9 +167,10 @@ class Renderer:
         self.features = scene_features(scene, volume_method)
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
-        limits.check_image_fits(scene.camera.resolution, self.device)
-        self.arrays = build_scene_arrays(scene)
-        limits.check_arrays_fit({name: getattr(self.arrays, name) for name in self.ARRAYS}, self.device)
+        with errors_at_source(scene):
+            limits.check_image_fits(scene.camera.resolution, self.device)
+            self.arrays = build_scene_arrays(scene)
+            limits.check_arrays_fit({name: getattr(self.arrays, name) for name in self.ARRAYS}, self.device)
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
         self._aov_kernel = None   # the AOVS build, made when a render first asks for it

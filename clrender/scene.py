@@ -170,6 +170,7 @@ class Scene:
     camera_medium: int = None      # medium at the camera; None: found by casting a ray
     path: Path = None
     outlines: Outlines = field(default_factory=Outlines)
+    origins: dict = None           # scene field -> its place in a Mitsuba XML file
 
     def transform(self, matrix):
         """Move everything (shapes, camera, point and directional lights) by an affine 4x4 matrix."""

@@ -1,10 +1,11 @@
 """Property-based fuzzing (hypothesis) of what a user hands to clrender: scene dicts (valid ones
 perturbed field by field), scene files (duplicated keys, damaged text, other encodings), mesh
-files and grid files.
+files, grid files and damaged Mitsuba XML scenes.
 
 The property: loading either raises a SceneError that names its place (a JSON path; for a file
-that cannot be read as JSON at all, the file), or gives a scene whose tiny render (4 x 4 pixels,
-1 spp, depth 3) is finite everywhere. Nothing else may escape.
+that cannot be read as JSON at all, the file; for XML, the file's line and element), or gives a
+scene whose tiny render (4 x 4 pixels, 1 spp, depth 3) is finite everywhere or stops at upload
+with such a SceneError. Nothing else may escape.
 
 Loading is cheap and every example is loaded; rendering is not, so at most FUZZ_RENDERS loaded
 scenes per test are rendered, on the session's context (kernels built once per feature set).
@@ -26,6 +27,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 import clrender
+import mitsuba_scenes
 from clrender.errors import SceneError
 
 _REQUESTED = int(os.environ.get("CLRENDER_FUZZ_EXAMPLES", "0"))
@@ -47,7 +49,7 @@ class Renders:
         self.context, self.every, self.limit = context, every, limit
         self.loaded = self.done = 0
 
-    def check(self, scene):
+    def check(self, scene, names_its_place=lambda e: e.where):
         self.loaded += 1
         if self.done >= self.limit or self.loaded % self.every:
             return
@@ -57,7 +59,8 @@ class Renders:
         try:
             result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
         except SceneError as e:   # found at upload: degenerate shapes, sizes, scaled values
-            assert e.where, e
+            assert names_its_place(e), e
+            event("SceneError at upload")
             return
         assert np.all(np.isfinite(result.image)), result.image
         if result.discarded_samples:   # reported to the user; counted here to watch the rate
@@ -73,7 +76,7 @@ def load_or_explain(load, renders, names_its_place):
         event("SceneError")
         return
     event("loaded")
-    renders.check(scene)
+    renders.check(scene, names_its_place)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -392,50 +395,122 @@ def test_generated_grid_files_load_or_explain(file, renders):
 # ---------------------------------------------------------------------------------------------
 # Mitsuba XML scene files
 # ---------------------------------------------------------------------------------------------
-XML_SCENE = (Path(__file__).resolve().parent.parent / "scenes" / "cornell_box.xml").read_text()
+def xml_base_scenes():
+    """The Cornell box and the Mitsuba comparison scenes (every plugin the reader supports: glass,
+    rough conductors, media and their phase functions, a .vol grid, an EXR environment, OBJ and
+    PLY meshes, point, directional and area lights), as name -> XML text."""
+    cornell = (Path(__file__).resolve().parent.parent / "scenes" / "cornell_box.xml").read_text()
+    return {"cornell_box": cornell} | {name: scene() for name, scene in sorted(mitsuba_scenes.SCENES.items())}
+
+
+XML_SCENES = xml_base_scenes()
 XML_VALUES = ["", "x", "0", "-1", "1e39", "1e-45", "nan", "inf", "-inf", "1e400", "99999999999", "2147483648",
-              "1, 2", "1, 2, 3, 4", "0, 0, 0", "true", "$undefined", "$spp", "&amp;", "1e308, 0, 0"]
+              "1, 2", "1, 2, 3, 4", "0, 0, 0", "true", "$undefined", "$spp", "&amp;", "1e308, 0, 0",
+              "1e30", "-1e30", "1e-30", "0.5, nan, 1", "cloud.vol", "ball.obj", "sky.exr", "."]
+XML_TAGS = ["scene", "shape", "bsdf", "emitter", "medium", "phase", "volume", "sensor", "film", "sampler",
+            "integrator", "transform", "float", "integer", "rgb", "point", "ref", "default", "include", "lookat"]
+_XML_TAG = re.compile(r"<!--.*?-->|<(/?)([A-Za-z_][\w.-]*)\b[^>]*?(/?)>", re.S)
+
+
+def xml_elements(text):
+    """(start, end, content_start, tag) of every element below the root, in document order:
+    `text[start:end]` is the element, `content_start` is where a child may go (None when the
+    element is self-closing)."""
+    stack, found = [], []
+    for match in _XML_TAG.finditer(text):
+        if match.group(2) is None:   # a comment
+            continue
+        closing, tag, empty = match.groups()
+        if empty:
+            found.append((match.start(), match.end(), None, tag))
+        elif not closing:
+            stack.append((match.start(), match.end(), tag))
+        elif stack:
+            start, content, tag = stack.pop()
+            found.append((start, match.end(), content, tag))
+    root = max(found, key=lambda e: e[1] - e[0])
+    return sorted(e for e in found if e is not root)
+
+
+def nest_badly(text, draw):
+    """Well-formed XML whose elements are in the wrong places: an element moved into another
+    one (or out to the root), wrapped in an element of another kind, or its tag renamed."""
+    elements = xml_elements(text)
+    start, end, _, tag = draw(st.sampled_from(elements))
+    moved = text[start:end]
+    kind = draw(st.sampled_from(["move", "wrap", "rename"]))
+    if kind == "rename":
+        other = draw(st.sampled_from(XML_TAGS))
+        renamed = re.sub(rf"^<{tag}\b", f"<{other}", moved)
+        return text[:start] + re.sub(rf"</{tag}>$", f"</{other}>", renamed) + text[end:]
+    if kind == "wrap":
+        other = draw(st.sampled_from(XML_TAGS))
+        return text[:start] + f'<{other} type="diffuse" name="reflectance">{moved}</{other}>' + text[end:]
+    rest = text[:start] + text[end:]
+    targets = [e[2] for e in xml_elements(rest) if e[2] is not None] + [rest.index(">", rest.index("<scene")) + 1]
+    at = draw(st.sampled_from(sorted(targets)))
+    return rest[:at] + moved + rest[at:]
 
 
 @st.composite
 def damaged_xml(draw):
-    """The Cornell box as Mitsuba XML, with an attribute value replaced, a line duplicated or
-    deleted, bytes inserted, or the text cut short; sometimes -D parameters of any value."""
-    text = XML_SCENE
-    kind = draw(st.sampled_from(["value", "value", "value", "duplicate_line", "delete_line", "insert",
-                                 "truncate", "none"]))
+    """A Mitsuba XML scene with an attribute value replaced, a line duplicated, deleted or moved,
+    elements nested wrongly, bytes inserted, or the text cut short; sometimes -D parameters of
+    any value. Returns the bytes and the parameters."""
+    text = XML_SCENES[draw(st.sampled_from(sorted(XML_SCENES)))]
+    kind = draw(st.sampled_from(["value", "value", "value", "duplicate_line", "delete_line", "move_line",
+                                 "nest", "nest", "insert", "truncate", "none"]))
     if kind == "value":
-        values = [m.span(1) for m in re.finditer(r'\b(?:value|name|type|id)="([^"]*)"', text)]
+        values = [m.span(1) for m in re.finditer(r'\b(?:value|name|type|id|x|y|z|angle|origin|target|up)="([^"]*)"', text)]
         start, end = draw(st.sampled_from(values))
         text = text[:start] + draw(st.one_of(st.sampled_from(XML_VALUES), st.text(max_size=6))) + text[end:]
-    elif kind in ("duplicate_line", "delete_line"):
+    elif kind in ("duplicate_line", "delete_line", "move_line"):
         lines = text.splitlines(keepends=True)
         i = draw(st.integers(0, len(lines) - 1))
-        lines[i:i + 1] = [lines[i]] * (2 if kind == "duplicate_line" else 0)
+        line = lines.pop(i)
+        if kind != "delete_line":
+            lines.insert(draw(st.integers(0, len(lines))) if kind == "move_line" else i, line)
         text = "".join(lines)
+    elif kind == "nest":
+        text = nest_badly(text, draw)
     data = text.encode("utf-8", "surrogatepass")
     if kind == "insert":
         i = draw(st.integers(0, len(data)))
         data = data[:i] + draw(st.binary(min_size=1, max_size=8)) + data[i:]
     elif kind == "truncate":
         data = data[:draw(st.integers(0, len(data) - 1))]
-    parameters = draw(mostly(st.just({}), st.dictionaries(st.sampled_from(["spp", "resolution", "max_depth"]),
+    parameters = draw(mostly(st.just({}), st.dictionaries(st.sampled_from(["spp", "res", "resolution", "max_depth"]),
                                                           st.sampled_from(XML_VALUES), max_size=2), odds=4))
     return data, parameters
 
 
-@fuzz_settings(300)
+@pytest.fixture(scope="module")
+def xml_folder(tmp_path_factory):
+    """A folder with the files the XML scenes use (meshes, grid, environment map)."""
+    folder = tmp_path_factory.mktemp("xml")
+    mitsuba_scenes.write(folder, "meshes")
+    return folder
+
+
+def names_xml_line(error, data):
+    """The error's place is `scene.xml:LINE`, LINE a line of the file (then the element, for
+    errors found after parsing)."""
+    match = re.match(r"scene\.xml:(\d+)(?: <[a-z]+\b.*>)?$", error.where, re.S)
+    return match and 1 <= int(match.group(1)) <= data.count(b"\n") + 1
+
+
+@fuzz_settings(400)
 @given(file=damaged_xml())
-def test_damaged_mitsuba_xml_scenes_load_or_explain(file, renders):
-    """A damaged XML scene fails with an error at its XML line (or naming the file when it cannot
-    be parsed at all, or the scene field it became), or renders finite."""
+def test_damaged_mitsuba_xml_scenes_load_or_explain(file, xml_folder, renders):
+    renders.every = 3   # about a fifth load: spread the renders over the run
+    """A damaged XML scene fails with an error at its XML line and element (a value that becomes
+    an invalid scene field names the field too), or renders finite."""
     import warnings
 
     data, parameters = file
-    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+    path = xml_folder / "scene.xml"
+    path.write_bytes(data)
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # MitsubaXmlWarnings about approximations
-        path = Path(folder) / "scene.xml"
-        path.write_bytes(data)
         load_or_explain(lambda: clrender.load_scene(path, parameters=parameters), renders,
-                        lambda e: re.match(r"scene\.xml(:\d+)?\b", e.where) or e.where.startswith(
-                            ("camera", "render", "materials", "shapes", "lights", "media")))
+                        lambda e: names_xml_line(e, data))

@@ -147,6 +147,21 @@ def test_validation_errors_point_at_the_xml_element(tmp_path):
     assert "must be <= 1 per channel" in message and "materials[0].albedo" in message
 
 
+def test_errors_found_at_upload_point_at_the_xml_element(tmp_path, context):
+    # A rectangle 1e30 times smaller than the scene has no area in float32: found when the
+    # scene's arrays are built (Renderer, `clrender info`), still named by the XML element.
+    body = ('<shape type="rectangle"><transform name="to_world"><scale value="1e30"/></transform></shape>\n'
+            '<shape type="sphere"/>')
+    scene = clrender.load_scene(write(tmp_path, body))
+    with pytest.raises(MitsubaXmlError) as error:
+        clrender.Renderer(scene, context=context)
+    assert error.value.where == f"scene.xml:{line_of(body, 'sphere')} <shape type='sphere'>"
+    assert "degenerate at the scene's scale" in error.value.message and "(scene field shapes[1])" in error.value.message
+    info = subprocess.run([sys.executable, "-m", "clrender.cli", "info", str(tmp_path / "scene.xml")],
+                          capture_output=True, text=True)
+    assert info.returncode == 3 and "scene.xml:" in info.stderr and "Traceback" not in info.stderr
+
+
 # ============================================================================================
 # integrator, sensor, film, sampler
 # ============================================================================================
@@ -240,7 +255,7 @@ def test_sensor_errors(tmp_path, sensor_xml, message):
 
 
 def test_sensor_without_sensor_or_with_two_is_an_error(tmp_path):
-    assert "has no <sensor>" in error_of(tmp_path, "", sensor="")
+    assert "scene.xml:2 <scene>: the scene has no <sensor>" in error_of(tmp_path, "", sensor="")
     assert "keep a single <sensor>" in error_of(tmp_path, SENSOR)
 
 
