@@ -242,10 +242,14 @@ def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
         kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
+        if m.index_matched:
+            kind = "interface"
         out[i]["kind"][0] = layout.MATERIAL_KINDS[kind]
         out[i]["kind"][1] = int(not m.two_sided)
         out[i]["emission"][:3] = m.emission
-        if kind in ("dielectric", "conductor"):
+        if kind == "interface":   # the transmittance of the boundary
+            out[i]["color"][:3] = m.tint if m.index_matched else 1.0
+        elif kind in ("dielectric", "conductor"):
             out[i]["color"][:3] = m.tint
             out[i]["params"][:3] = (m.ior, m.exterior_ior, m.roughness)
         else:
@@ -261,9 +265,7 @@ def needs_albedo_table(material):
     kind = int(material["kind"][0])
     if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
         return False
-    ior, exterior, roughness = material["params"][:3]
-    if kind == layout.MATERIAL_KINDS["dielectric"] and ior == exterior:
-        return False  # index-matched: the interface is skipped, rough or not
+    roughness = material["params"][2]
     return bool(roughness * roughness >= np.float32(1e-3))
 
 

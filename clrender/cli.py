@@ -75,7 +75,7 @@ def _parser():
                         help="render for this long (kernel time); with --spp, whichever comes first")
     render.add_argument("--seed", type=_setting("seed"), help="random seed (default: the scene's)")
     render.add_argument("--max-depth", type=_setting("max_depth"), help="longest path (default: the scene's)")
-    render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
+    render.add_argument("--device", help="device index, 'cpu', 'gpu', or a part of a platform or device name, e.g. 'pocl', 'intel' (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
     render.add_argument("--exposure", type=_setting("exposure"), default=0.0,
                         help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -108,7 +108,15 @@ def _parser():
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
-    info.add_argument("scene", type=Path)
+    info.add_argument("scene", type=Path, nargs="?", help="a scene (optional with --kernel)")
+    info.add_argument("--kernel", action="store_true",
+                      help="the render kernel's private memory per work-item, preferred work-group multiple "
+                           "and one-sample launch time on the device: for the scene, or without a scene for "
+                           "every feature combination (docs/portability.md)")
+    info.add_argument("--device", help="device for --kernel (as for render)")
+    info.add_argument("--resolution", type=_image_side, nargs=2, metavar=("W", "H"),
+                      help="--kernel without a scene: image size of the combinations' scenes (default 256 256)")
+    info.add_argument("--no-launch", action="store_true", help="--kernel: leave out the launch timing")
     _add_parameter_option(info)
     info.set_defaults(run=_info)
 
@@ -162,6 +170,15 @@ def _load_scene(path, parameters):
         print(f"clrender: warning: {message}", file=sys.stderr)
     scene = mitsuba_xml.scene_from_translation(translation)
     return scene, translation.notes
+
+
+def _image_side(text):
+    from . import limits
+
+    try:
+        return limits.number(int(text), "", low=1, high=limits.MAX_RESOLUTION, integer=True)
+    except ValueError as e:   # int() or the limit
+        raise argparse.ArgumentTypeError(getattr(e, "message", f"must be an integer, got {limits.show(text)}")) from None
 
 
 def _setting(name):
@@ -382,6 +399,15 @@ def _info(args):
     from .features import describe, scene_features
     from .mitsuba_xml import errors_at_source
 
+    for flag, given in (("--device", args.device), ("--no-launch", args.no_launch), ("--resolution", args.resolution)):
+        if given and not args.kernel:
+            raise ArgumentError(flag, "only with --kernel")
+    if args.scene is None:
+        if not args.kernel:
+            raise ArgumentError("scene", "info needs a scene (or --kernel for every feature combination)")
+        return _kernel_table(args)
+    if args.resolution:
+        raise ArgumentError("--resolution", "only without a scene (the scene gives its image size)")
     scene, notes = _load_scene(args.scene, _parameters(args))
     with errors_at_source(scene):
         arrays = build_scene_arrays(scene)
@@ -409,7 +435,55 @@ def _info(args):
     o = scene.outlines
     print("outlines:   " + (f"width {o.width:g} px, depth threshold {o.depth_threshold:g}, "
                             f"crease angle {o.crease_angle:g} deg" if o.enabled else "off"))
+    if args.kernel:
+        from .device import device_errors
+        from .kernel_info import scene_figures
+        from .render import Renderer
+
+        renderer = Renderer(scene, args.device)
+        with device_errors():
+            figures = scene_figures(renderer, launch=not args.no_launch)
+        print(f"device:     {renderer.device.name.strip()} [{renderer.device.platform.name.strip()}]")
+        print(f"kernel:     {figures.private_bytes} bytes private memory per work-item, work-group "
+              f"multiple {figures.preferred_multiple}, at most {figures.max_work_group}")
+        if figures.launch_seconds is not None:
+            print(f"launch:     {figures.launch_seconds:.3f} s for one sample per pixel "
+                  f"(the renderer's shortest launch; longer ones aim at 0.25 s)")
     return 0
+
+
+def _kernel_table(args):
+    from . import limits
+    from .device import choose_device, device_errors
+
+    device = choose_device(args.device)
+    width, height = args.resolution or (256, 256)
+    try:
+        limits.check_image_fits((width, height), device)
+    except ValueError as e:
+        raise ArgumentError("--resolution", e.message) from None
+    with device_errors():
+        _print_kernel_table(device, width, height, args.no_launch)
+    return 0
+
+
+def _print_kernel_table(device, width, height, no_launch):
+    import pyopencl as cl
+
+    from .features import all_feature_combinations, describe
+    from .kernel_info import combination_launch_seconds, kernel_figures
+
+    context = cl.Context([device])
+    print(f"device: {device.name.strip()} [{device.platform.name.strip()}, {device.driver_version.strip()}]")
+    launch = "" if no_launch else f"  1-spp launch at {width}x{height}"
+    print(f"{'features':<66} {'private B':>9} {'multiple':>8} {'max wg':>6}{launch}")
+    for features in all_feature_combinations():
+        f = kernel_figures(context, features)
+        if not no_launch:
+            f.launch_seconds = combination_launch_seconds(device, features, (width, height))
+        seconds = "" if f.launch_seconds is None else f"  {f.launch_seconds:10.4f} s"
+        print(f"{describe(features):<66} {f.private_bytes:>9} {f.preferred_multiple:>8} {f.max_work_group:>6}{seconds}",
+              flush=True)
 
 
 def _describe_medium(medium):
@@ -437,7 +511,7 @@ def _devices(args):
         mark = "*" if device.int_ptr == default.int_ptr else " "
         print(f"{mark} {index}: {device.name.strip()} [{platform.name.strip()}, "
               f"{device.version.strip()}, {device.max_compute_units} compute units]")
-    print("(* = default; choose with --device INDEX|cpu|gpu|NAME or CLRENDER_DEVICE)")
+    print("(* = default; choose with --device INDEX|cpu|gpu|NAME (platform or device) or CLRENDER_DEVICE)")
     return 0
 
 

@@ -23,7 +23,6 @@ from .errors import ArgumentError, DeviceError, KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
-_programs = {}  # in-memory cache: (context id, key of device, source and options) -> (context, Program)
 
 
 def kernel_dir():
@@ -49,33 +48,59 @@ def list_devices():
     return found
 
 
-def choose_device(spec=None):
-    """Pick a device: `spec` (or $CLRENDER_DEVICE) is an index, 'cpu', 'gpu', or a name part.
+_KINDS = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU, "accelerator": cl.device_type.ACCELERATOR}
 
-    Default: the first GPU, else the first device.
+
+def is_simulator(device):
+    """A device reporting several kinds at once: Oclgrind reports CPU, GPU and accelerator. It
+    checks every memory access and is thousands of times slower, so it is never a default and
+    never matches 'cpu' or 'gpu'; name it ('oclgrind') to use it."""
+    kinds = [bit for bit in _KINDS.values() if device.type & bit]
+    return len(kinds) > 1
+
+
+def device_names(platform, device):
+    """The names a device answers to: its platform's name and vendor, its own name and vendor."""
+    return [platform.name, platform.vendor, device.name, device.vendor]
+
+
+def choose_device(spec=None):
+    """Pick a device: `spec` (or $CLRENDER_DEVICE) is an index, 'cpu', 'gpu', or a part of the
+    platform's or device's name or vendor (e.g. 'pocl', 'intel', 'nvidia', 'oclgrind').
+
+    Default: the first GPU, else the first device that is not a simulator. A name part that
+    matches devices of several platforms is an error (e.g. 'amd' may be the CPU's name under
+    two implementations): the choice must be unambiguous.
     """
+    where = "device" if spec is not None else "CLRENDER_DEVICE"   # the error names where the choice came from
     spec = spec if spec is not None else os.environ.get("CLRENDER_DEVICE")
     devices = list_devices()
     if not devices:
         raise DeviceError("no OpenCL device found: install an OpenCL driver (e.g. pocl-opencl-icd)")
+    real = [(p, d) for _, p, d in devices if not is_simulator(d)]
     if spec is None or str(spec).strip() == "":
-        gpus = [d for _, _, d in devices if d.type & cl.device_type.GPU]
-        return gpus[0] if gpus else devices[0][2]
+        gpus = [d for _, d in real if d.type & cl.device_type.GPU]
+        return gpus[0] if gpus else (real[0][1] if real else devices[0][2])
     spec = str(spec).strip()
     if spec.isdigit():
         index = int(spec)
         if index >= len(devices):
-            raise ArgumentError("device", f"index {index} out of range: {len(devices)} device(s); "
-                                          "see `clrender devices`")
+            raise ArgumentError(where, f"index {index} out of range: {len(devices)} device(s); "
+                                       "see `clrender devices`")
         return devices[index][2]
-    kinds = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU, "accelerator": cl.device_type.ACCELERATOR}
-    if spec.lower() in kinds:
-        matches = [d for _, _, d in devices if d.type & kinds[spec.lower()]]
+    if spec.lower() in _KINDS:
+        matches = [(p, d) for p, d in real if d.type & _KINDS[spec.lower()]]
     else:
-        matches = [d for _, _, d in devices if spec.lower() in d.name.lower()]
+        matches = [(p, d) for _, p, d in devices
+                   if any(spec.lower() in name.lower() for name in device_names(p, d))]
     if not matches:
-        raise ArgumentError("device", f"no OpenCL device matches {spec!r}; see `clrender devices`")
-    return matches[0]
+        raise ArgumentError(where, f"no OpenCL device matches {spec!r}; see `clrender devices`")
+    platforms = {p.int_ptr: p.name for p, _ in matches}
+    if spec.lower() not in _KINDS and len(platforms) > 1:
+        raise ArgumentError(where, f"{spec!r} is ambiguous: it matches devices of the platforms "
+                                   f"{', '.join(sorted(platforms.values()))}; give a platform name or an index "
+                                   f"(see `clrender devices`)")
+    return matches[0][1]
 
 
 def kernel_source(entry="integrator.cl"):
@@ -117,11 +142,19 @@ def build_program(context, features, entry="integrator.cl"):
     options = f"{BUILD_OPTIONS} {define_options(features)}"
     identity = "\n".join([_device_identity(context.devices[0]), options, source])
     key = hashlib.sha256(identity.encode()).hexdigest()
-    cached_context, program = _programs.get((id(context), key), (None, None))
-    if cached_context is not context:   # (an id can be reused once its context is gone)
-        program = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
-        _programs[(id(context), key)] = (context, program)
-    return program
+    programs = _memory_cache(context)
+    if key not in programs:
+        programs[key] = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
+    return programs[key]
+
+
+def _memory_cache(context):
+    """The programs built for `context`, kept on the context object itself: a cache keyed by
+    id(context) handed a collected context's program to a new context that got the same id
+    (Intel's runtime then fails with INVALID_CONTEXT)."""
+    if not hasattr(context, "_clrender_programs"):
+        context._clrender_programs = {}
+    return context._clrender_programs
 
 
 class KernelCacheWarning(UserWarning):

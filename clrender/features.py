@@ -54,17 +54,22 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False):
         # Only materials some shape uses: an unused toon material cannot be hit.
         "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
         # Only materials that some shape uses: an unused glass definition costs no kernel code.
-        "DIELECTRIC": int(any(scene.materials[shape.material].type in SPECULAR_MATERIALS
-                              for shape in scene.shapes)),
+        "DIELECTRIC": int(any(_is_specular(scene.materials[shape.material]) for shape in scene.shapes)),
         "GRID_MEDIA": VOLUME_METHODS[method] if any(m.type == "grid" for m in scene.media) else 0,
         "AOVS": int(bool(sample_aovs)),
     }
 
 
+def _is_specular(material):
+    """An index-matched dielectric is not: it is rendered as an interface (scene.Material)."""
+    return material.type in SPECULAR_MATERIALS and not material.index_matched
+
+
 def _uses_media(scene):
-    """Media matter when some region holds one, or some surface is a pure medium boundary."""
+    """Media matter when some region holds one, or some surface is a pure medium boundary (an
+    interface, or an index-matched dielectric, rendered as one)."""
     return scene.medium >= 0 or any(s.interior >= 0 or s.exterior >= 0 for s in scene.shapes) or any(
-        m.type == "interface" for m in scene.materials)
+        m.type == "interface" or m.index_matched for m in scene.materials)
 
 
 def all_feature_combinations():

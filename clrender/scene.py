@@ -99,6 +99,13 @@ class Material:
     two_sided: bool = True
     energy_compensation: bool = True
 
+    @property
+    def index_matched(self):
+        """A dielectric with the same index on both sides (compared in float32, as the kernel
+        would): no reflection, no refraction, only its tint. It is rendered as an `interface`
+        boundary, so it costs no path vertex and shadow rays pass it."""
+        return self.type == "dielectric" and np.float32(self.ior) == np.float32(self.exterior_ior)
+
 
 @dataclass
 class Shape:

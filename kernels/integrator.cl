@@ -3,6 +3,7 @@
 // samples are split into launches; the random numbers and the camera ray are keyed by the pixel
 // of the full image, so a pixel's sum is also the same whichever tile holds it (distributed.py).
 // With AOVS the sample-level AOVs accumulate beside it (aovs.h).
+#include "portability.h"
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -36,25 +37,25 @@
 #include "path.h"
 #include "aux_buffers.h"
 
-__kernel void render_pass(__constant RenderParams* params,
-                          __global const WideBvhNode* nodes,
-                          __global const Triangle* triangles,
-                          __global const TriangleShading* shading,
-                          __global const TriangleInfo* info,
-                          __global const Material* materials,
-                          __global const Medium* media,
-                          __global const Emitter* emitters,
-                          __global const float* emitter_cdf,
-                          __global const float4* env_texels,
-                          __global const float* env_cdf,
-                          __global const float* specular_albedo,
-                          __global const float* grid_data,
-                          __global const float* majorant_data,
-                          __global float4* accumulator,
-                          __global int* discarded_samples,
-                          __global float4* aux_geometry,
-                          __global int* aux_object,
-                          __global AovSums* aov_sums) {
+KERNEL void render_pass(__constant RenderParams* params,
+                        __global const WideBvhNode* nodes,
+                        __global const Triangle* triangles,
+                        __global const TriangleShading* shading,
+                        __global const TriangleInfo* info,
+                        __global const Material* materials,
+                        __global const Medium* media,
+                        __global const Emitter* emitters,
+                        __global const float* emitter_cdf,
+                        __global const float4* env_texels,
+                        __global const float* env_cdf,
+                        __global const float* specular_albedo,
+                        __global const float* grid_data,
+                        __global const float* majorant_data,
+                        __global float4* accumulator,
+                        __global int* discarded_samples,
+                        __global float4* aux_geometry,
+                        __global int* aux_object,
+                        __global AovSums* aov_sums) {
     int tx = get_global_id(0), ty = get_global_id(1);
     if (tx >= params->tile.z || ty >= params->tile.w) return;
     int x = params->tile.x + tx, y = params->tile.y + ty;

@@ -2,8 +2,9 @@
 // with the power heuristic; Russian roulette on the throughput after the roulette depth.
 // Depth counts scattering vertices after the camera: depth 1 sees emitters directly, so max
 // depth 1 renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
-// Index-matched boundaries (MATERIAL_INTERFACE) only switch the current medium; they are not
-// path vertices.
+// Index-matched boundaries (MATERIAL_INTERFACE: interfaces and index-matched dielectrics) only
+// switch the current medium and transmit their colour (the dielectric's tint, else 1); they are
+// not path vertices.
 #ifndef CLRENDER_PATH_H
 #define CLRENDER_PATH_H
 
@@ -65,7 +66,7 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
 #if GRID_MEDIA == VOLUME_NULL
         if (medium >= 0 && !ratio_track(scene, medium, origin, dir, found ? hit.t : remaining, &tracker, rng))
             return (float3)(0.0f);
-        if (!found) return ratio_transmittance(&tracker, spectral_mis, pdf_ratio);
+        if (!found) return tr * ratio_transmittance(&tracker, spectral_mis, pdf_ratio);
 #elif GRID_MEDIA == VOLUME_RAYMARCH
         if (medium >= 0) {
             __global const Medium* md = scene->media + medium;
@@ -79,7 +80,9 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
         if (!found) return tr;
 #endif
         SurfacePoint sp = surface_point(scene, &hit, dir);
-        if (scene->materials[sp.material].kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
+        __global const Material* boundary = scene->materials + sp.material;
+        if (boundary->kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
+        tr *= boundary->color.xyz;
         medium = medium_beyond(&sp);
         origin = spawn_ray_origin(&sp, dir);
     }
@@ -247,6 +250,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         Material m = scene->materials[sp.material];
 #if MEDIA
         if (m.kind.x == MATERIAL_INTERFACE) {
+            throughput *= m.color.xyz;
             medium = medium_beyond(&sp);
             ray.origin = spawn_ray_origin(&sp, ray.direction);
             if (++null_crossings > MAX_NULL_CROSSINGS) break;

@@ -19,7 +19,7 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 typedef struct { int4 info; } TriangleInfo;
 
 // kind: x MATERIAL_*, y one-sided (1: black seen from behind, materials/bsdf.h); color: albedo (diffuse), tint (dielectric: transmission, conductor:
-// reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
+// reflectance), base colour (toon) or transmittance (interface); params: x ior inside, y ior outside, z roughness (dielectric
 // and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
 // (-1: none). toon_* are read by MATERIAL_TOON only (materials/toon.h): toon_shadow: rgb shadow
 // colour, w shadow factor; toon_bands: x bands, y band softness, z highlight size, w highlight

@@ -445,6 +445,44 @@ def test_a_missing_optional_extra_is_an_argument_error_before_rendering(tmp_path
     assert issubclass(clrender.MissingDependency, clrender.ArgumentError)
 
 
+@pytest.mark.parametrize("args,message", [
+    (("info",), "scene: info needs a scene (or --kernel"),
+    (("info", "SCENE", "--no-launch"), "--no-launch: only with --kernel"),
+    (("info", "SCENE", "--device", "cpu"), "--device: only with --kernel"),
+    (("info", "--kernel", "--resolution", "0", "8"), "argument --resolution: must be >= 1, got 0"),
+    (("info", "--kernel", "--resolution", "8", "x"), "must be an integer, got 'x'"),
+    (("info", "SCENE", "--kernel", "--resolution", "8", "8"), "--resolution: only without a scene"),
+    (("info", "--kernel", "--device", "no-such-device"), "device: no OpenCL device matches 'no-such-device'"),
+])
+def test_info_flags_are_checked_before_any_kernel_runs(tmp_path, monkeypatch, args, message):
+    scene = write_scene(tmp_path, tiny_scene())
+    monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("a kernel ran"))
+    code, stderr = run_cli(*[scene if a == "SCENE" else a for a in args])
+    assert code == EXIT_ARGUMENTS and message in stderr, stderr
+
+
+def test_info_kernel_resolution_must_fit_the_device(device, monkeypatch):
+    from clrender import limits
+
+    try:
+        limits.check_image_fits((limits.MAX_RESOLUTION,) * 2, device)
+        pytest.skip(f"{device.name} holds the largest image")
+    except SceneError:
+        pass
+    monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("a kernel ran"))
+    code, stderr = run_cli("info", "--kernel", "--resolution", limits.MAX_RESOLUTION, limits.MAX_RESOLUTION)
+    assert code == EXIT_ARGUMENTS and "--resolution: 16384 x 16384 pixels need" in stderr, stderr
+
+
+def test_a_device_from_the_environment_is_named_as_such(monkeypatch):
+    monkeypatch.setenv("CLRENDER_DEVICE", "no-such-device")
+    with pytest.raises(ArgumentError) as error:
+        clrender.choose_device()
+    assert error.value.where == "CLRENDER_DEVICE"
+    code, stderr = run_cli("devices")
+    assert code == EXIT_ARGUMENTS and "CLRENDER_DEVICE: no OpenCL device matches" in stderr, stderr
+
+
 def test_missing_output_folders_are_made(tmp_path):
     scene = write_scene(tmp_path, tiny_scene())
     out = tmp_path / "new" / "deeper" / "out.exr"

@@ -53,9 +53,7 @@ bool is_specular_material(const Material* m) {
 
 bool material_is_delta(const Material* m) {
 #if DIELECTRIC
-    if (m->kind.x == MATERIAL_DIELECTRIC)
-        return microfacet_is_smooth(material_alpha(m)) || m->params.x == m->params.y;
-    if (m->kind.x == MATERIAL_CONDUCTOR) return microfacet_is_smooth(material_alpha(m));
+    if (is_specular_material(m)) return microfacet_is_smooth(material_alpha(m));
 #endif
     return false;
 }
@@ -105,9 +103,7 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
     float eta = dielectric ? material_eta(m, sp) : 1.0f;
     if (material_is_delta(m)) {
         if (!dielectric) return sample_conductor_delta(m->color.xyz, n, sp->ng, wo);
-        // Index-matched: exactly eta = 1, whichever way the division rounds.
-        return sample_dielectric_delta(m->color.xyz, m->params.x == m->params.y ? 1.0f : eta, n,
-                                       sp->ng, wo, rnl);
+        return sample_dielectric_delta(m->color.xyz, eta, n, sp->ng, wo, rnl);
     }
     BsdfSample bs = bsdf_sample_none();
     float3 wi = dielectric ? sample_dielectric(eta, alpha, n, wo, rnl, rn) : sample_conductor(alpha, n, wo, rn);
