@@ -58,7 +58,7 @@ def test_info_kernel_reports_what_a_device_needs():
     rows = [line.split() for line in table.stdout.splitlines() if line.startswith("environment=")]
     assert len(rows) == len(list(all_feature_combinations()))
     assert all(int(row[-3]) >= 0 and int(row[-2]) >= 1 and int(row[-1]) >= 1 for row in rows)
-    assert run("info").returncode == 1   # neither a scene nor --kernel
+    assert run("info").returncode == 2   # neither a scene nor --kernel: bad arguments (docs/errors.md)
 
 
 @pytest.mark.parametrize("content,message", [
