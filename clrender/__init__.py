@@ -4,21 +4,67 @@
     scene = clrender.load_scene("scenes/cornell_box.json")   # or a Mitsuba 3 .xml scene
     image = clrender.render(scene, spp=64)
     clrender.save_image(image, "cornell.png")
-"""
-from . import distributed
-from .aovs import AOV_NAMES
-from .denoise import DenoiserUnavailable, denoise
-from .device import choose_device, list_devices
-from .errors import KernelBuildError, SceneError
-from .image import load_exr_layers, load_image, save_image
-from .metrics import efficiency, mse, relative_mse, rmse
-from .mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
-from .render import Accumulation, Renderer, RenderInterrupted, RenderResult, render
-from .scene import load_scene, load_scene_dict
 
-__all__ = [
-    "AOV_NAMES", "Accumulation", "DenoiserUnavailable", "KernelBuildError", "MitsubaXmlError",
-    "MitsubaXmlWarning", "RenderInterrupted", "RenderResult", "Renderer", "SceneError", "choose_device",
-    "denoise", "distributed", "efficiency", "list_devices", "load_exr_layers", "load_image", "load_scene",
-    "load_scene_dict", "mse", "relative_mse", "render", "rmse", "save_image",
-]
+Names are imported on first use (PEP 562), so `import clrender` is quick and the command line
+can handle a Ctrl-C during its start-up itself.
+"""
+import importlib
+import importlib.util
+import sys
+import types
+
+# name -> the submodule defining it (None: the name is a submodule itself).
+_EXPORTS = {
+    "AOV_NAMES": "aovs",
+    "denoise": "denoise",
+    "choose_device": "device", "list_devices": "device",
+    "distributed": None,
+    "ArgumentError": "errors", "ClrenderError": "errors", "DenoiserUnavailable": "errors",
+    "DeviceError": "errors", "FileError": "errors", "KernelBuildError": "errors",
+    "MissingDependency": "errors", "SceneError": "errors",
+    "load_exr_layers": "image", "load_image": "image", "save_image": "image",
+    "efficiency": "metrics", "mse": "metrics", "relative_mse": "metrics", "rmse": "metrics",
+    "MitsubaXmlError": "mitsuba_xml", "MitsubaXmlWarning": "mitsuba_xml",
+    "Accumulation": "render", "Renderer": "render", "RenderInterrupted": "render", "RenderResult": "render",
+    "render": "render",
+    "load_scene": "scene", "load_scene_dict": "scene",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        module = importlib.import_module(f".{_EXPORTS[name] or name}", __name__)
+        value = module if _EXPORTS[name] is None else getattr(module, name)
+    elif name.isidentifier() and importlib.util.find_spec(f".{name}", __name__):   # any submodule: clrender.limits
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module 'clrender' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+def _function_over_submodule(name):
+    """A package property: the function `name` of the submodule of the same name."""
+    def get(self):
+        return getattr(importlib.import_module(f".{name}", __name__), name)
+
+    return property(get, lambda self, value: None)
+
+
+class _Package(types.ModuleType):
+    """`clrender.render` and `clrender.denoise` are the functions even after the submodules of
+    the same names are imported (the import system would otherwise set the package attributes
+    to the modules)."""
+    render = _function_over_submodule("render")
+    denoise = _function_over_submodule("denoise")
+
+    def __reduce__(self):   # pickled by name, as modules are (cloudpickle: functions sent to Dask)
+        return importlib.import_module, (self.__name__,)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -27,6 +27,9 @@ Two sources, one set of named images (`Renderer.render(aovs=...)`, `clrender ren
 """
 import numpy as np
 
+from . import limits
+from .errors import ArgumentError
+
 SAMPLE_AOVS = ("albedo", "normal", "emission", "variance")
 PIXEL_CENTRE_AOVS = ("depth", "object_id")
 AOV_NAMES = SAMPLE_AOVS + PIXEL_CENTRE_AOVS
@@ -34,13 +37,15 @@ AOV_NAMES = SAMPLE_AOVS + PIXEL_CENTRE_AOVS
 
 def parse_aovs(names, source="aovs"):
     """AOV names as a tuple in the order of AOV_NAMES, from an iterable of names or a
-    comma-separated string; unknown names raise ValueError naming `source` (e.g. '--aov')."""
+    comma-separated string; unknown names raise ArgumentError naming `source` (e.g. '--aov')."""
     if isinstance(names, str):
         names = [n.strip() for n in names.split(",") if n.strip()]
+    if not isinstance(names, (list, tuple, set, frozenset)):
+        raise ArgumentError(source, f"must be AOV names (a list or a comma-separated string), got {limits.show(names)}")
     names = list(names)
     unknown = [n for n in names if n not in AOV_NAMES]
     if unknown:
-        raise ValueError(f"{source}: unknown AOV {unknown[0]!r}; valid: {', '.join(AOV_NAMES)}")
+        raise ArgumentError(source, f"unknown AOV {limits.show(unknown[0])}; valid: {', '.join(AOV_NAMES)}")
     return tuple(n for n in AOV_NAMES if n in names)
 
 
@@ -80,7 +85,7 @@ def aov_images(names, aux, sample_images):
     """The images of `names` from the pixel-centre record `aux` and the sample-level images."""
     missing = [n for n in names if n in SAMPLE_AOVS and n not in sample_images]
     if missing:
-        raise ValueError(f"AOV {missing[0]!r} was not accumulated (start the Accumulation with sample_aovs)")
+        raise ArgumentError("aovs", f"AOV {missing[0]!r} was not accumulated (start the Accumulation with sample_aovs)")
     hit = aux["object_id"] >= 0
     pixel_centre = {"depth": np.where(hit, aux["depth"], np.float32(np.inf)).astype(np.float32),
                     "object_id": aux["object_id"]}

@@ -3,9 +3,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout
+from . import layout, limits
 from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
+from .errors import SceneError
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -32,7 +33,8 @@ class SceneArrays:
     specular_albedo: np.ndarray  # float32 energy-compensation tables, filled on the device
     table_materials: list       # indices of the materials that own tables (field albedo_tables >= 0)
     bvh_depth: int
-    degenerate_triangles: int   # zero-area triangles dropped at load
+    degenerate_triangles: int   # triangles without area in float32 (at the kernel's scale), dropped
+    length_scale: float = 1.0   # kernel lengths = scene lengths x this power of two (device_length_scale)
 
 
 def active_environment(scene):
@@ -45,11 +47,44 @@ def active_environment(scene):
     return env if np.any(env.radiance > 0) else None
 
 
+# The kernel sees a scene whose extent lies in [2^-SCALE_WINDOW, 2^SCALE_WINDOW].
+SCALE_WINDOW = 10
+
+
+def scene_extent(scene):
+    """The largest side of the box around the geometry, the camera, point lights and grid boxes."""
+    points = [scene.camera.position[None]]
+    points += [s.mesh.vertices for s in scene.shapes]
+    points += [light.position[None] for light in scene.lights if light.position is not None]
+    points += [np.array(m.grid.world_bounds()) for m in scene.media if m.grid is not None]
+    points = np.concatenate(points)
+    return float(np.max(points.max(axis=0) - points.min(axis=0)))
+
+
+def device_length_scale(scene):
+    """The power of two by which the kernel's lengths differ from the scene's: 1 for a scene of
+    ordinary size, else the one that brings its extent into [2^-10, 2^10]. The kernel works in
+    float32 and squares lengths (normals of triangles square cross products: lengths^4), so a
+    scene of 1e12 or 1e-12 units would overflow or underflow. Scaled by a power of two, every
+    float32 length scales exactly, and an image does not depend on the scale (radiance is per
+    area and solid angle): the render is that of the same scene at an ordinary size."""
+    extent = scene_extent(scene)
+    if not extent > 0:
+        return 1.0
+    exponent = int(np.floor(np.log2(extent)))
+    shift = min(SCALE_WINDOW - exponent, 0) if exponent > SCALE_WINDOW else max(-SCALE_WINDOW - exponent, 0)
+    return 2.0 ** shift
+
+
 def build_scene_arrays(scene):
-    v0, v1, v2, normals, info = _gather_triangles(scene)
-    area2 = np.linalg.norm(np.cross(v1 - v0, v2 - v0), axis=1)
-    keep = area2 > 0
+    count = sum(len(shape.mesh.faces) for shape in scene.shapes)
+    if count > limits.MAX_TRIANGLES:   # before the triangles are gathered and the BVH is built
+        raise SceneError("shapes", f"{count} triangles, more than the limit of {limits.MAX_TRIANGLES}")
+    scale = device_length_scale(scene)
+    v0, v1, v2, normals, info = _gather_triangles(scene, scale)
+    keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
+    _check_no_shape_vanishes(scene, info, keep)
     v0, v1, v2, normals, info = v0[keep], v1[keep], v2[keep], normals[keep], info[keep]
 
     bvh = build_bvh(v0, v1, v2)
@@ -70,13 +105,13 @@ def build_scene_arrays(scene):
     for k, name in enumerate(("n0", "n1", "n2")):
         shading[name][:, :3] = normals[:, k]
 
-    lo, hi = scene.bounds()
+    lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
     emitters, powers = _triangle_emitters(scene, v0, v1, v2, info)
     first_light = len(emitters)
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
     light_emitters = []
-    for light in scene.lights:
+    for index, light in enumerate(scene.lights):
         if light.type == "environment":
             if active_environment(scene) is None:
                 continue
@@ -91,8 +126,10 @@ def build_scene_arrays(scene):
             light_emitters.append(environment)
             powers.append(4 * np.pi * np.pi * sphere[3] ** 2 * mean)
         elif light.type == "point":
-            light_emitters.append(_emitter("point", light.radiance, p0=light.position))
-            powers.append(4 * np.pi * float(light.radiance.mean()))
+            # Irradiance intensity / distance^2 must not change with the scale.
+            intensity = limits.float32_values(light.radiance * scale**2, f"lights[{index}].intensity", SceneError)
+            light_emitters.append(_emitter("point", intensity, p0=light.position * scale))
+            powers.append(4 * np.pi * float(intensity.mean()))
         else:
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
@@ -104,8 +141,8 @@ def build_scene_arrays(scene):
 
     camera_medium = scene.camera_medium
     if camera_medium is None:
-        camera_medium = _medium_at_camera(scene, v0, v1, v2, info)
-    media, grid_data, majorant_data = _medium_array(scene.media)
+        camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, info)
+    media, grid_data, majorant_data = _medium_array(scene.media, scale)
     return SceneArrays(
         nodes=nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
@@ -114,17 +151,42 @@ def build_scene_arrays(scene):
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         first_light=first_light,
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
-        degenerate_triangles=degenerate,
+        degenerate_triangles=degenerate, length_scale=scale,
         specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials)
 
 
-def _gather_triangles(scene):
-    """Concatenate all shapes: corners, per-vertex normals, and the TriangleInfo columns
-    (material, object, emitter = -1, packed media) per triangle."""
+def _has_float32_area(v0, v1, v2):
+    """Whether each triangle keeps an area in the kernel's float32 arithmetic: its normal
+    (cross product of float32 edges) has a normal-range, finite squared length."""
+    e1 = v1.astype(np.float32) - v0.astype(np.float32)
+    e2 = v2.astype(np.float32) - v0.astype(np.float32)
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        n = np.cross(e1, e2)
+        length2 = np.sum(n * n, axis=1, dtype=np.float32)
+    return np.isfinite(length2) & (length2 >= np.finfo(np.float32).tiny)
+
+
+def _check_no_shape_vanishes(scene, info, keep):
+    """A shape all of whose triangles lost their area is a mistake (a radius of 1e-30 among
+    metres, a scene too flat), not something to drop silently."""
+    total = np.bincount(info[:, 1], minlength=len(scene.shapes))
+    kept = np.bincount(info[keep, 1], minlength=len(scene.shapes))
+    for index in np.flatnonzero((total > 0) & (kept == 0)):
+        sizes = [float(np.ptp(s.mesh.vertices, axis=0).max()) for s in scene.shapes]
+        largest = int(np.argmax(sizes))
+        raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {scene.shapes[index].name!r} "
+                                             f"are degenerate at the scene's scale (no area in float32; "
+                                             f"the scene spans {scene_extent(scene):.3g} units, "
+                                             f"shapes[{largest}] {scene.shapes[largest].name!r} {sizes[largest]:.3g})")
+
+
+def _gather_triangles(scene, scale=1.0):
+    """Concatenate all shapes: corners (times `scale`), per-vertex normals, and the TriangleInfo
+    columns (material, object, emitter = -1, packed media) per triangle."""
     v0, v1, v2, normals, info = [], [], [], [], []
     for object_id, shape in enumerate(scene.shapes):
         mesh = shape.mesh
-        corners = mesh.vertices[mesh.faces]
+        corners = mesh.vertices[mesh.faces] * scale
         v0.append(corners[:, 0])
         v1.append(corners[:, 1])
         v2.append(corners[:, 2])
@@ -234,16 +296,17 @@ def _assign_albedo_tables(materials, used):
     return size, owners
 
 
-def _medium_array(media):
-    """Medium records, and the voxel and majorant buffers that grid media index into."""
+def _medium_array(media, scale=1.0):
+    """Medium records, and the voxel and majorant buffers that grid media index into;
+    coefficients per unit of kernel length (`scale` kernel units per scene unit)."""
     out = np.zeros(max(len(media), 1), layout.MEDIUM)
     voxels, majorants = [], []
     voxel_count = cell_count = 0
     for i, medium in enumerate(media):
         record = out[i]
         put = lambda name, value: layout.set_field(record, layout.MEDIUM_FIELDS, name, value)  # noqa: E731
-        put("sigma_a", medium.sigma_a)
-        put("sigma_s", medium.sigma_s)
+        put("sigma_a", limits.float32_values(medium.sigma_a / scale, f"media[{i}]", SceneError))
+        put("sigma_s", limits.float32_values(medium.sigma_s / scale, f"media[{i}]", SceneError))
         put("g", medium.g)
         put("kind", layout.MEDIUM_KINDS[medium.type])
         if medium.grid is None:
@@ -255,26 +318,26 @@ def _medium_array(media):
         put("majorant_block", grid.block)
         put("resolution", grid.resolution)
         put("majorant_resolution", high.shape[::-1])
-        record["to_voxel"] = grid.world_to_voxel()
+        record["to_voxel"] = grid.world_to_voxel() * [1 / scale, 1 / scale, 1 / scale, 1]
         voxels.append(grid.density.ravel())
         majorants.append(np.stack([high.ravel(), low.ravel()], axis=1).ravel())
         voxel_count += grid.density.size
         cell_count += high.size
     if voxel_count + cell_count * 2 >= 2**31:
-        raise ValueError("grid media too large: more than 2^31 floats in all")
+        raise SceneError("media", "grid media too large: more than 2^31 floats in all")
     grid_data = np.concatenate(voxels).astype(np.float32) if voxels else np.zeros(1, np.float32)
     majorant_data = np.concatenate(majorants).astype(np.float32) if majorants else np.zeros(2, np.float32)
     return out, grid_data, majorant_data
 
 
-def _medium_at_camera(scene, v0, v1, v2, info):
+def _medium_at_camera(scene, position, v0, v1, v2, info):
     """The medium around the camera: the first surface along the view direction tells whether
     the camera is behind its front face (inside the interior medium) or in front of it."""
     if len(v0) == 0:
         return scene.medium
     direction = scene.camera.look_at - scene.camera.position
     direction = direction / np.linalg.norm(direction)
-    _, hit = intersect_brute_force(v0, v1, v2, scene.camera.position[None], direction[None])
+    _, hit = intersect_brute_force(v0, v1, v2, position[None], direction[None])
     if hit[0] < 0:
         return scene.medium
     normal = np.cross(v1[hit[0]] - v0[hit[0]], v2[hit[0]] - v0[hit[0]])

@@ -393,7 +393,7 @@ def ray_triangle_distance(origins, directions, v0, v1, v2, t_min=T_MIN):
     det = _dot(e1, p)
     s = o - a
     q = _cross(s, e1)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv = 1.0 / det
         u = _dot(s, p) * inv
         v = _dot(d, q) * inv

@@ -1,26 +1,63 @@
 """Command line: render, info, devices.
 
-Exit codes: 0 success, 1 bad input or failed build, 130 interrupted (the partial image is saved).
+Exit codes (docs/errors.md): 0 success, 2 bad arguments, 3 bad scene, 4 device problem, 5 file
+I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a render in progress
+saves its partial image first), 1 only for a bug in clrender (with its traceback).
 Several scenes render as a batch; --workers/--scheduler render on a Dask cluster (distributed.py).
+Imports are deferred so that a signal during start-up is handled like any other.
 """
 import argparse
+import contextlib
+import signal
+import string
 import sys
+import threading
+import warnings
 from pathlib import Path
 
-import numpy as np
-
-from .errors import KernelBuildError, SceneError
-from .scene import MIN_MARCH_STEP
+from .errors import ArgumentError, ClrenderError, Interrupted
 
 
 def main(argv=None):
-    parser = _parser()
-    args = parser.parse_args(argv)
     try:
-        return args.run(args)
-    except (SceneError, KernelBuildError, ValueError, RuntimeError, OSError) as e:
+        with _plain_warnings(), _interrupt_on_termination():
+            args = _parser().parse_args(argv)
+            return args.run(args)
+    except ClrenderError as e:
         print(f"clrender: error: {e}", file=sys.stderr)
-        return 1
+        return e.exit_code
+    except KeyboardInterrupt as e:
+        print("clrender: interrupted", file=sys.stderr)
+        return 128 + getattr(e, "signal", signal.SIGINT)
+
+
+@contextlib.contextmanager
+def _interrupt_on_termination():
+    """SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render as Ctrl-C
+    does (the launch in flight finishes, the partial image is saved) instead of killing it."""
+    def interrupt(signum, frame):
+        raise Interrupted(signum)
+
+    if threading.current_thread() is not threading.main_thread():   # only it receives signals
+        yield
+        return
+    previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def _plain_warnings():
+    """Warnings (e.g. a rebuilt kernel cache entry) as one `clrender: warning:` line."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"clrender: warning: {message}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 def _parser():
@@ -33,18 +70,19 @@ def _parser():
                         help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB); for several "
                              "scenes a folder (out/ writes out/STEM.exr) or a pattern with {stem} "
                              "and/or {index} (out/frame_{index:04d}.png)")
-    render.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
-    render.add_argument("--time", type=float, metavar="SECONDS",
+    render.add_argument("--spp", type=_setting("spp"), help="samples per pixel (default: the scene's)")
+    render.add_argument("--time", type=_setting("time_limit"), metavar="SECONDS",
                         help="render for this long (kernel time); with --spp, whichever comes first")
-    render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
-    render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
+    render.add_argument("--seed", type=_setting("seed"), help="random seed (default: the scene's)")
+    render.add_argument("--max-depth", type=_setting("max_depth"), help="longest path (default: the scene's)")
     render.add_argument("--device", help="device index, 'cpu', 'gpu', or a part of a platform or device name, e.g. 'pocl', 'intel' (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
-    render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
+    render.add_argument("--exposure", type=_setting("exposure"), default=0.0,
+                        help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.add_argument("--volume-method", choices=("null", "raymarch"),
                         help="grid media: null-scattering path integral (unbiased) or ray marching "
                              "(biased preview) (default: the scene's, else null)")
-    render.add_argument("--step", type=_march_step,
+    render.add_argument("--step", type=_setting("step"),
                         help="ray marching: longest step in voxels, also scaling the optical depth per step "
                              "(default: the scene's, else 2)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
@@ -64,11 +102,11 @@ def _parser():
                         help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
     _add_parameter_option(render)
     cluster = render.add_argument_group("distributed rendering (docs/distributed.md)").add_mutually_exclusive_group()
-    cluster.add_argument("--workers", type=_positive_int, metavar="N",
+    cluster.add_argument("--workers", type=_setting("workers"), metavar="N",
                          help="render on a local Dask cluster of N worker processes")
     cluster.add_argument("--scheduler", metavar="ADDRESS", help="render on the Dask cluster at tcp://HOST:PORT")
-    render.add_argument("--tiles", type=_positive_int, help="with a cluster: image strips (default: 4 per worker thread)")
-    render.add_argument("--chunk-seconds", type=_positive_float, default=3.0,
+    render.add_argument("--tiles", type=_setting("tiles"), help="with a cluster: image strips (default: 4 per worker thread)")
+    render.add_argument("--chunk-seconds", type=_setting("chunk_seconds"), default=3.0,
                         help="with a cluster: kernel time per chunk of samples (default: 3)")
     render.set_defaults(run=_render)
 
@@ -79,7 +117,7 @@ def _parser():
                            "and one-sample launch time on the device: for the scene, or without a scene for "
                            "every feature combination (docs/portability.md)")
     info.add_argument("--device", help="device for --kernel (as for render)")
-    info.add_argument("--resolution", type=_positive_int, nargs=2, metavar=("W", "H"), default=(256, 256),
+    info.add_argument("--resolution", type=_image_side, nargs=2, metavar=("W", "H"),
                       help="--kernel without a scene: image size of the combinations' scenes (default 256 256)")
     info.add_argument("--no-launch", action="store_true", help="--kernel: leave out the launch timing")
     _add_parameter_option(info)
@@ -96,10 +134,29 @@ def _add_parameter_option(parser):
 
 
 def _parameter(text):
+    from .mitsuba_xml import PARAMETER_NAME
+
     name, sep, value = text.partition("=")
     if not sep or not name:
         raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    if not PARAMETER_NAME.fullmatch(name):
+        raise argparse.ArgumentTypeError(f"{name!r} is not a parameter name (letters, digits and _, "
+                                         "not starting with a digit)")
     return name, value
+
+
+def _parameters(args):
+    """The -D parameters as a dict: each given once, and only for Mitsuba XML scenes."""
+    parameters = {}
+    for name, value in args.parameters:
+        if name in parameters:
+            raise ArgumentError("-D", f"{name} given twice")
+        parameters[name] = value
+    scenes = args.scene if isinstance(args.scene, list) else [args.scene]
+    not_xml = [path for path in scenes if path.suffix.lower() != ".xml"]
+    if parameters and not_xml:
+        raise ArgumentError("-D", f"parameters apply to Mitsuba XML scenes only, not to {not_xml[0]}")
+    return parameters
 
 
 def _load_scene(path, parameters):
@@ -107,9 +164,8 @@ def _load_scene(path, parameters):
     the translation notes that `info` shows (None for JSON)."""
     from .scene import load_scene
 
-    parameters = dict(parameters)
     if path.suffix.lower() != ".xml":
-        return load_scene(path, parameters=parameters), None
+        return load_scene(path), None
     from . import mitsuba_xml
 
     translation = mitsuba_xml.read_scene(path, parameters)
@@ -119,79 +175,120 @@ def _load_scene(path, parameters):
     return scene, translation.notes
 
 
-def _number_at_least(convert, low, strict=False):
-    """An argparse type: `convert(text)`, finite and >= low (> low if strict)."""
+def _image_side(text):
+    from . import limits
+
+    try:
+        return limits.number(int(text), "", low=1, high=limits.MAX_RESOLUTION, integer=True)
+    except ValueError as e:   # int() or the limit
+        raise argparse.ArgumentTypeError(getattr(e, "message", f"must be an integer, got {limits.show(text)}")) from None
+
+
+def _setting(name):
+    """An argparse type for a render setting, bounded as in the scene and the API (limits.py)."""
+    from . import limits
+
+    integer = limits.SETTINGS[name][0]
+
     def parse(text):
-        value = convert(text)
-        if not (value > low if strict else value >= low) or value == float("inf"):
-            bound = "a positive number" if strict and low == 0 else f">= {low}"
-            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
-        return value
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {'an integer' if integer else 'a number'}, "
+                                             f"got {limits.show(text)}") from None
+        try:
+            return limits.setting(name, value)
+        except ArgumentError as e:
+            raise argparse.ArgumentTypeError(e.message) from None
     return parse
 
 
-_positive_int = _number_at_least(int, 1)
-_non_negative_int = _number_at_least(int, 0)
-_positive_float = _number_at_least(float, 0.0, strict=True)
-_march_step = _number_at_least(float, MIN_MARCH_STEP)
-
-
 def _render(args):
+    """Every argument and output path is checked before the first scene renders."""
     from .aovs import parse_aovs
 
-    outputs = _output_paths(args.output, args.scene)
     aovs = parse_aovs(args.aov, source="--aov")
     for flag in ("keep_noisy", "denoise_prefilter", "denoise_keep_emission"):
         if getattr(args, flag) and not args.denoise:
-            raise ValueError(f"--{flag.replace('_', '-')}: only with --denoise")
-    if args.workers or args.scheduler:
-        if aovs or args.denoise:
-            raise ValueError("--aov and --denoise are not supported with --workers or --scheduler yet")
-        return _render_distributed(args, outputs)
+            raise ArgumentError(f"--{flag.replace('_', '-')}", "only with --denoise")
+    parameters = _parameters(args)
+    layers = aovs + (("noisy",) if args.keep_noisy else ())
+    outputs = _output_paths(args.output, args.scene, layers)
+    _check_scene_files(args.scene)
+    cluster = "--workers" if args.workers else "--scheduler" if args.scheduler else None
+    if cluster:
+        for flag, given in (("--aov", aovs), ("--denoise", args.denoise), ("--time", args.time is not None)):
+            if given:
+                raise ArgumentError(flag, f"is not supported with {cluster} yet")
+        from .distributed import require_dask
+
+        require_dask(cluster)
+        return _render_distributed(args, outputs, parameters)
+    if args.tiles is not None:
+        raise ArgumentError("--tiles", "only with --workers or --scheduler")
+    if args.denoise:
+        from .denoise import check_denoiser
+
+        check_denoiser("--denoise")
     for scene_path, output in zip(args.scene, outputs):
-        status = _render_local(args, scene_path, output, aovs)
+        status = _render_local(args, scene_path, output, aovs, parameters)
         if status:
             return status
     return 0
 
 
-def _output_paths(output, scene_paths):
-    """The image path of each scene: `output` itself for one scene; a folder (an existing one or
-    a path ending in /) holds STEM.exr; a pattern names {stem} (the scene file's name without its
-    suffix) and/or {index} (its position, from 0; format specs allowed: {index:04d})."""
-    from .image import LDR_SUFFIXES
+def _check_scene_files(paths):
+    """Each scene file exists before a batch starts (its contents are read when it renders)."""
+    from .errors import SceneError
 
-    is_folder = output.endswith(("/", "\\")) or Path(output).is_dir()
+    for path in paths:
+        if not path.is_file():
+            raise SceneError("", f"scene file not found: {path}" if not path.exists() else f"{path} is not a file")
+
+
+def _output_paths(output, scene_paths, layers=()):
+    """The image path of each scene, each checked (image.check_output_path; with 8-bit formats,
+    the files of the `layers` too): `output` itself for one scene; a folder (a path ending in /,
+    or for several scenes an existing folder) holds STEM.exr; a pattern names {stem} (the scene
+    file's name without its suffix) and/or {index} (its position, from 0; format specs allowed:
+    {index:04d}). One scene and an existing folder without the / is an error, not a guess."""
+    from .image import LDR_SUFFIXES, check_output_path, layer_path
+
+    is_folder = output.endswith(("/", "\\")) or (len(scene_paths) > 1 and Path(output).is_dir())
     if "{" in output or is_folder:
         pattern = str(Path(output) / "{stem}.exr") if is_folder else output
         try:
+            fields = {field for _, field, _, _ in string.Formatter().parse(pattern) if field is not None}
+            if not fields <= {"stem", "index"}:   # no {0}, {stem.attribute}, {index[0]}
+                raise ValueError(f"unknown field {{{sorted(fields - {'stem', 'index'})[0]}}}")
             paths = [Path(pattern.format(stem=p.stem, index=i)) for i, p in enumerate(scene_paths)]
         except (KeyError, IndexError, ValueError) as e:
-            raise ValueError(f"-o {output}: bad pattern ({e}); use {{stem}} and {{index}}") from None
+            raise ArgumentError("--output", f"bad pattern {output!r} ({e}); use {{stem}} and {{index}}") from None
     elif len(scene_paths) > 1:
-        raise ValueError(f"-o {output}: {len(scene_paths)} scenes need a folder (out/) or a pattern "
-                         "with {stem} or {index} (out/{stem}.exr)")
+        raise ArgumentError("--output", f"{len(scene_paths)} scenes need a folder (out/) or a pattern "
+                                        "with {stem} or {index} (out/{stem}.exr), got " + repr(output))
     else:
         paths = [Path(output)]
-    for path in paths:
-        suffix = path.suffix.lower()
-        if suffix != ".exr" and suffix not in LDR_SUFFIXES:
-            raise ValueError(f"-o {path}: unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
     seen = {}
     for scene_path, path in zip(scene_paths, paths):
         if path in seen:
-            raise ValueError(f"-o {output}: {seen[path]} and {scene_path} would both write {path}; use {{index}}")
+            raise ArgumentError("--output", f"{seen[path]} and {scene_path} would both write {path}; use {{index}}")
         seen[path] = scene_path
+    for path in paths:
+        check_output_path(path, "--output")
+        if path.suffix.lower() in LDR_SUFFIXES:
+            for name in layers:
+                check_output_path(layer_path(path, name), "--output")
     return paths
 
 
-def _render_local(args, scene_path, output, aovs):
+def _render_local(args, scene_path, output, aovs, parameters):
     from tqdm import tqdm
 
     from .image import save_image
     from .render import Renderer, RenderInterrupted
 
-    scene, _ = _load_scene(scene_path, args.parameters)
+    scene, _ = _load_scene(scene_path, parameters)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
     for note in renderer.notes:
@@ -212,74 +309,69 @@ def _render_local(args, scene_path, output, aovs):
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result
-        status = 130
+        status = 128 + interrupted.signal
     bar.close()
     save_image(result.image, output, exposure=args.exposure, layers=_layers(args, aovs, result))
     _report(output, result, renderer.device.name.strip(), status)
     return status
 
 
-def _render_distributed(args, outputs):
+def _render_distributed(args, outputs, parameters):
     """Render the scenes on a Dask cluster; each image is written as soon as it is complete, and
-    on Ctrl-C the scenes in flight are written as far as they got."""
+    on Ctrl-C (SIGTERM, SIGHUP) the scenes in flight are written as far as they got."""
     from tqdm import tqdm
 
     from .distributed import dask_client, render_many
     from .image import save_image
     from .render import RenderInterrupted
 
-    if args.time is not None:
-        raise ValueError("--time is not supported with --workers or --scheduler; use --spp")
     batch = len(args.scene) > 1
     # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
     # them on, so a long sequence is never in memory at once.
-    scenes = (_load_scene(path, args.parameters)[0] for path in args.scene)
+    scenes = (_load_scene(path, parameters)[0] for path in args.scene)
     scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
-    try:
-        with dask_client(args.workers, args.scheduler) as client:
-            where = f"{len(client.scheduler_info()['workers'])} Dask workers"
-            bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
-                       disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
-                       bar_format="{l_bar}{bar}| {n:.1f}/{total_fmt} {unit} [{elapsed}<{remaining}, "
-                                  + where + "]")
+    with dask_client(args.workers, args.scheduler) as client:
+        where = f"{len(client.scheduler_info()['workers'])} Dask workers"
+        bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
+                   disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
+                   bar_format="{l_bar}{bar}| {n:.1f}/{total_fmt} {unit} [{elapsed}<{remaining}, "
+                              + where + "]")
 
-            def progress(done, total, seconds):
-                bar.update((done if batch else done * spp) - bar.n)
+        def progress(done, total, seconds):
+            bar.update((done if batch else done * spp) - bar.n)
 
-            results = render_many(scenes, client, args.spp, args.seed, args.max_depth, args.device,
-                                  args.volume_method, args.step, args.raymarch_multiple_scattering,
-                                  args.tiles, args.chunk_seconds, progress=progress)
-            saving = []
-            try:
-                for index, result in results:
-                    saving = [(index, result)]
-                    save_image(result.image, outputs[index], exposure=args.exposure)
-                    _report(outputs[index], result, where, 0, bar)
-                    saving = []
-                bar.close()
-                return 0
-            except KeyboardInterrupt as interrupted:
-                partial = interrupted.result if isinstance(interrupted, RenderInterrupted) else _stop(results)
-                bar.close()
-                for index, result in saving:   # complete, but its write was interrupted
-                    save_image(result.image, outputs[index], exposure=args.exposure)
-                    _report(outputs[index], result, where, 0)
-                for index, result in partial:
-                    save_image(result.image, outputs[index], exposure=args.exposure)
-                    _report(outputs[index], result, where, 130)
-                return 130
-    except KeyboardInterrupt:
-        print("clrender: interrupted", file=sys.stderr)
-        return 130
+        results = render_many(scenes, client, args.spp, args.seed, args.max_depth, args.device,
+                              args.volume_method, args.step, args.raymarch_multiple_scattering,
+                              args.tiles, args.chunk_seconds, progress=progress)
+        saving = []
+        try:
+            for index, result in results:
+                saving = [(index, result)]
+                save_image(result.image, outputs[index], exposure=args.exposure)
+                _report(outputs[index], result, where, 0, bar)
+                saving = []
+            bar.close()
+            return 0
+        except KeyboardInterrupt as interrupted:
+            partial = interrupted.result if isinstance(interrupted, RenderInterrupted) else _stop(results, interrupted)
+            status = 128 + getattr(interrupted, "signal", signal.SIGINT)
+            bar.close()
+            for index, result in saving:   # complete, but its write was interrupted
+                save_image(result.image, outputs[index], exposure=args.exposure)
+                _report(outputs[index], result, where, 0)
+            for index, result in partial:
+                save_image(result.image, outputs[index], exposure=args.exposure)
+                _report(outputs[index], result, where, status)
+            return status
 
 
-def _stop(results):
-    """The partial results of a render_many generator interrupted outside it."""
+def _stop(results, interrupt):
+    """The partial results of a render_many generator interrupted (by `interrupt`) outside it."""
     from .render import RenderInterrupted
 
     try:
-        results.throw(KeyboardInterrupt())
+        results.throw(interrupt)
     except RenderInterrupted as interrupted:
         return interrupted.result
     except (StopIteration, KeyboardInterrupt):
@@ -310,13 +402,20 @@ def _report(output, result, where, status, bar=None):
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
+    from .mitsuba_xml import errors_at_source
 
+    for flag, given in (("--device", args.device), ("--no-launch", args.no_launch), ("--resolution", args.resolution)):
+        if given and not args.kernel:
+            raise ArgumentError(flag, "only with --kernel")
     if args.scene is None:
         if not args.kernel:
-            raise ValueError("info needs a scene (or --kernel for every feature combination)")
+            raise ArgumentError("scene", "info needs a scene (or --kernel for every feature combination)")
         return _kernel_table(args)
-    scene, notes = _load_scene(args.scene, args.parameters)
-    arrays = build_scene_arrays(scene)
+    if args.resolution:
+        raise ArgumentError("--resolution", "only without a scene (the scene gives its image size)")
+    scene, notes = _load_scene(args.scene, _parameters(args))
+    with errors_at_source(scene):
+        arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
     width, height = scene.camera.resolution
     print(f"scene:      {args.scene}")
@@ -342,11 +441,13 @@ def _info(args):
     print("outlines:   " + (f"width {o.width:g} px, depth threshold {o.depth_threshold:g}, "
                             f"crease angle {o.crease_angle:g} deg" if o.enabled else "off"))
     if args.kernel:
+        from .device import device_errors
         from .kernel_info import scene_figures
         from .render import Renderer
 
         renderer = Renderer(scene, args.device)
-        figures = scene_figures(renderer, launch=not args.no_launch)
+        with device_errors():
+            figures = scene_figures(renderer, launch=not args.no_launch)
         print(f"device:     {renderer.device.name.strip()} [{renderer.device.platform.name.strip()}]")
         print(f"kernel:     {figures.private_bytes} bytes private memory per work-item, work-group "
               f"multiple {figures.preferred_multiple}, at most {figures.max_work_group}")
@@ -357,26 +458,37 @@ def _info(args):
 
 
 def _kernel_table(args):
+    from . import limits
+    from .device import choose_device, device_errors
+
+    device = choose_device(args.device)
+    width, height = args.resolution or (256, 256)
+    try:
+        limits.check_image_fits((width, height), device)
+    except ValueError as e:
+        raise ArgumentError("--resolution", e.message) from None
+    with device_errors():
+        _print_kernel_table(device, width, height, args.no_launch)
+    return 0
+
+
+def _print_kernel_table(device, width, height, no_launch):
     import pyopencl as cl
 
-    from .device import choose_device
     from .features import all_feature_combinations, describe
     from .kernel_info import combination_launch_seconds, kernel_figures
 
-    device = choose_device(args.device)
     context = cl.Context([device])
-    width, height = args.resolution
     print(f"device: {device.name.strip()} [{device.platform.name.strip()}, {device.driver_version.strip()}]")
-    launch = "" if args.no_launch else f"  1-spp launch at {width}x{height}"
+    launch = "" if no_launch else f"  1-spp launch at {width}x{height}"
     print(f"{'features':<66} {'private B':>9} {'multiple':>8} {'max wg':>6}{launch}")
     for features in all_feature_combinations():
         f = kernel_figures(context, features)
-        if not args.no_launch:
+        if not no_launch:
             f.launch_seconds = combination_launch_seconds(device, features, (width, height))
         seconds = "" if f.launch_seconds is None else f"  {f.launch_seconds:10.4f} s"
         print(f"{describe(features):<66} {f.private_bytes:>9} {f.preferred_multiple:>8} {f.max_work_group:>6}{seconds}",
               flush=True)
-    return 0
 
 
 def _describe_medium(medium):
@@ -388,7 +500,7 @@ def _describe_medium(medium):
     nx, ny, nz = grid.resolution
     lo, hi = grid.world_bounds()
     return (f"grid {nx}x{ny}x{nz} ({grid.source}), density max {float(grid.density.max()):.4g}, "
-            f"{np.count_nonzero(high == 0)}/{high.size} empty majorant blocks of {grid.block}^3, "
+            f"{int((high == 0).sum())}/{high.size} empty majorant blocks of {grid.block}^3, "
             f"box {_fmt(lo)}-{_fmt(hi)}, {coefficients} per unit density")
 
 

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import ArgumentError, DenoiserUnavailable, DeviceError
+
 INSTALL_HINT = "pip install 'clrender[denoise]' (or: pip install pyoidn)"
 
 
@@ -38,16 +40,12 @@ def denoise_render(image, aovs, settings):
                    aovs["emission"] if settings.keep_emission else None)
 
 
-class DenoiserUnavailable(RuntimeError):
-    """pyoidn (Intel Open Image Denoise) is not installed or cannot run here."""
-
-
-def _oidn():
+def _oidn(where="denoise"):
     try:
         import pyoidn
     except ImportError as e:
         raise DenoiserUnavailable(
-            f"denoising needs Intel Open Image Denoise: {INSTALL_HINT} ({e})") from None
+            where, f"denoising needs Intel Open Image Denoise: {INSTALL_HINT} ({e})") from None
     return pyoidn
 
 
@@ -60,9 +58,10 @@ def _device():
     return device
 
 
-def check_denoiser():
-    """Raise DenoiserUnavailable now, before a long render, if denoising cannot work."""
-    _oidn()
+def check_denoiser(where="denoise"):
+    """Raise DenoiserUnavailable (naming `where`, e.g. the flag) now, before a long render, if
+    denoising cannot work."""
+    _oidn(where)
 
 
 def denoise(color, albedo=None, normal=None, prefilter=False, emission=None):
@@ -73,16 +72,18 @@ def denoise(color, albedo=None, normal=None, prefilter=False, emission=None):
     input comes out with a halo and noise of its own (docs/denoising.md)."""
     oidn = _oidn()
     if normal is not None and albedo is None:
-        raise ValueError("denoise: a normal image needs an albedo image too (OIDN)")
-    color = np.nan_to_num(np.asarray(color, dtype=np.float32))
+        raise ArgumentError("normal", "needs an albedo image too (OIDN)")
+    color = _float3(np.nan_to_num(np.asarray(color, dtype=np.float32)), "color")
+    guides = {"emission": emission, "albedo": albedo, "normal": normal}
+    guides = {name: _float3(image, name, color.shape) for name, image in guides.items() if image is not None}
     if emission is not None:
-        emission = _float3(emission)
+        emission = guides.pop("emission")
         color = color - emission
-    images = {"color": _float3(np.maximum(color, 0.0))}
+    images = {"color": np.maximum(color, 0.0)}
     if albedo is not None:
-        images["albedo"] = _float3(np.clip(albedo, 0.0, 1.0))
+        images["albedo"] = np.clip(guides["albedo"], 0.0, 1.0)
     if normal is not None:
-        images["normal"] = _float3(np.clip(normal, -1.0, 1.0))
+        images["normal"] = np.clip(guides["normal"], -1.0, 1.0)
     device = _device()
     if prefilter:
         for name in ("albedo", "normal"):
@@ -94,10 +95,12 @@ def denoise(color, albedo=None, normal=None, prefilter=False, emission=None):
     return output if emission is None else output + emission
 
 
-def _float3(image):
+def _float3(image, where, shape=None):
+    """`image` as contiguous float32 (H, W, 3), of `shape` if given (ArgumentError naming `where`)."""
     image = np.ascontiguousarray(image, dtype=np.float32)
-    if image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"denoise: expected an H x W x 3 image, got shape {image.shape}")
+    if image.ndim != 3 or image.shape[2] != 3 or (shape is not None and image.shape != shape):
+        expected = "an H x W x 3 image" if shape is None else f"a {shape[0]} x {shape[1]} x 3 image like color"
+        raise ArgumentError(where, f"expected {expected}, got shape {image.shape}")
     return image
 
 
@@ -116,5 +119,5 @@ def _run_filter(oidn, device, images, hdr, clean_aux, output_like):
         flt.execute()
         error = device.get_error()
     if error is not None:
-        raise RuntimeError(f"Open Image Denoise failed: {error}")
+        raise DeviceError(f"Open Image Denoise failed: {error}")
     return output

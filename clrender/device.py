@@ -5,19 +5,22 @@ where it is first included: so no include may sit inside an #if, see tests/test_
 with #line markers so compiler messages name the right file, and the layout enumerations are
 prepended. The assembled text is therefore the complete input: its hash, with the device, driver and
 options, keys an in-memory cache and a disk cache of program binaries ($CLRENDER_CACHE_DIR,
-default ~/.cache/clrender).
+default ~/.cache/clrender). A disk entry carries the driver's identity and a checksum of the
+binary, verified before the binary reaches the driver (a truncated binary crashes PoCL).
 """
+import contextlib
 import hashlib
 import os
 import re
 import tempfile
+import warnings
 from importlib import resources
 from pathlib import Path
 
 import pyopencl as cl
 
 from . import layout
-from .errors import KernelBuildError
+from .errors import ArgumentError, DeviceError, KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
@@ -30,10 +33,18 @@ def kernel_dir():
 
 
 def list_devices():
-    """All OpenCL devices as (index, platform, device), in a stable order."""
+    """All OpenCL devices as (index, platform, device), in a stable order; none without a driver."""
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:   # the ICD loader found no platform at all (PLATFORM_NOT_FOUND_KHR)
+        return []
     found = []
-    for platform in cl.get_platforms():
-        for device in platform.get_devices():
+    for platform in platforms:
+        try:
+            devices = platform.get_devices()
+        except cl.Error:   # a platform without devices (DEVICE_NOT_FOUND)
+            continue
+        for device in devices:
             found.append((len(found), platform, device))
     return found
 
@@ -62,10 +73,11 @@ def choose_device(spec=None):
     matches devices of several platforms is an error (e.g. 'amd' may be the CPU's name under
     two implementations): the choice must be unambiguous.
     """
+    where = "device" if spec is not None else "CLRENDER_DEVICE"   # the error names where the choice came from
     spec = spec if spec is not None else os.environ.get("CLRENDER_DEVICE")
     devices = list_devices()
     if not devices:
-        raise RuntimeError("no OpenCL device found: install an OpenCL driver (e.g. pocl-opencl-icd)")
+        raise DeviceError("no OpenCL device found: install an OpenCL driver (e.g. pocl-opencl-icd)")
     real = [(p, d) for _, p, d in devices if not is_simulator(d)]
     if spec is None or str(spec).strip() == "":
         gpus = [d for _, d in real if d.type & cl.device_type.GPU]
@@ -74,7 +86,8 @@ def choose_device(spec=None):
     if spec.isdigit():
         index = int(spec)
         if index >= len(devices):
-            raise ValueError(f"device index {index} out of range: {len(devices)} device(s); see `clrender devices`")
+            raise ArgumentError(where, f"index {index} out of range: {len(devices)} device(s); "
+                                       "see `clrender devices`")
         return devices[index][2]
     if spec.lower() in _KINDS:
         matches = [(p, d) for p, d in real if d.type & _KINDS[spec.lower()]]
@@ -82,12 +95,12 @@ def choose_device(spec=None):
         matches = [(p, d) for _, p, d in devices
                    if any(spec.lower() in name.lower() for name in device_names(p, d))]
     if not matches:
-        raise ValueError(f"no OpenCL device matches {spec!r}; see `clrender devices`")
+        raise ArgumentError(where, f"no OpenCL device matches {spec!r}; see `clrender devices`")
     platforms = {p.int_ptr: p.name for p, _ in matches}
     if spec.lower() not in _KINDS and len(platforms) > 1:
-        raise ValueError(f"device {spec!r} is ambiguous: it matches devices of the platforms "
-                         f"{', '.join(sorted(platforms.values()))}; give a platform name or an index "
-                         f"(see `clrender devices`)")
+        raise ArgumentError(where, f"{spec!r} is ambiguous: it matches devices of the platforms "
+                                   f"{', '.join(sorted(platforms.values()))}; give a platform name or an index "
+                                   f"(see `clrender devices`)")
     return matches[0][1]
 
 
@@ -128,9 +141,7 @@ def build_program(context, features, entry="integrator.cl"):
     """Build the program for `features`, or fetch it from the memory or disk cache."""
     source = kernel_source(entry)
     options = f"{BUILD_OPTIONS} {define_options(features)}"
-    device = context.devices[0]
-    identity = "\n".join([device.platform.name, device.platform.version, device.name,
-                          device.driver_version, options, source])
+    identity = "\n".join([_device_identity(context.devices[0]), options, source])
     key = hashlib.sha256(identity.encode()).hexdigest()
     programs = _memory_cache(context)
     if key not in programs:
@@ -147,19 +158,62 @@ def _memory_cache(context):
     return context._clrender_programs
 
 
+class KernelCacheWarning(UserWarning):
+    """A disk cache entry was damaged or foreign and has been rebuilt."""
+
+
+_CACHE_MAGIC = b"clrender kernel cache 1\n"
+
+
 def _binary_path(key):
-    return Path(cache_dir()) / f"{key}.bin"
+    return Path(cache_dir()) / f"{key}.clbin"
+
+
+def _device_identity(device):
+    return "\n".join([device.platform.name, device.platform.version, device.name, device.driver_version])
+
+
+def _cache_entry(binary, identity):
+    """magic, identity length (8 bytes), identity, SHA-256 of the binary (32 bytes), binary."""
+    identity = identity.encode()
+    return (_CACHE_MAGIC + len(identity).to_bytes(8, "little") + identity
+            + hashlib.sha256(binary).digest() + binary)
+
+
+def _cached_binary(entry, identity):
+    """The binary stored in a cache entry, or the reason it cannot be trusted."""
+    if not entry.startswith(_CACHE_MAGIC):
+        return None, "unknown format"
+    at = len(_CACHE_MAGIC)
+    size = int.from_bytes(entry[at:at + 8], "little")
+    stored = entry[at + 8:at + 8 + size]
+    if len(entry) < at + 8 + size + 32:
+        return None, "truncated"
+    if stored != identity.encode():
+        return None, "built by another driver"
+    checksum = entry[at + 8 + size:at + 40 + size]
+    binary = entry[at + 40 + size:]
+    if len(checksum) < 32 or not binary or hashlib.sha256(binary).digest() != checksum:
+        return None, "checksum mismatch (truncated or corrupted)"
+    return binary, None
 
 
 def _load_binary(context, key, options):
     path = _binary_path(key)
-    if not path.is_file():
+    try:
+        entry = path.read_bytes()
+    except OSError:
+        return None    # no entry (or unreadable): build from source
+    binary, problem = _cached_binary(entry, _device_identity(context.devices[0]))
+    if binary is None:
+        warnings.warn(f"kernel cache entry {path} is unusable ({problem}); rebuilding it",
+                      KernelCacheWarning, stacklevel=3)
         return None
     try:
-        program = cl.Program(context, context.devices, [path.read_bytes()])
+        program = cl.Program(context, context.devices, [binary])
         return program.build(options=options)
     except cl.Error:
-        return None  # a stale or foreign binary (driver update): rebuild from source
+        return None  # a binary the driver no longer accepts (e.g. after an update): rebuild
 
 
 def _build_from_source(context, source, options, key, entry):
@@ -173,8 +227,21 @@ def _build_from_source(context, source, options, key, entry):
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key}.")
         with os.fdopen(fd, "wb") as f:
-            f.write(binary)
+            f.write(_cache_entry(binary, _device_identity(context.devices[0])))
         os.replace(tmp, path)
     except OSError:
         pass  # an unwritable cache only costs the next process a rebuild
     return program
+
+
+@contextlib.contextmanager
+def device_errors():
+    """Errors of the OpenCL runtime (and host memory) as DeviceError; usable as a decorator."""
+    try:
+        yield
+    except cl.MemoryError as e:
+        raise DeviceError(f"the OpenCL device ran out of memory ({e}); render a smaller image or scene") from None
+    except MemoryError:
+        raise DeviceError("out of host memory; render a smaller image or scene") from None
+    except cl.Error as e:
+        raise DeviceError(f"OpenCL error: {e}") from None

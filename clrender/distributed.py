@@ -30,7 +30,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from . import limits
+from .errors import ArgumentError, ClrenderError, DeviceError, MissingDependency
+from .features import scene_features
 from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result
+from .scene import as_scene
 
 CHUNK_SECONDS = 3.0        # target kernel time of a chunk: seconds, so per-chunk overhead is small
 TILE_PIXELS = 256 * 1024   # most pixels in a tile: bounds what a task carries (16 bytes a pixel)
@@ -39,8 +43,10 @@ RETRIES = 2                # reruns of a chunk that raised, before the render fa
 SCENES_IN_FLIGHT = 2       # a batch starts the next scene while the last chunks of one finish
 
 
-class DistributedRenderError(RuntimeError):
-    """A chunk failed on every try; the message names the worker."""
+class DistributedRenderError(DeviceError):
+    """The cluster cannot do the work: its scheduler cannot be reached, no worker joined, or a
+    chunk failed on every try (the message names the worker). An error of clrender's own on a
+    worker (a bad scene or device choice) keeps its class instead."""
 
 
 # ----- client --------------------------------------------------------------------------------
@@ -62,6 +68,7 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 
     Ctrl-C cancels the chunks in flight and raises RenderInterrupted whose result holds the image
     merged so far, each pixel normalised by its own sample count."""
+    scene = as_scene(scene)
     spp = scene.render.spp if spp is None else spp
 
     def frame_progress(frames_done, frames, seconds):
@@ -76,7 +83,7 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     except RenderInterrupted as interrupted:
         if not interrupted.result:
             raise KeyboardInterrupt from None
-        raise RenderInterrupted(interrupted.result[0][1]) from None
+        raise RenderInterrupted(interrupted.result[0][1], interrupted.signal) from None
     finally:
         results.close()
 
@@ -92,13 +99,23 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
     completed fraction of those in flight; frames is len(scenes), or None for an iterator. The
     other arguments are those of `render`. Ctrl-C cancels the chunks in flight and raises
     RenderInterrupted whose result is the list of (index, partial RenderResult) of the scenes in
-    flight."""
-    if samples_per_chunk is not None and samples_per_chunk < 1:
-        raise ValueError(f"samples_per_chunk must be >= 1, got {samples_per_chunk}")
-    if not chunk_seconds > 0:
-        raise ValueError(f"chunk_seconds must be positive, got {chunk_seconds}")
-    as_completed = _dask().as_completed
+    flight; Ctrl-C's signal (SIGTERM, SIGHUP in the CLI) is its `signal`. The arguments are
+    checked as by `Renderer.render` (limits.py) by this call, each scene as it starts: before
+    anything is sent to the cluster (ArgumentError)."""
+    limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, step=step, tiles=tiles,
+                          chunk_seconds=chunk_seconds, samples_per_chunk=samples_per_chunk,
+                          scenes_in_flight=scenes_in_flight)
+    require_dask()
     options = (device, volume_method, step, raymarch_multiple_scattering, seed, max_depth)
+    return _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
+                        progress, scenes_in_flight)
+
+
+def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
+                 progress, scenes_in_flight):
+    """The generator of render_many, its arguments checked."""
+    from distributed import as_completed
+
     token = uuid.uuid4().hex[:8]
     frames = len(scenes) if hasattr(scenes, "__len__") else None
     waiting = iter(enumerate(scenes))
@@ -122,9 +139,9 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
             index, scene = next(waiting, (None, None))
             if scene is None:
                 return
-            count = scene.render.spp if spp is None else spp
-            if not 1 <= count <= MAX_SPP:
-                raise ValueError(f"spp must be in 1..{MAX_SPP}, got {count}")
+            scene = as_scene(scene)
+            scene_features(scene, volume_method)   # checks the method here, not on every worker
+            count = limits.setting("spp", scene.render.spp if spp is None else spp)
             width, height = scene.camera.resolution
             strips = tiles or max(TILES_PER_THREAD * max(1, sum(client.nthreads().values())),
                                   math.ceil(width * height / TILE_PIXELS))
@@ -150,9 +167,10 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
             if progress is not None:
                 progress(frames_done + sum(j.fraction() for j in jobs.values()), frames,
                          time.perf_counter() - start)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interrupt:
         _cancel(client, running)
-        raise RenderInterrupted([(j.index, j.result()) for j in jobs.values()]) from None
+        raise RenderInterrupted([(j.index, j.result()) for j in jobs.values()],
+                                getattr(interrupt, "signal", signal.SIGINT)) from None
     finally:
         _cancel(client, running)
         for job in jobs.values():
@@ -164,9 +182,9 @@ def dask_client(workers=None, scheduler=None, timeout=60):
     """A distributed.Client of a new LocalCluster of `workers` processes with one thread each
     (one device context each), or of the cluster whose scheduler is at `scheduler`
     (tcp://HOST:PORT), waiting up to `timeout` seconds for its first worker."""
-    dask_distributed = _dask()
+    dask_distributed = require_dask("scheduler" if scheduler else "workers")
     if scheduler:
-        with dask_distributed.Client(scheduler, timeout=timeout) as client:
+        with _connect(dask_distributed, scheduler, timeout) as client:
             try:
                 client.wait_for_workers(1, timeout=timeout)
             except TimeoutError:
@@ -174,6 +192,7 @@ def dask_client(workers=None, scheduler=None, timeout=60):
                                              f"{timeout} s; start one with `dask worker {scheduler}`") from None
             yield client
         return
+    _start_resource_tracker()
     # Chunk failures reach the client as exceptions; the workers' own logs (e.g. a heartbeat cut
     # off when the cluster closes after Ctrl-C) would only be tracebacks on the terminal.
     cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -183,11 +202,42 @@ def dask_client(workers=None, scheduler=None, timeout=60):
         yield client
 
 
+def _start_resource_tracker():
+    """Start multiprocessing's resource tracker (which a LocalCluster uses) with SIGHUP ignored,
+    as the workers ignore it (dask_setup): a closed terminal's hang-up reaches the whole process
+    group, and the tracker, which ignores only SIGINT and SIGTERM, would die and be relaunched
+    with tracebacks while the client writes its partial images. An ignored signal stays ignored
+    in a child process."""
+    from multiprocessing import resource_tracker
+
+    if threading.current_thread() is not threading.main_thread():   # signal.signal needs it
+        resource_tracker.ensure_running()
+        return
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+
+
+def _connect(dask_distributed, scheduler, timeout):
+    """A distributed.Client of the scheduler at `scheduler`; a bad address is an ArgumentError,
+    one that cannot be reached a DistributedRenderError."""
+    try:
+        return dask_distributed.Client(scheduler, timeout=timeout)
+    except ValueError as e:   # not an address: 'missing port number', 'unknown address scheme'
+        raise ArgumentError("scheduler", f"{e}; expected tcp://HOST:PORT") from None
+    except OSError as e:
+        raise DistributedRenderError(f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
+
+
 def dask_setup(worker):
     """Dask's preload hook, run as each worker of `dask_client`'s LocalCluster starts (restarts
-    too): Ctrl-C in the terminal reaches these processes as well; they ignore it, and the client
-    cancels their chunks and writes what it has."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    too): Ctrl-C in the terminal, and SIGHUP when the terminal closes, reach these processes as
+    well; they ignore them, and the client cancels their chunks and writes what it has. (SIGTERM
+    stays: it is how the nanny stops a worker.)"""
+    for signum in (signal.SIGINT, signal.SIGHUP):
+        signal.signal(signum, signal.SIG_IGN)
 
 
 def horizontal_strips(width, height, count):
@@ -257,13 +307,14 @@ class _Job:
         return result
 
 
-def _dask():
-    """The `distributed` package, or an error saying how to install it."""
+def require_dask(where="distributed"):
+    """The `distributed` package, or a MissingDependency naming `where` (e.g. the CLI flag) and
+    saying how to install it."""
     try:
         import distributed
     except ImportError:
-        raise DistributedRenderError("distributed rendering needs Dask: pip install 'clrender[distributed]' "
-                                     "(or 'dask[distributed]')") from None
+        raise MissingDependency(where, "distributed rendering needs Dask: pip install 'clrender[distributed]' "
+                                       "(or 'dask[distributed]')") from None
     return distributed
 
 
@@ -271,7 +322,7 @@ def _chunk_results(finished):
     """(future, result) of each chunk as it finishes; a chunk's failure as DistributedRenderError."""
     try:
         yield from finished
-    except DistributedRenderError:
+    except ClrenderError:   # raised by the chunk itself on every try: already names the worker
         raise
     except Exception as e:   # KilledWorker: every worker that ran the chunk died
         raise DistributedRenderError(f"chunk failed: {type(e).__name__}: {e}") from None
@@ -294,17 +345,23 @@ RENDERERS_KEPT = SCENES_IN_FLIGHT + 1
 def _render_chunk(scene, scene_key, options, state, samples):
     """Dask task: add `samples` samples to the strip `state` on this worker's device. Returns
     (Accumulation, device description)."""
-    x, y, width, rows = state.tile
     try:
         with _device_lock:   # one chunk at a time on the device, however many threads
             renderer = _worker_renderer(scene, scene_key, *options[:4])
             result = renderer.accumulate(state, samples, *options[4:])
+    except ClrenderError as e:   # the same error as a local render's, placed on its worker
+        raise e.with_message(f"{_chunk_place(state, samples)}: {e.message}") from None
     except Exception as e:
-        raise DistributedRenderError(
-            f"worker {_worker_address()}: rows {y}..{y + rows - 1}, samples {state.samples}.."
-            f"{state.samples + samples - 1}: {type(e).__name__}: {e}") from None
+        raise DistributedRenderError(f"{_chunk_place(state, samples)}: {type(e).__name__}: {e}") from None
     device = renderer.device
     return result, f"{device.name.strip()} [{device.platform.name.strip()}, driver {device.driver_version}]"
+
+
+def _chunk_place(state, samples):
+    """Where a chunk ran, for messages: the worker, the strip's rows, the samples."""
+    _, y, _, rows = state.tile
+    return (f"worker {_worker_address()}: rows {y}..{y + rows - 1}, samples {state.samples}.."
+            f"{state.samples + samples - 1}")
 
 
 def _worker_renderer(scene, scene_key, device, volume_method, step, raymarch_multiple_scattering):

@@ -8,6 +8,7 @@ point and directional lights, for instance, are always compiled in (one untaken 
 import itertools
 
 from .arrays import active_environment
+from .errors import ArgumentError
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 
 # Every feature and the values it may take; the first value is "absent".
@@ -32,9 +33,9 @@ SPECULAR_MATERIALS = ("dielectric", "conductor")
 def volume_method(scene, override=None):
     """The integration method for the scene's grid media: `override` (API/CLI) or the scene's."""
     method = override if override is not None else scene.render.volume_method
-    if method not in VOLUME_METHODS or method == "none":
+    if not isinstance(method, str) or method not in VOLUME_METHODS or method == "none":
         valid = ", ".join(m for m in VOLUME_METHODS if m != "none")
-        raise ValueError(f"unknown volume method {method!r}; valid: {valid}")
+        raise ArgumentError("volume_method", f"unknown volume method {method!r}; valid: {valid}")
     return method
 
 
@@ -42,6 +43,7 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False):
     """The feature values (name -> int) that `scene` needs; `volume_method_override` replaces
     the scene's render.volume_method ("null" or "raymarch"); `sample_aovs`: whether the render
     accumulates the sample-level AOVs (clrender/aovs.py)."""
+    method = volume_method(scene, volume_method_override)   # checked even where unused
     # A black environment lights nothing and has no emitter (clrender/arrays.py): compiling the
     # environment code for it would read the emitter table at index -1.
     environment = active_environment(scene)
@@ -56,8 +58,7 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False):
         "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
         # Only materials that some shape uses: an unused glass definition costs no kernel code.
         "DIELECTRIC": int(any(_is_specular(scene.materials[shape.material]) for shape in scene.shapes)),
-        "GRID_MEDIA": VOLUME_METHODS[volume_method(scene, volume_method_override)]
-        if any(m.type == "grid" for m in scene.media) else 0,
+        "GRID_MEDIA": VOLUME_METHODS[method] if any(m.type == "grid" for m in scene.media) else 0,
         "AOVS": int(bool(sample_aovs)),
     }
 

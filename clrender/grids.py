@@ -20,6 +20,7 @@ import numpy as np
 
 GRID_SUFFIXES = (".npy", ".npz", ".vol")
 MAX_VOXELS = 1 << 28          # 1 GiB of float32: beyond that, use a GPU renderer with sparse grids
+MAX_PROCEDURAL_VOXELS = 1 << 24   # 256^3: the generators need up to ~100 bytes per voxel
 DEFAULT_BLOCK = 8             # majorant block edge in voxels
 
 
@@ -71,7 +72,8 @@ def check_density(array):
         return f"has {array.size} voxels, more than the limit of {MAX_VOXELS}"
     if not np.issubdtype(array.dtype, np.number) or np.iscomplexobj(array):
         return f"must hold real numbers, got dtype {array.dtype}"
-    values = array.astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):   # beyond float32: caught just below
+        values = array.astype(np.float32)
     if not (np.all(np.isfinite(values)) and np.all(values >= 0)):
         return "must be finite and non-negative"
     return None
@@ -87,18 +89,35 @@ def load_density_file(path):
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".npy":
+        with open(path, "rb") as f:
+            _check_npy_header(f)
         return np.load(path, allow_pickle=False)
     if suffix == ".npz":
         with np.load(path, allow_pickle=False) as archive:
             keys = list(archive.keys())
             if "density" in keys:
-                return archive["density"]
-            if len(keys) == 1:
-                return archive[keys[0]]
-            raise ValueError(f"holds {len(keys)} arrays ({', '.join(keys)}) and none named 'density'")
+                key = "density"
+            elif len(keys) == 1:
+                key = keys[0]
+            else:
+                raise ValueError(f"holds {len(keys)} arrays ({', '.join(keys)}) and none named 'density'")
+            with archive.zip.open(f"{key}.npy") as f:
+                _check_npy_header(f)
+            return archive[key]
     if suffix == ".vol":
         return read_vol(path)[0]
     raise ValueError(f"unsupported grid format {suffix!r}; valid: {', '.join(GRID_SUFFIXES)}")
+
+
+def _check_npy_header(f):
+    """Refuse an .npy array whose header announces more than MAX_VOXELS values before numpy
+    allocates them (an .npz member is allocated whole before it is read)."""
+    version = np.lib.format.read_magic(f)
+    shape, _, dtype = (np.lib.format.read_array_header_1_0(f) if version == (1, 0)
+                       else np.lib.format.read_array_header_2_0(f))
+    count = int(np.prod(shape, dtype=object))
+    if count > MAX_VOXELS:
+        raise ValueError(f"holds {count} values (shape {shape}), more than the limit of {MAX_VOXELS}")
 
 
 _VOL_HEADER = struct.Struct("<3sBiiiii6f")   # magic, version, encoding, x/y/z res, channels, bbox
@@ -124,6 +143,8 @@ def read_vol(path):
     if min(nx, ny, nz) < 1:
         raise ValueError(f"invalid .vol resolution {nx} x {ny} x {nz}")
     count = nx * ny * nz
+    if count > MAX_VOXELS:
+        raise ValueError(f"{nx} x {ny} x {nz} voxels, more than the limit of {MAX_VOXELS}")
     expected = _VOL_HEADER.size + 4 * count
     if len(data) != expected:
         raise ValueError(f"size {len(data)} bytes does not match {nx} x {ny} x {nz} floats ({expected} bytes)")

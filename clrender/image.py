@@ -5,7 +5,8 @@ Extra layers (AOVs, the noisy image beside a denoised one) go into the same EXR 
 formats each goes to its own file "<stem>.<layer><suffix>", mapped for viewing (ldr_layer).
 
 Writes are atomic: a temporary file in the target folder, renamed over the target when complete,
-so an interrupted or failed write never leaves a half-written image.
+so an interrupted or failed write never leaves a half-written image. `check_output_path` finds
+the problems of a target before a render is spent on it.
 """
 import os
 import tempfile
@@ -13,10 +14,39 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
+from .errors import ArgumentError, FileError
+
 LDR_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 # EXR channel letters of a layer; others: R, G, B (three channels) or Y (one). "depth.Z" is
 # Nuke's depth channel; normals are vectors, X, Y, Z as in Blender's Normal pass.
 LAYER_CHANNELS = {"normal": "XYZ", "depth": "Z", "object_id": "X"}
+
+
+def check_output_path(path, where="path"):
+    """Raise unless an image can be written at `path`: a supported suffix (ArgumentError), not a
+    folder, and its folder either writable or creatable in a writable folder (FileError).
+    Creates nothing: the folders are made when the image is saved."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix != ".exr" and suffix not in LDR_SUFFIXES:
+        raise ArgumentError(where, (f"unsupported image format {suffix!r}" if suffix else "no image format suffix")
+                            + f" in {path}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
+    if path.is_dir():
+        raise FileError(f"cannot write {path}: it is a directory")
+    folder = path.parent
+    while not folder.exists():
+        if folder.is_symlink():
+            raise FileError(f"cannot write {path}: {folder} is a broken link")
+        folder = folder.parent
+    if not folder.is_dir():
+        raise FileError(f"cannot write {path}: {folder} is not a directory")
+    try:   # the only reliable test (permissions, read-only file systems, root): try it
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise FileError(f"cannot write {path}: {folder}: {e.strerror or e}") from None
 
 
 def linear_to_srgb(x):
@@ -30,6 +60,7 @@ def srgb_to_linear(x):
 
 def tonemap(image, exposure=0.0):
     """Linear radiance -> 8-bit sRGB: exposure in stops, clamp, sRGB transfer curve."""
+    exposure = limits.setting("exposure", exposure)
     scaled = np.nan_to_num(image, nan=0.0, posinf=1.0) * (2.0 ** exposure)
     return np.round(linear_to_srgb(scaled) * 255.0).astype(np.uint8)
 
@@ -37,27 +68,34 @@ def tonemap(image, exposure=0.0):
 def save_image(image, path, exposure=0.0, layers=None):
     """Save a linear HxWx3 float image; the format follows the suffix (.exr linear, else sRGB).
     `layers`: name -> (H, W) or (H, W, 3) array, written as EXR layers of the same file, or with
-    8-bit formats as separate files (layer_path)."""
+    8-bit formats as separate files (layer_path).
+
+    Raises ArgumentError for a bad image, layer, suffix or exposure, FileError when a file cannot
+    be written (nothing is left behind)."""
     path = Path(path)
     image = np.asarray(image, dtype=np.float32)
     if image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"expected an HxWx3 image, got shape {image.shape}")
+        raise ArgumentError("image", f"expected an HxWx3 image, got shape {image.shape}")
     layers = dict(layers or {})
     for name, layer in layers.items():
+        if not (isinstance(name, str) and name and "/" not in name and "\\" not in name):
+            raise ArgumentError("layers", "a layer name must be a non-empty string without slashes, "
+                                          f"got {limits.show(name)}")
         if np.shape(layer)[:2] != image.shape[:2] or np.ndim(layer) not in (2, 3):
-            raise ValueError(f"layer {name!r}: expected {image.shape[0]}x{image.shape[1]} pixels, "
-                             f"got shape {np.shape(layer)}")
+            raise ArgumentError(f"layers[{name!r}]", f"expected {image.shape[0]}x{image.shape[1]} pixels, "
+                                                     f"got shape {np.shape(layer)}")
     suffix = path.suffix.lower()
+    check_output_path(path)
     if suffix == ".exr":
         channels = {"RGB": np.ascontiguousarray(image)}
         channels.update(exr_layer_channels(layers))
         _atomic_write(path, lambda tmp: _write_exr(channels, tmp))
-    elif suffix in LDR_SUFFIXES:
+    else:
+        for name in layers:   # every file's problems before the first is written
+            check_output_path(layer_path(path, name))
         _write_ldr(tonemap(image, exposure), path)
         for name, layer in layers.items():
             _write_ldr(ldr_layer(name, layer, exposure), layer_path(path, name))
-    else:
-        raise ValueError(f"unsupported image format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
 
 
 def layer_path(path, name):
@@ -74,7 +112,7 @@ def exr_layer_channels(layers):
         planes = layer[..., None] if layer.ndim == 2 else layer
         letters = LAYER_CHANNELS.get(name, "RGB" if planes.shape[2] == 3 else "Y")
         if len(letters) != planes.shape[2]:
-            raise ValueError(f"layer {name!r}: expected {len(letters)} channels, got {planes.shape[2]}")
+            raise ArgumentError(f"layers[{name!r}]", f"expected {len(letters)} channels, got {planes.shape[2]}")
         for i, letter in enumerate(letters):
             channels[f"{name}.{letter}"] = np.ascontiguousarray(planes[..., i])
     return channels
@@ -117,8 +155,11 @@ def _write_exr(channels, path):
 
 
 def _atomic_write(path, write):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    except OSError as e:
+        raise FileError(f"cannot write {path}: {e.strerror or e}") from None
     os.close(fd)
     try:
         write(tmp)
@@ -127,6 +168,9 @@ def _atomic_write(path, write):
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
+    except OSError as e:
+        os.unlink(tmp)
+        raise FileError(f"cannot write {path}: {e.strerror or e}") from None
     except BaseException:
         os.unlink(tmp)
         raise
@@ -134,7 +178,12 @@ def _atomic_write(path, write):
 
 def load_exr_layers(path):
     """The layers of an EXR written by save_image: name -> float32 (H, W, channels) in the
-    channel order of LAYER_CHANNELS (R, G, B otherwise); the colour under the name ""."""
+    channel order of LAYER_CHANNELS (R, G, B otherwise); the colour under the name "".
+    Raises FileError when the file is missing or unreadable."""
+    return _reading(path, _read_exr_layers)
+
+
+def _read_exr_layers(path):
     import OpenEXR
 
     with OpenEXR.File(str(path), separate_channels=True) as exr:
@@ -153,8 +202,27 @@ def load_exr_layers(path):
 
 
 def load_image(path):
-    """Read an image as linear float32 HxWx3 (EXR as stored; 8-bit formats sRGB-decoded)."""
+    """Read an image as linear float32 HxWx3 (EXR as stored; 8-bit formats sRGB-decoded).
+    Raises FileError when the file is missing or unreadable."""
+    return _reading(path, _read_image)
+
+
+def _reading(path, read):
+    """read(path) for an existing file, its failures as FileError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ArgumentError("path", f"must be a file path, got {type(path).__name__}")
     path = Path(path)
+    if not path.is_file():
+        raise FileError(f"image not found: {path}" if not path.exists() else f"not a file: {path}")
+    try:
+        return read(path)
+    except FileError:
+        raise
+    except Exception as e:   # the image libraries raise many types for malformed files
+        raise FileError(f"cannot read image {path}: {e}") from None
+
+
+def _read_image(path):
     if path.suffix.lower() == ".exr":
         import OpenEXR
 
@@ -165,7 +233,7 @@ def load_image(path):
             elif "RGBA" in channels:
                 pixels = channels["RGBA"].pixels[..., :3]
             else:
-                raise ValueError(f"no RGB channels in {path} (has {', '.join(channels)})")
+                raise FileError(f"no RGB channels in {path} (has {', '.join(channels)})")
         return np.asarray(pixels, dtype=np.float32)
     import imageio.v3 as iio
 

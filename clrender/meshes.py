@@ -102,15 +102,45 @@ def box():
 
 
 def load_mesh_file(path: Path, smooth: bool):
-    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged) with trimesh."""
+    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged) with trimesh.
+
+    Raises ValueError with a message meant for the user when the file holds no triangles, a
+    vertex that is not a finite float32 number, or a face naming a vertex that does not exist."""
     import trimesh
 
-    loaded = trimesh.load(str(path), force="mesh", process=False)
+    with np.errstate(all="ignore"):   # a malformed file is reported below, not by numpy warnings
+        loaded = trimesh.load(str(path), force="mesh", process=False)
     vertices = np.asarray(loaded.vertices, dtype=float)
     faces = np.asarray(loaded.faces, dtype=np.int64)
     if len(faces) == 0:
         raise ValueError("the file holds no triangles")
-    normals = None
-    if smooth:
-        normals = _normalized(np.asarray(loaded.vertex_normals, dtype=float))
-    return Mesh(vertices, faces, normals)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise ValueError(f"expected 3D vertices and triangles, got vertices of shape {vertices.shape} "
+                         f"and faces of shape {faces.shape}")
+    bad = ~np.all(np.isfinite(vertices) & (np.abs(vertices) <= np.finfo(np.float32).max), axis=1)
+    if np.any(bad):
+        index = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"vertex {index + 1} is not a finite float32 point: {vertices[index].tolist()}")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise ValueError(f"a face refers to a vertex that does not exist (the file has {len(vertices)})")
+    return Mesh(vertices, faces, vertex_normals(vertices, faces) if smooth else None)
+
+
+def vertex_normals(vertices, faces):
+    """Unit shading normals: at each vertex, the unit normals of the faces around it weighted by
+    the face's angle at that vertex (Thuerrner and Wuethrich 1998, as trimesh computes them, but
+    without scipy). Faces of zero area, or with an angle below 1e-8, do not contribute."""
+    corners = vertices[faces]
+    face_normals = _normalized(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
+    u = _normalized(corners[:, 1] - corners[:, 0])
+    v = _normalized(corners[:, 2] - corners[:, 0])
+    w = _normalized(corners[:, 2] - corners[:, 1])
+    angles = np.empty((len(faces), 3))
+    angles[:, 0] = np.arccos(np.clip(np.sum(u * v, axis=1), -1, 1))
+    angles[:, 1] = np.arccos(np.clip(np.sum(-u * w, axis=1), -1, 1))
+    angles[:, 2] = np.pi - angles[:, 0] - angles[:, 1]
+    angles[np.any(angles < 1e-8, axis=1)] = 0.0
+    angles[np.sum(face_normals ** 2, axis=1) <= 0.5] = 0.0
+    summed = np.stack([sum(np.bincount(faces[:, k], angles[:, k] * face_normals[:, axis], len(vertices))
+                           for k in range(3)) for axis in range(3)], axis=1)
+    return _normalized(summed)

@@ -13,13 +13,14 @@ approximations (docs/mitsuba-xml.md) are MitsubaXmlWarnings.
 import re
 import warnings
 import xml.parsers.expat
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from . import cie
-from .errors import SceneError
+from . import cie, limits
+from .errors import ArgumentError, SceneError
 
 
 class MitsubaXmlError(SceneError):
@@ -52,15 +53,17 @@ class Element:
 
 def parse_xml(path):
     """The root Element of an XML file."""
+    from .scene import read_scene_bytes
+
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise MitsubaXmlError("", f"scene file not found: {path}") from None
+    data = read_scene_bytes(path, MitsubaXmlError)
     parser = xml.parsers.expat.ParserCreate()
     stack, roots = [], []
 
     def start(tag, attrs):
+        if len(stack) >= MAX_NESTING:   # the translation walks the tree recursively
+            raise MitsubaXmlError(f"{path.name}:{parser.CurrentLineNumber}",
+                                  f"elements nested deeper than {MAX_NESTING}")
         element = Element(tag, dict(attrs), path, parser.CurrentLineNumber)
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
@@ -77,8 +80,10 @@ def parse_xml(path):
 # ============================================================================================
 # Pre-processing: version, <include>, <default> and $name, <path>
 # ============================================================================================
-_PARAMETER = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
+PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # what $name may name (and -D set)
+_PARAMETER = re.compile(r"\$(" + PARAMETER_NAME.pattern + ")")
 MAX_INCLUDE_DEPTH = 16
+MAX_NESTING = 100   # elements inside elements: real scenes need a handful
 
 
 class _Files:
@@ -242,10 +247,11 @@ class Plugin:
         element = self.take(name, ("integer",))
         if element is None:
             return default
+        text = _attribute(element, "value")
         try:
-            return int(_attribute(element, "value"))
+            return int(text)
         except ValueError:
-            raise element.error(f"not an integer: {element.attrs['value']!r}") from None
+            raise element.error(f"not an integer: {limits.show(text)}") from None
 
     def boolean(self, name, default=False):
         element = self.take(name, ("boolean",))
@@ -510,6 +516,9 @@ class _Reader:
 def read_scene(path, parameters=None):
     """Parse and translate a Mitsuba 3 XML file; `parameters` (name -> value strings) override
     its <default> values, like Mitsuba's -D. Returns a Translation (not yet validated)."""
+    if parameters is not None and not (isinstance(parameters, dict) and all(isinstance(k, str) for k in parameters)):
+        raise ArgumentError("parameters", "must be a dict of parameter names to values, "
+                                          f"got {limits.show(parameters)}")
     path = Path(path)
     root = parse_xml(path)
     _check_version(root)
@@ -517,6 +526,7 @@ def read_scene(path, parameters=None):
     elements = _expand(root, {k: str(v) for k, v in (parameters or {}).items()}, files)
     ids = _collect_ids(elements)
     reader = _Reader(ids, files)
+    reader.out.origins[""] = root.where()   # what no element accounts for: the file's <scene>
     by_tag = {}
     for element in elements:
         by_tag.setdefault(element.tag, []).append(element)
@@ -533,7 +543,7 @@ def read_scene(path, parameters=None):
     sensors = by_tag.get("sensor", [])
     if len(sensors) != 1:
         raise (sensors[1].error("clrender renders one sensor: keep a single <sensor>") if sensors
-               else MitsubaXmlError(path.name, "the scene has no <sensor> (clrender needs a camera)"))
+               else root.error("the scene has no <sensor> (clrender needs a camera)"))
     read_sensor(Plugin(sensors[0], ids), reader)
     for element in by_tag.get("shape", []):
         read_shape(Plugin(element, ids), reader)
@@ -566,18 +576,34 @@ def scene_from_translation(translation):
     try:
         scene = load_scene_dict(translation.scene)
     except SceneError as e:
-        origin = _origin(translation.origins, e.where)
-        if origin is None:
-            raise
-        raise MitsubaXmlError(origin, f"{e.message} (scene field {e.where})") from None
+        raise located(e, translation.origins) from None
     check_media_nesting(scene, translation)
+    scene.origins = translation.origins
     return scene
+
+
+def located(error, origins):
+    """A SceneError naming a scene field, at the XML element the field came from."""
+    origin = _origin(origins, error.where)
+    if origin is None or isinstance(error, MitsubaXmlError):
+        return error
+    return MitsubaXmlError(origin, f"{error.message} (scene field {error.where})")
+
+
+@contextmanager
+def errors_at_source(scene):
+    """SceneErrors found after loading (at upload: degenerate shapes, sizes for the device) name
+    the XML element of the field, for a scene read from XML."""
+    try:
+        yield
+    except SceneError as e:
+        raise located(e, scene.origins or {}) from None
 
 
 def _origin(origins, where):
     best = None
     for key in origins:
-        if where == key or where.startswith(key + ".") or where.startswith(key + "["):
+        if key in ("", where) or where.startswith(key + ".") or where.startswith(key + "["):
             if best is None or len(key) > len(best):
                 best = key
     return origins.get(best)
@@ -587,7 +613,7 @@ def _origin(origins, where):
 # integrator
 # --------------------------------------------------------------------------------------------
 INTEGRATORS = ("path", "volpath", "volpathmis")
-MAX_DEPTH = 1024   # the format's limit; Mitsuba's -1 (unbounded) maps here: roulette ends paths first
+MAX_DEPTH = limits.MAX_DEPTH   # the format's limit; Mitsuba's -1 (unbounded) maps here: roulette ends paths first
 
 
 def read_integrator(plugin, reader):

@@ -1,20 +1,23 @@
 """Progressive rendering: short kernel launches that each add a few samples per pixel of a tile
 (the whole image unless distributed.py splits it) to running per-pixel sums."""
+import signal
 import time
 from dataclasses import dataclass
 
 import numpy as np
 import pyopencl as cl
 
-from . import layout
+from . import layout, limits
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
 from .arrays import build_scene_arrays
-from .device import build_program, choose_device
+from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
+from .errors import ArgumentError
 from .features import scene_features
-from .scene import MIN_MARCH_STEP
+from .mitsuba_xml import errors_at_source
+from .scene import as_scene
 
 
 @dataclass
@@ -38,7 +41,7 @@ class RenderResult:
         return self.samples * w * h / self.seconds if self.seconds > 0 else 0.0
 
 
-MAX_SPP = 2 ** 31 - 1   # sample indices are int32 in the kernel
+MAX_SPP = limits.MAX_SPP   # per-pixel sample counts are float32 in the accumulator
 
 
 @dataclass
@@ -72,7 +75,7 @@ def image_result(scene, state, aovs=(), denoising=None):
     DenoiseSettings `denoising` unless None, with the scene's outlines."""
     width, height = scene.camera.resolution
     if tuple(state.tile) != (0, 0, width, height):
-        raise ValueError(f"expected the whole {width}x{height} image, got tile {state.tile}")
+        raise ArgumentError("state.tile", f"expected the whole {width}x{height} image, got tile {state.tile}")
     counts = state.sums[:, 3:4]
     image = np.where(counts > 0, state.sums[:, :3] / np.maximum(counts, 1), 0.0)
     image = image.reshape(height, width, 3).astype(np.float32)
@@ -107,12 +110,13 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     width, height = camera.resolution
     forward, right, up = camera.basis()
     p = np.zeros(1, layout.RENDER_PARAMS)
-    p["camera"]["origin"][0, :3] = camera.position
+    p["camera"]["origin"][0, :3] = camera.position * arrays.length_scale
     p["camera"]["forward"][0, :3] = forward
     p["camera"]["right"][0, :3] = right
     p["camera"]["up"][0, :3] = up
     p["frame"] = (width, height, first_sample, samples)
-    p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
+    # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
+    p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))
     p["environment"] = (arrays.env_index, *arrays.env_size, int(scene.render.hide_environment))
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
@@ -144,26 +148,35 @@ def march_notes(scene):
 
 
 class RenderInterrupted(KeyboardInterrupt):
-    """Ctrl-C during a render; `result` holds what was completed so far: the RenderResult of
-    `render`, the Accumulation of `Renderer.accumulate`."""
+    """Ctrl-C (or SIGTERM/SIGHUP, see errors.Interrupted) during a render; `result` holds what
+    was completed so far: the RenderResult of `render`, the Accumulation of
+    `Renderer.accumulate`; `signal` the signal number."""
 
-    def __init__(self, result):
+    def __init__(self, result, signum=signal.SIGINT):
         super().__init__("render interrupted")
         self.result = result
+        self.signal = signum
 
 
 class Renderer:
     """A scene uploaded to one device with its specialised kernel, ready to render many times."""
 
+    @device_errors()
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
                  volume_method=None, step=None, raymarch_multiple_scattering=None, context=None):
-        """`volume_method` ("null" or "raymarch"), `step` (ray marching's longest step in voxels,
-        >= scene.MIN_MARCH_STEP) and `raymarch_multiple_scattering` override the scene's render
+        """`scene`: a Scene, a scene dict or a file path. `device`: an OpenCL device or a choice
+        for `choose_device` (default: the device of `context` if given). `volume_method`
+        ("null" or "raymarch"), `step` (ray marching's longest step in voxels, >=
+        limits.MIN_MARCH_STEP) and `raymarch_multiple_scattering` override the scene's render
         settings for grid media. `context`: an existing context of `device` to share, so renderers
         of many scenes reuse its built programs."""
-        if step is not None and not (np.isfinite(step) and step >= MIN_MARCH_STEP):
-            raise ValueError(f"step must be a number >= {MIN_MARCH_STEP} (voxels), got {step!r}")
-        self.scene = scene
+        self.scene = scene = as_scene(scene)
+        step = None if step is None else limits.setting("step", step)
+        limits.number(pass_seconds, "pass_seconds", low=0.0, low_open=True)
+        if context is not None and not isinstance(context, cl.Context):
+            raise ArgumentError("context", f"must be a pyopencl Context, got {type(context).__name__}")
+        if device is None and context is not None:
+            device = context.devices[0]
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
         self.context = context if context is not None else cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
@@ -172,7 +185,10 @@ class Renderer:
         self.notes = march_notes(scene) if self.features["GRID_MEDIA"] == layout.VOLUME_METHODS["raymarch"] else []
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
-        self.arrays = build_scene_arrays(scene)
+        with errors_at_source(scene):
+            limits.check_image_fits(scene.camera.resolution, self.device)
+            self.arrays = build_scene_arrays(scene)
+            limits.check_arrays_fit({name: getattr(self.arrays, name) for name in self.ARRAYS}, self.device)
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
         self._aov_kernel = None   # the AOVS build, made when a render first asks for it
@@ -189,6 +205,8 @@ class Renderer:
     def update_array(self, name, array):
         """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an
         edited density grid (`grid_data`, with its `majorant_data`) between renders."""
+        if name not in self.ARRAYS:
+            raise ArgumentError("name", f"unknown array {name!r}; valid: {', '.join(self.ARRAYS)}")
         index = self.ARRAYS.index(name)
         array = np.asarray(array, dtype=getattr(self.arrays, name).dtype)
         setattr(self.arrays, name, array)
@@ -199,6 +217,7 @@ class Renderer:
         data = array if array.size else np.zeros(1, array.dtype)
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
 
+    @device_errors()
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
                samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
                denoise_keep_emission=False):
@@ -210,7 +229,11 @@ class Renderer:
         leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
         Denoise guided by the albedo and normal AOVs (returned too), result.noisy_image keeps the
         raw one; `denoise_prefilter` denoises the guides first, `denoise_keep_emission` leaves the
-        emission AOV out of the filter and adds it back (clrender/denoise.py, docs/denoising.md)."""
+        emission AOV out of the filter and adds it back (clrender/denoise.py, docs/denoising.md).
+        Ctrl-C (SIGTERM, SIGHUP in the CLI) raises RenderInterrupted with the RenderResult of the
+        launches completed."""
+        limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, rr_depth=rr_depth,
+                              samples_per_pass=samples_per_pass, time_limit=time_limit)
         names = parse_aovs(aovs)
         denoising = DenoiseSettings(denoise_prefilter, denoise_keep_emission) if denoise else None
         if denoising:
@@ -223,7 +246,8 @@ class Renderer:
         try:
             state = self.accumulate(empty, spp, seed, max_depth, rr_depth, progress, samples_per_pass, time_limit)
         except RenderInterrupted as interrupted:
-            raise RenderInterrupted(image_result(self.scene, interrupted.result, names, denoising)) from None
+            raise RenderInterrupted(image_result(self.scene, interrupted.result, names, denoising),
+                                    interrupted.signal) from None
         return image_result(self.scene, state, names, denoising)
 
     def accumulate(self, state, samples, seed=None, max_depth=None, rr_depth=None, progress=None,
@@ -233,6 +257,9 @@ class Renderer:
         `progress(samples_done, samples_end, seconds)`. Ctrl-C raises RenderInterrupted with the
         Accumulation of the launches completed. The sample-level AOVs are accumulated too when
         `state` holds their sums."""
+        self._check_accumulation(state, samples)
+        limits.check_settings(seed=seed, max_depth=max_depth, rr_depth=rr_depth,
+                              samples_per_pass=samples_per_pass, time_limit=time_limit)
         settings = self.scene.render
         seed = settings.seed if seed is None else seed
         max_depth = settings.max_depth if max_depth is None else max_depth
@@ -275,11 +302,31 @@ class Renderer:
                     per_pass = self._next_pass_size(count, elapsed)
                 if progress is not None:
                     progress(done, end, state.seconds + seconds)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as interrupt:
             self.queue.finish()
             raise RenderInterrupted(self._download(state, accum_buffer, discarded_buffer, aux_buffers,
-                                                   aov_buffer, seconds)) from None
+                                                   aov_buffer, seconds),
+                                    getattr(interrupt, "signal", signal.SIGINT)) from None
         return self._download(state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, done)
+
+    def _check_accumulation(self, state, samples):
+        """`state` is an Accumulation of a tile inside the image, and `samples` more keep its
+        per-pixel counts within MAX_SPP (ArgumentError)."""
+        if not isinstance(state, Accumulation):
+            raise ArgumentError("state", f"must be an Accumulation, got {type(state).__name__}")
+        width, height = self.scene.camera.resolution
+        x, y, tile_width, tile_height = state.tile
+        if not (0 <= x and 0 <= y and tile_width >= 1 and tile_height >= 1
+                and x + tile_width <= width and y + tile_height <= height):
+            raise ArgumentError("state.tile", f"{state.tile} is not a tile of the {width}x{height} image")
+        n = tile_width * tile_height
+        if np.shape(state.sums) != (n, 4) or (state.aov_sums is not None and np.shape(state.aov_sums) != (n,)):
+            raise ArgumentError("state", f"its sums do not have the {n} pixels of its tile")
+        limits.number(state.samples, "state.samples", low=0, high=MAX_SPP, integer=True)
+        limits.setting("spp", samples, "samples")
+        if state.samples + samples > MAX_SPP:
+            raise ArgumentError("samples", f"{state.samples} + {samples} samples per pixel, more than "
+                                           f"the limit of {MAX_SPP}")
 
     def _kernel(self, sample_aovs):
         """The colour-only kernel, or the one that also accumulates the sample-level AOVs."""
@@ -319,6 +366,7 @@ class Renderer:
             object_id = np.empty(len(sums), np.int32)
             cl.enqueue_copy(self.queue, geometry, aux_buffers[0])
             cl.enqueue_copy(self.queue, object_id, aux_buffers[1])
+            geometry[:, 3] /= self.arrays.length_scale      # depth in scene units
         aov_sums = None
         if state.aov_sums is not None:
             aov_sums = np.empty(len(sums), layout.AOV_SUMS)
@@ -329,6 +377,7 @@ class Renderer:
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
            step=None, denoise=False):
-    """Render `scene` and return the linear float32 (H, W, 3) image (denoised if `denoise`)."""
+    """Render `scene` (a Scene, a scene dict or a file path) and return the linear float32
+    (H, W, 3) image (denoised if `denoise`)."""
     return Renderer(scene, device, volume_method=volume_method, step=step).render(
         spp=spp, seed=seed, max_depth=max_depth, progress=progress, denoise=denoise).image

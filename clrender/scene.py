@@ -4,23 +4,34 @@ Every error names its place in the scene file (``shapes[3].material: unknown mat
 docs/scene-format.md documents each field, its default and valid range.
 """
 import json
+import numbers
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from . import grids, meshes
-from .errors import SceneError
+from . import grids, limits, meshes
+from .errors import ArgumentError, FileError, SceneError
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
-# Ray marching's step, in voxels: below this a march would take millions of steps per ray.
-MIN_MARCH_STEP = 1e-3
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
+
+
+def _norm(v):
+    """Euclidean length without overflow or underflow of the squares."""
+    largest = np.max(np.abs(v))
+    return float(largest * np.linalg.norm(v / largest)) if largest > 0 else 0.0
+
+
+def _unit(v):
+    largest = np.max(np.abs(v))
+    return (v / largest) / np.linalg.norm(v / largest)
 
 
 @dataclass
@@ -34,10 +45,8 @@ class Camera:
     def basis(self):
         """(forward, right, up): the unit view direction, and the image's right and up axes
         scaled so that forward + sx * right + sy * up, sx and sy in [-1, 1], spans the image."""
-        forward = self.look_at - self.position
-        forward = forward / np.linalg.norm(forward)
-        right = np.cross(forward, self.up)
-        right = right / np.linalg.norm(right)
+        forward = _unit(self.look_at - self.position)
+        right = _unit(np.cross(forward, _unit(self.up)))
         up = np.cross(right, forward)
         tan_half = np.tan(np.radians(self.fov) / 2)
         width, height = self.resolution
@@ -169,6 +178,7 @@ class Scene:
     camera_medium: int = None      # medium at the camera; None: found by casting a ray
     path: Path = None
     outlines: Outlines = field(default_factory=Outlines)
+    origins: dict = None           # scene field -> its place in a Mitsuba XML file
 
     def transform(self, matrix):
         """Move everything (shapes, camera, point and directional lights) by an affine 4x4 matrix."""
@@ -205,12 +215,21 @@ class Scene:
 _MISSING = object()
 
 
+def _json_kind(value):
+    """The JSON name of a value's type, for messages."""
+    for kind, name in ((bool, "true/false"), (type(None), "null"), (dict, "an object"), (list, "a list"),
+                       (str, "a string"), (numbers.Number, "a number")):
+        if isinstance(value, kind):
+            return name
+    return type(value).__name__
+
+
 class _Node:
     """A JSON object with its place in the file, for reading fields with checks."""
 
     def __init__(self, data, where):
         if not isinstance(data, dict):
-            raise SceneError(where, f"must be an object, got {type(data).__name__}")
+            raise SceneError(where, f"must be an object, got {_json_kind(data)}")
         self.data = data
         self.where = where
         self.read = set()
@@ -227,50 +246,42 @@ class _Node:
         return self.data[key]
 
     def number(self, key, default=_MISSING, low=None, high=None, low_open=False, integer=False):
+        """A number the device can hold (clrender/limits.py), within [low, high]."""
         value = self.raw(key, default)
         if value is default and default is not _MISSING:
             return value
-        kind = "an integer" if integer else "a number"
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (
-                integer and not isinstance(value, int)):
-            raise SceneError(self.at(key), f"must be {kind}, got {value!r}")
-        if not np.isfinite(value):
-            raise SceneError(self.at(key), f"must be finite, got {value!r}")
-        if low is not None and (value <= low if low_open else value < low):
-            raise SceneError(self.at(key), f"must be {'>' if low_open else '>='} {low}, got {value!r}")
-        if high is not None and value > high:
-            raise SceneError(self.at(key), f"must be <= {high}, got {value!r}")
-        return value
+        return limits.number(value, self.at(key), SceneError, low, high, low_open, integer)
+
+    def setting(self, key, default):
+        """A render setting bounded as the CLI flag and the API parameter of that name are."""
+        value = self.raw(key, default)
+        return value if value is default else limits.setting(key, value, self.at(key), SceneError)
 
     def vector(self, key, default=_MISSING, size=3, non_negative=False, allow_scalar=False):
         value = self.raw(key, default)
         if value is default and default is not _MISSING:
             return None if default is None else np.asarray(default, dtype=float)
-        if allow_scalar and isinstance(value, (int, float)) and not isinstance(value, bool):
+        if allow_scalar and isinstance(value, numbers.Real) and not isinstance(value, bool):
             value = [value] * size
-        ok = isinstance(value, list) and len(value) == size and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)
-        if not ok:
-            raise SceneError(self.at(key), f"must be a list of {size} numbers, got {value!r}")
-        array = np.asarray(value, dtype=float)
-        if not np.all(np.isfinite(array)):
-            raise SceneError(self.at(key), f"must be finite, got {value!r}")
+        if not (isinstance(value, list) and len(value) == size):
+            raise SceneError(self.at(key), f"must be a list of {size} numbers, got {limits.show(value)}")
+        array = np.array([limits.number(x, self.at(key), SceneError) for x in value], dtype=float)
         if non_negative and np.any(array < 0):
-            raise SceneError(self.at(key), f"must be non-negative, got {value!r}")
+            raise SceneError(self.at(key), f"must be non-negative, got {limits.show(value)}")
         return array
 
     def string(self, key, default=_MISSING, choices=None):
         value = self.raw(key, default)
         if not isinstance(value, str):
-            raise SceneError(self.at(key), f"must be a string, got {value!r}")
+            raise SceneError(self.at(key), f"must be a string, got {limits.show(value)}")
         if choices is not None and value not in choices:
-            raise SceneError(self.at(key), f"unknown value {value!r}; valid: {', '.join(choices)}")
+            raise SceneError(self.at(key), f"unknown value {limits.show(value)}; valid: {', '.join(choices)}")
         return value
 
     def boolean(self, key, default=False):
         value = self.raw(key, default)
         if not isinstance(value, bool):
-            raise SceneError(self.at(key), f"must be true or false, got {value!r}")
+            raise SceneError(self.at(key), f"must be true or false, got {limits.show(value)}")
         return value
 
     def child(self, key, default=_MISSING):
@@ -280,12 +291,12 @@ class _Node:
     def items(self, key):
         value = self.raw(key, [])
         if not isinstance(value, list):
-            raise SceneError(self.at(key), f"must be a list, got {type(value).__name__}")
+            raise SceneError(self.at(key), f"must be a list, got {_json_kind(value)}")
         return [_Node(item, f"{self.at(key)}[{i}]") for i, item in enumerate(value)]
 
     def finish(self):
         """Reject fields nobody read: a typo must not be silently ignored."""
-        unknown = sorted(set(self.data) - self.read)
+        unknown = [key for key in self.data if key not in self.read]
         if unknown:
             raise SceneError(self.at(unknown[0]), "unknown field")
 
@@ -293,33 +304,117 @@ class _Node:
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
+def as_scene(scene):
+    """A Scene from a Scene, a dict with the JSON structure, or the path of a scene file."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, dict):
+        return load_scene_dict(scene)
+    if isinstance(scene, (str, os.PathLike)):
+        return load_scene(scene)
+    raise ArgumentError("scene", f"must be a Scene, a scene dict or a file path, got {type(scene).__name__}")
+
+
 def load_scene(path, parameters=None):
     """Load and validate a scene file: JSON, or Mitsuba 3 XML (`.xml`, docs/mitsuba-xml.md;
     `parameters` override its <default> values, like Mitsuba's -D). Relative file paths resolve
     against the file's folder."""
-    path = Path(path)
+    path = _path_argument(path, "path")
     if path.suffix.lower() == ".xml":
         from . import mitsuba_xml
 
         return mitsuba_xml.load_scene(path, parameters)
     if parameters:
-        raise SceneError("", "parameters apply to Mitsuba XML scenes only")
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise SceneError("", f"scene file not found: {path}") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise SceneError("", f"{path}: invalid JSON at line {e.lineno} column {e.colno}: {e.msg}") from None
-    scene = load_scene_dict(data, base_dir=path.parent)
+        raise ArgumentError("parameters", f"apply to Mitsuba XML scenes only, not to {path}")
+    scene = load_scene_dict(read_json(path), base_dir=path.parent)
     scene.path = path
     return scene
 
 
+def _path_argument(value, where):
+    if not isinstance(value, (str, os.PathLike)):
+        raise ArgumentError(where, f"must be a file path, got {type(value).__name__}")
+    return Path(value)
+
+
+_BOMS = {b"\xff\xfe\x00\x00": "UTF-32", b"\x00\x00\xfe\xff": "UTF-32", b"\xff\xfe": "UTF-16",
+         b"\xfe\xff": "UTF-16"}
+
+
+def read_scene_bytes(path, error=SceneError):
+    """The contents of the scene file `path`; `error("", message)` naming it where it is a
+    folder, missing or unreadable."""
+    if path.is_dir():
+        raise error("", f"{path} is a directory, not a scene file")
+    try:
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise error("", f"scene file not found: {path}") from None
+    except OSError as e:
+        raise error("", f"cannot read scene file {path}: {e.strerror or e}") from None
+
+
+def read_json(path):
+    """The JSON document in the file `path` (UTF-8, a byte-order mark allowed), with objects that
+    remember duplicated keys; SceneError naming the file for anything else."""
+    text = _decode(read_scene_bytes(path), path)
+    try:
+        document = json.loads(text, object_pairs_hook=_JsonObject.from_pairs)
+    except json.JSONDecodeError as e:
+        raise SceneError("", f"{path}: invalid JSON at line {e.lineno} column {e.colno}: {e.msg}") from None
+    except RecursionError:
+        raise SceneError("", f"{path}: nested too deeply to read") from None
+    except ValueError as e:   # e.g. an integer of more than 4300 digits
+        raise SceneError("", f"{path}: invalid JSON: {e}") from None
+    duplicate = _first_duplicate_key(document)
+    if duplicate is not None:
+        raise SceneError(duplicate, "duplicate key (given more than once in the object)")
+    return document
+
+
+def _decode(data, path):
+    for bom, encoding in _BOMS.items():
+        if data.startswith(bom):
+            raise SceneError("", f"{path} is {encoding}-encoded: save it as UTF-8")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = data[:e.start].count(b"\n") + 1
+        raise SceneError("", f"{path} is not UTF-8 (byte 0x{data[e.start]:02x} on line {line}): "
+                             "save it as UTF-8") from None
+
+
+class _JsonObject(dict):
+    """A JSON object that remembers the keys given more than once (the last value is kept)."""
+    duplicates = ()
+
+    @classmethod
+    def from_pairs(cls, pairs):
+        obj = cls(pairs)
+        if len(obj) < len(pairs):
+            seen = set()
+            obj.duplicates = [key for key, _ in pairs if key in seen or seen.add(key)]
+        return obj
+
+
+def _first_duplicate_key(document):
+    """The JSON path of the first duplicated key, in document order, or None."""
+    stack = [(document, "")]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, dict):
+            if getattr(value, "duplicates", ()):
+                key = value.duplicates[0]
+                return f"{where}.{key}" if where else key
+            stack.extend(reversed([(v, f"{where}.{k}" if where else k) for k, v in value.items()]))
+        elif isinstance(value, list):
+            stack.extend(reversed([(v, f"{where}[{i}]") for i, v in enumerate(value)]))
+    return None
+
+
 def load_scene_dict(data, base_dir="."):
     """Build a Scene from a dict with the JSON scene structure (see docs/scene-format.md)."""
-    base_dir = Path(base_dir)
+    base_dir = _path_argument(base_dir, "base_dir")
     root = _Node(data, "")
     camera = _read_camera(root.child("camera"))
     render = _read_render(root.child("render", {}))
@@ -359,10 +454,10 @@ def _read_camera(node):
     )
     node.read.add("medium")  # read with the media, which come later in the file
     forward = camera.look_at - camera.position
-    if np.linalg.norm(forward) == 0:
+    if _norm(forward) == 0:
         raise SceneError(node.at("look_at"), "must differ from camera.position")
-    if np.linalg.norm(np.cross(forward, camera.up)) == 0:
-        raise SceneError(node.at("up"), "must not be parallel to the viewing direction")
+    if _norm(camera.up) == 0 or _norm(np.cross(_unit(forward), _unit(camera.up))) <= 1e-9:
+        raise SceneError(node.at("up"), "must not be zero or parallel to the viewing direction")
     node.finish()
     return camera
 
@@ -370,19 +465,20 @@ def _read_camera(node):
 def _resolution(node):
     value = node.raw("resolution", [256, 256])
     if not (isinstance(value, list) and len(value) == 2 and all(
-            isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 16384 for v in value)):
-        raise SceneError(node.at("resolution"), f"must be [width, height], integers in 1..16384, got {value!r}")
+            isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= limits.MAX_RESOLUTION for v in value)):
+        raise SceneError(node.at("resolution"), f"must be [width, height], integers in "
+                                                f"1..{limits.MAX_RESOLUTION}, got {limits.show(value)}")
     return tuple(value)
 
 
 def _read_render(node):
     settings = RenderSettings(
-        spp=node.number("spp", 16, low=1, integer=True),
-        max_depth=node.number("max_depth", 8, low=1, high=1024, integer=True),
-        rr_depth=node.number("rr_depth", 5, low=1, integer=True),
-        seed=node.number("seed", 0, low=0, high=2**32 - 1, integer=True),
+        spp=node.setting("spp", 16),
+        max_depth=node.setting("max_depth", 8),
+        rr_depth=node.setting("rr_depth", 5),
+        seed=node.setting("seed", 0),
         volume_method=node.string("volume_method", "null", choices=VOLUME_METHODS),
-        step=float(node.number("step", 2.0, low=MIN_MARCH_STEP)),
+        step=float(node.setting("step", 2.0)),
         raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", True),
         hide_environment=node.boolean("hide_environment", False),
     )
@@ -499,7 +595,9 @@ def _read_medium(node, base_dir):
         raise SceneError(node.at("g"), f"must be in (-1, 1), got {g!r}")
     grid = _read_grid(node, base_dir) if kind == "grid" else None
     node.finish()
-    return Medium(name, sigma_a * scale, sigma_s * scale, float(g), kind, grid)
+    sigma_a, sigma_s = sigma_a * scale, sigma_s * scale
+    limits.float32_values(sigma_a + sigma_s, node.where, SceneError)   # the product with `scale`
+    return Medium(name, sigma_a, sigma_s, float(g), kind, grid)
 
 
 def _read_grid(node, base_dir):
@@ -536,7 +634,11 @@ def _read_density(node, base_dir):
     value = node.raw("resolution", [32, 32, 32])
     if not (isinstance(value, list) and len(value) == 3 and all(
             isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024 for v in value)):
-        raise SceneError(node.at("resolution"), f"must be [nx, ny, nz], integers in 1..1024, got {value!r}")
+        raise SceneError(node.at("resolution"), f"must be [nx, ny, nz], integers in 1..1024, got {limits.show(value)}")
+    count = value[0] * value[1] * value[2]
+    if count > grids.MAX_PROCEDURAL_VOXELS:   # checked before the generator allocates
+        raise SceneError(node.at("resolution"), f"{count} voxels, more than the {grids.MAX_PROCEDURAL_VOXELS} "
+                                                "a procedural grid may have (use a grid file)")
     options = {}
     for key, (default, kind, low, high) in grids.PROCEDURAL[name][1].items():
         options[key] = node.number(key, default, low=low, high=high, integer=kind is int)
@@ -611,15 +713,22 @@ def _read_mesh_file(node, base_dir):
 def _read_transform(node):
     if "matrix" in node.data:
         value = node.raw("matrix")
-        matrix = np.asarray(value, dtype=float) if _is_matrix(value) else None
-        if matrix is None or not np.all(np.isfinite(matrix)) or np.any(matrix[3] != [0, 0, 0, 1]):
+        matrix = None
+        if _is_matrix(value):
+            matrix = np.array([[limits.number(x, node.at("matrix"), SceneError) for x in row] for row in value])
+        if matrix is None or np.any(matrix[3] != [0, 0, 0, 1]):
             raise SceneError(node.at("matrix"), "must be a 4x4 affine matrix (rows; last row 0 0 0 1)")
     else:
         scale = node.vector("scale", [1, 1, 1], allow_scalar=True)
         matrix = meshes.transform_matrix(node.vector("translate", [0, 0, 0]),
                                          node.vector("rotate", [0, 0, 0]), scale)
-    if abs(np.linalg.det(matrix[:3, :3])) < 1e-30:
-        raise SceneError(node.where, "is singular (a zero scale flattens the shape)")
+    limits.float32_values(matrix, node.where, SceneError)
+    singular = np.linalg.svd(matrix[:3, :3], compute_uv=False)
+    # Relative to its own scale (a scene in nanometres is fine): flat when the smallest stretch
+    # is lost against the largest, which also keeps the inverse (for normals) accurate.
+    if not singular[-1] > singular[0] / limits.MAX_TRANSFORM_CONDITION:
+        raise SceneError(node.where, f"is singular: it flattens the shape (stretches {singular[0]:.3g} "
+                                     f"and {singular[-1]:.3g}, a ratio beyond {limits.MAX_TRANSFORM_CONDITION:g})")
     node.finish()
     return matrix
 
@@ -639,10 +748,10 @@ def _read_light(node, base_dir):
                       position=node.vector("position"))
     else:
         direction = node.vector("direction")
-        if np.linalg.norm(direction) == 0:
+        if _norm(direction) == 0:
             raise SceneError(node.at("direction"), "must be non-zero")
         light = Light(kind, node.vector("irradiance", non_negative=True, allow_scalar=True),
-                      direction=direction / np.linalg.norm(direction))
+                      direction=_unit(direction))
     node.finish()
     return light
 
@@ -652,13 +761,13 @@ def _read_environment(node, base_dir):
     if sum(key in node.data for key in ("image", "file", "radiance")) > 1:
         raise SceneError(node.where, "give one of radiance, file or image")
     if "image" in node.data:   # Python API: an (H, W, 3) lat-long array instead of a file
-        image = np.asarray(node.raw("image"))
+        try:
+            image = np.asarray(node.raw("image"))
+        except ValueError:   # ragged nested lists
+            image = np.zeros(0)
         if image.ndim != 3 or image.shape[2] != 3 or min(image.shape[:2]) < 1 or not np.issubdtype(image.dtype, np.number):
             raise SceneError(node.at("image"), f"must be an (H, W, 3) array of numbers, got shape {image.shape}")
-        image = image.astype(np.float32)
-        if not np.all(np.isfinite(image)) or np.any(image < 0):
-            raise SceneError(node.at("image"), "image must be finite and non-negative")
-        return Light("environment", np.ones(3) * scale, image=image * scale)
+        return _environment_image(node, image, "image", scale)
     if "file" in node.data:
         from .image import load_image
 
@@ -667,10 +776,20 @@ def _read_environment(node, base_dir):
             raise SceneError(node.at("file"), f"file not found: {path}")
         try:
             image = load_image(path)
-        except Exception as e:
-            raise SceneError(node.at("file"), f"cannot load image {path}: {e}") from None
-        if not np.all(np.isfinite(image)) or np.any(image < 0):
-            raise SceneError(node.at("file"), "image must be finite and non-negative")
-        return Light("environment", np.ones(3) * scale, image=image * scale)
+        except FileError as e:
+            raise SceneError(node.at("file"), e.message) from None
+        return _environment_image(node, image, "file", scale)
     radiance = node.vector("radiance", [1, 1, 1], non_negative=True, allow_scalar=True)
+    limits.float32_values(radiance * scale, node.at("scale"), SceneError)
     return Light("environment", radiance * scale)
+
+
+def _environment_image(node, image, key, scale):
+    """The environment light of a lat-long image given at `key`: finite and non-negative, and
+    times `scale` still finite in float32."""
+    limits.float32_values(image, node.at(key), SceneError)
+    image = np.asarray(image, dtype=np.float32)
+    if np.any(image < 0):
+        raise SceneError(node.at(key), "image must be non-negative")
+    limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
+    return Light("environment", np.ones(3) * scale, image=image * scale)

@@ -234,7 +234,7 @@ def test_depth_and_object_id_are_the_pixel_centre_record(device):
 def test_aov_names_are_checked():
     assert parse_aovs("normal, albedo") == ("albedo", "normal")
     assert parse_aovs(AOV_NAMES[::-1]) == AOV_NAMES
-    with pytest.raises(ValueError, match="--aov: unknown AOV 'albedos'"):
+    with pytest.raises(clrender.ArgumentError, match="--aov: unknown AOV 'albedos'"):
         parse_aovs("albedo,albedos", source="--aov")
 
 
@@ -256,7 +256,7 @@ def test_cli_writes_aovs_and_rejects_bad_flags(tmp_path):
                           (("--keep-noisy",), "--keep-noisy: only with --denoise"),
                           (("--denoise-prefilter",), "--denoise-prefilter: only with --denoise")):
         result = run("-o", str(tmp_path / "bad.exr"), *args)
-        assert result.returncode == 1 and message in result.stderr and "Traceback" not in result.stderr
+        assert result.returncode == 2 and message in result.stderr and "Traceback" not in result.stderr
         assert not (tmp_path / "bad.exr").exists()
 
 

@@ -58,7 +58,7 @@ def test_info_kernel_reports_what_a_device_needs():
     rows = [line.split() for line in table.stdout.splitlines() if line.startswith("environment=")]
     assert len(rows) == len(list(all_feature_combinations()))
     assert all(int(row[-3]) >= 0 and int(row[-2]) >= 1 and int(row[-1]) >= 1 for row in rows)
-    assert run("info").returncode == 1   # neither a scene nor --kernel
+    assert run("info").returncode == 2   # neither a scene nor --kernel: bad arguments (docs/errors.md)
 
 
 @pytest.mark.parametrize("content,message", [
@@ -77,17 +77,17 @@ def test_bad_input_fails_cleanly_without_output(tmp_path, content, message):
         scene.write_text(content)
     out = tmp_path / "out.png"
     result = run("render", str(scene), "-o", str(out), "--spp", "1")
-    assert result.returncode == 1
-    assert message in result.stderr
+    assert result.returncode == 3   # a bad scene (docs/errors.md)
+    assert message in result.stderr and "Traceback" not in result.stderr
     assert list(tmp_path.iterdir()) == ([scene] if content is not None else [])
 
 
 def test_bad_arguments_exit_non_zero(tmp_path):
     assert run("render", "scenes/cornell_box.json", "-o", str(tmp_path / "x.png"), "--spp", "0").returncode == 2
     result = run("render", "scenes/cornell_box.json", "-o", str(tmp_path / "x.gif"), "--spp", "1")
-    assert result.returncode == 1 and "unsupported output format" in result.stderr
+    assert result.returncode == 2 and "unsupported image format" in result.stderr
     result = run("render", "scenes/cornell_box.json", "-o", str(tmp_path / "x.png"), "--device", "7")
-    assert result.returncode == 1 and "out of range" in result.stderr
+    assert result.returncode == 2 and "out of range" in result.stderr
     assert not any(tmp_path.iterdir())
 
 

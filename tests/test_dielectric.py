@@ -681,9 +681,11 @@ def test_spawned_rays_never_hit_their_own_surface(context, queue, scale, offset)
     phi = rng.uniform(0, 2 * np.pi, count)
     s = np.sqrt(1 - cos_n ** 2)
     leave = np.stack([s * np.cos(phi), s * np.sin(phi), side * cos_n], axis=1)
+    # The kernel sees the scene scaled by a power of two (arrays.device_length_scale): exact.
     (out,) = run(queue, cl.Kernel(program, "spawn_from_hits"), count,
                  *(upload(context, x) for x in (a.nodes, a.triangles, a.shading, a.info)),
-                 upload(context, float4(start)), upload(context, float4(aim / np.linalg.norm(aim, axis=1)[:, None])),
+                 upload(context, float4(start * a.length_scale)),
+                 upload(context, float4(aim / np.linalg.norm(aim, axis=1)[:, None])),
                  upload(context, float4(leave)), outputs=[(count, 4)])
     first, second, front = out[:, 0], out[:, 1], out[:, 3] == 1
     # A first ray can slip between two facets (Moller-Trumbore is not watertight) and hit the

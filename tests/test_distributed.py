@@ -67,6 +67,20 @@ def test_cloud_scene_is_bit_identical(client):
     assert_identical(result, local(scene, 3))
 
 
+def test_a_scene_the_kernel_sees_rescaled_is_bit_identical(client):
+    """A scene of 2^40 units reaches the kernel scaled by a power of two (arrays.length_scale):
+    strips and chunks do not change that, and depths come back in the scene's units."""
+    scene = small("scenes/cornell_box.json", (20, 16), seed=2)
+    reference = local(scene, 3)
+    for shape in scene.shapes:
+        shape.mesh.vertices = shape.mesh.vertices * 2.0**40
+    scene.camera.position, scene.camera.look_at = scene.camera.position * 2.0**40, scene.camera.look_at * 2.0**40
+    result = distributed.render(scene, client, 3, device=TEST_DEVICE, tiles=4, samples_per_chunk=2)
+    assert_identical(result, local(scene, 3))
+    assert np.array_equal(result.image, reference.image)
+    assert np.array_equal(result.aux["depth"], reference.aux["depth"] * 2.0**40)
+
+
 def test_outlines_and_a_mesh_file_the_workers_never_see(client, tmp_path):
     # The toon character: ink outlines from the aux buffers span strip boundaries; its mesh is
     # loaded on the client only (the file is gone before the render), shipped in the scene.
@@ -184,7 +198,8 @@ def test_chunk_whose_workers_keep_dying_is_an_error_naming_the_worker(client):
 
 def test_chunk_failing_on_every_try_names_the_worker(client):
     scene = small("scenes/cornell_box.json", (8, 8))
-    with pytest.raises(distributed.DistributedRenderError, match=r"worker tcp://.*no OpenCL device matches"):
+    # The error of a local render (a bad --device: ArgumentError), on the worker that met it.
+    with pytest.raises(clrender.ArgumentError, match=r"worker tcp://.*no OpenCL device matches"):
         distributed.render(scene, client, 1, device="no such device")
 
 
@@ -204,8 +219,8 @@ def test_output_paths_for_batches(tmp_path):
                             (str(tmp_path / "{stem}.png"), "would both write"),
                             (str(tmp_path / "one.exr"), "need a folder"),
                             (str(tmp_path / "{name}.exr"), "bad pattern"),
-                            (str(tmp_path / "{index}.gif"), "unsupported output format")):
-        with pytest.raises(ValueError, match=message):
+                            (str(tmp_path / "{index}.gif"), "unsupported image format")):
+        with pytest.raises(clrender.ArgumentError, match=message):
             _output_paths(output, scenes)
 
 
@@ -231,8 +246,12 @@ def test_cli_renders_a_batch_on_a_running_cluster(client, tmp_path):
         assert np.array_equal(image, local(clrender.load_scene(path), 2).image)
 
 
-def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path):
-    # A terminal's Ctrl-C goes to the whole process group: the client and its local workers.
+@pytest.mark.parametrize("signum,group", [
+    (signal.SIGINT, True),    # a terminal's Ctrl-C goes to the whole process group: client and workers
+    (signal.SIGHUP, True),    # so does the hang-up of a closed terminal
+    (signal.SIGTERM, False),  # `kill PID`: the client alone
+])
+def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path, signum, group):
     path = tmp_path / "box.json"
     path.write_text(_scene_json("scenes/cornell_box.json", resolution=[32, 24], spp=10 ** 6))
     command = [sys.executable, "-m", "clrender.cli", "render", str(path), "-o", str(tmp_path / "box.exr"),
@@ -246,8 +265,8 @@ def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path)
     while " spp [" not in "".join(seen) and time.monotonic() < deadline:   # the bar is up
         time.sleep(0.1)
     time.sleep(1)   # chunks are flowing
-    os.killpg(process.pid, signal.SIGINT)
-    assert process.wait(timeout=60) == 130
+    (os.killpg if group else os.kill)(process.pid, signum)
+    assert process.wait(timeout=60) == 128 + signum
     reader.join()
     err = "".join(seen)
     assert "interrupted: partial image saved" in err and "Traceback" not in err, err[-3000:]

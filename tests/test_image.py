@@ -95,6 +95,6 @@ def test_png_layers_go_to_separate_files(tmp_path):
     save_image(image, tmp_path / "out.png", layers={"normal": normal, "depth": np.full((4, 6), 2.0)})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.depth.png", "out.normal.png", "out.png"]
     assert np.all(iio.imread(tmp_path / "out.normal.png") == [128, 128, 255])
-    with pytest.raises(ValueError, match="layer 'depth': expected 4x6 pixels"):
+    with pytest.raises(clrender.ArgumentError, match=r"layers\['depth'\]: expected 4x6 pixels"):
         save_image(image, tmp_path / "bad.exr", layers={"depth": np.zeros((3, 6))})
     assert not (tmp_path / "bad.exr").exists()

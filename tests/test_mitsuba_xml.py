@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import clrender
-from clrender import cie, grids, mitsuba_xml
+from clrender import cie, grids, limits, mitsuba_xml
 from clrender.mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
 
 SENSOR = """<sensor type="perspective">
@@ -147,20 +147,35 @@ def test_validation_errors_point_at_the_xml_element(tmp_path):
     assert "must be <= 1 per channel" in message and "materials[0].albedo" in message
 
 
+def test_errors_found_at_upload_point_at_the_xml_element(tmp_path, context):
+    # A rectangle 1e30 times smaller than the scene has no area in float32: found when the
+    # scene's arrays are built (Renderer, `clrender info`), still named by the XML element.
+    body = ('<shape type="rectangle"><transform name="to_world"><scale value="1e30"/></transform></shape>\n'
+            '<shape type="sphere"/>')
+    scene = clrender.load_scene(write(tmp_path, body))
+    with pytest.raises(MitsubaXmlError) as error:
+        clrender.Renderer(scene, context=context)
+    assert error.value.where == f"scene.xml:{line_of(body, 'sphere')} <shape type='sphere'>"
+    assert "degenerate at the scene's scale" in error.value.message and "(scene field shapes[1])" in error.value.message
+    info = subprocess.run([sys.executable, "-m", "clrender.cli", "info", str(tmp_path / "scene.xml")],
+                          capture_output=True, text=True)
+    assert info.returncode == 3 and "scene.xml:" in info.stderr and "Traceback" not in info.stderr
+
+
 # ============================================================================================
 # integrator, sensor, film, sampler
 # ============================================================================================
 @pytest.mark.parametrize("integrator,expected", [
-    ("", {"max_depth": 1024, "rr_depth": 5}),
-    ('<integrator type="path"/>', {"max_depth": 1024, "rr_depth": 5}),
+    ("", {"max_depth": limits.MAX_DEPTH, "rr_depth": 5}),
+    ('<integrator type="path"/>', {"max_depth": limits.MAX_DEPTH, "rr_depth": 5}),
     ('<integrator type="path"><integer name="max_depth" value="3"/><integer name="rr_depth" value="2"/></integrator>',
      {"max_depth": 3, "rr_depth": 2}),
     # volpath starts roulette one vertex later than path for the same rr_depth.
     ('<integrator type="volpath"><integer name="max_depth" value="12"/></integrator>', {"max_depth": 12, "rr_depth": 6}),
-    ('<integrator type="volpathmis"><integer name="rr_depth" value="0"/></integrator>', {"max_depth": 1024, "rr_depth": 1}),
-    ('<integrator type="path"><integer name="rr_depth" value="0"/></integrator>', {"max_depth": 1024, "rr_depth": 1}),
+    ('<integrator type="volpathmis"><integer name="rr_depth" value="0"/></integrator>', {"max_depth": limits.MAX_DEPTH, "rr_depth": 1}),
+    ('<integrator type="path"><integer name="rr_depth" value="0"/></integrator>', {"max_depth": limits.MAX_DEPTH, "rr_depth": 1}),
     ('<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>',
-     {"max_depth": 1024, "rr_depth": 5, "hide_environment": True}),
+     {"max_depth": limits.MAX_DEPTH, "rr_depth": 5, "hide_environment": True}),
 ])
 def test_integrators(tmp_path, integrator, expected):
     scene, _ = translate(tmp_path, integrator)
@@ -173,6 +188,8 @@ def test_integrators(tmp_path, integrator, expected):
     ('<integrator type="path"><integer name="max_depth" value="-3"/></integrator>', "max_depth must be -1"),
     ('<integrator type="path"><integer name="rr_depth" value="-1"/></integrator>', "rr_depth must be >= 0"),
     ('<integrator type="path"><float name="max_depth" value="2.5"/></integrator>', "must be <integer>"),
+    ('<integrator type="path"><integer name="max_depth" valeu="2"/></integrator>',   # found by test_fuzz
+     "<integer name='max_depth'>: missing attribute 'value'"),
     ('<integrator type="path"/><integrator type="path"/>', "only one <integrator>"),
     ('<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>'
      '<shape type="rectangle"><emitter type="area"/></shape>', "hide_emitters with area emitters is not supported"),
@@ -238,7 +255,7 @@ def test_sensor_errors(tmp_path, sensor_xml, message):
 
 
 def test_sensor_without_sensor_or_with_two_is_an_error(tmp_path):
-    assert "has no <sensor>" in error_of(tmp_path, "", sensor="")
+    assert "scene.xml:2 <scene>: the scene has no <sensor>" in error_of(tmp_path, "", sensor="")
     assert "keep a single <sensor>" in error_of(tmp_path, SENSOR)
 
 
@@ -619,7 +636,7 @@ def test_cornell_box_xml_renders_the_json_cornell_box_bit_for_bit(device):
 
 def test_xml_parameters_apply_to_xml_only(tmp_path):
     (tmp_path / "s.json").write_text(json.dumps({"camera": {"position": [0, 0, 1], "look_at": [0, 0, 0]}}))
-    with pytest.raises(clrender.SceneError, match="parameters apply to Mitsuba XML scenes only"):
+    with pytest.raises(clrender.ArgumentError, match="parameters: apply to Mitsuba XML scenes only"):
         clrender.load_scene(tmp_path / "s.json", parameters={"spp": "2"})
 
 
@@ -651,7 +668,7 @@ def test_cli_render_xml_with_parameters(tmp_path):
 def test_cli_errors_and_warnings(tmp_path):
     body = '<shape type="sphere"><bsdf type="plastic"/></shape>'
     result = run_cli("info", write(tmp_path, body))
-    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert result.returncode == 3 and "Traceback" not in result.stderr   # a bad scene (docs/errors.md)
     assert (f"clrender: error: scene.xml:{line_of(body, 'plastic')} <bsdf type='plastic'>: "
             "unsupported BSDF 'plastic'") in result.stderr
     path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>'))
