@@ -1,4 +1,5 @@
-"""Triangle meshes: primitives, files loaded with trimesh, and transforms."""
+"""Shape geometry: triangle meshes (primitives, files loaded with trimesh) and analytic spheres,
+and their transforms."""
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,6 +11,31 @@ class Mesh:
     vertices: np.ndarray   # (V, 3) float64, world space
     faces: np.ndarray      # (F, 3) int64
     normals: np.ndarray    # (V, 3) float64 unit shading normals, or None for flat shading
+
+
+@dataclass
+class Sphere:
+    """An analytic sphere (kernels/sphere.h): exact surface and normals."""
+    center: np.ndarray     # (3,) float64, world space
+    radius: float          # > 0
+    flipped: bool = False  # the front face (normals, one-sided emission) is inside
+
+
+def bounds(geometry):
+    """(min, max) corners of a Mesh's vertices or a Sphere."""
+    if isinstance(geometry, Sphere):
+        return geometry.center - geometry.radius, geometry.center + geometry.radius
+    return geometry.vertices.min(axis=0), geometry.vertices.max(axis=0)
+
+
+def similarity_scale(linear, tolerance=1e-9):
+    """The uniform scale s of a 3x3 matrix that is s times a rotation (or a reflection), or None
+    when it scales unevenly or shears (it would turn a sphere into an ellipsoid)."""
+    gram = linear.T @ linear
+    scale2 = np.trace(gram) / 3
+    if not scale2 > 0 or np.abs(gram - scale2 * np.eye(3)).max() > tolerance * scale2:
+        return None
+    return float(np.sqrt(scale2))
 
 
 def transform_matrix(translate=(0, 0, 0), rotate=(0, 0, 0), scale=(1, 1, 1)):
@@ -32,8 +58,16 @@ def _rotation(axis, angle):
 
 
 def apply_transform(mesh, matrix):
-    """Transform positions by `matrix` and normals by its inverse transpose."""
+    """Transform positions by `matrix` and normals by its inverse transpose. A Sphere takes only
+    similarity transforms (ValueError otherwise); a reflection keeps its front face outside, as
+    it keeps a mesh's (the winding is reversed with it)."""
     linear = matrix[:3, :3]
+    if isinstance(mesh, Sphere):
+        scale = similarity_scale(linear)
+        if scale is None:
+            raise ValueError("scales a sphere unevenly (that makes an ellipsoid): add \"mesh\": true "
+                             "to tessellate it")
+        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped)
     vertices = mesh.vertices @ linear.T + matrix[:3, 3]
     faces = mesh.faces
     if np.linalg.det(linear) < 0:
@@ -46,6 +80,8 @@ def apply_transform(mesh, matrix):
 
 def flip(mesh):
     """Reverse the winding (and the shading normals): the other side becomes the front."""
+    if isinstance(mesh, Sphere):
+        return Sphere(mesh.center, mesh.radius, not mesh.flipped)
     return Mesh(mesh.vertices, mesh.faces[:, ::-1].copy(),
                 None if mesh.normals is None else -mesh.normals)
 
@@ -55,7 +91,7 @@ def _normalized(v):
     return v / np.where(length > 0, length, 1.0)
 
 
-def sphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
+def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
     """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets."""
     import trimesh
 

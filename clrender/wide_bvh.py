@@ -11,9 +11,11 @@ import numpy as np
 from . import layout
 
 
-def collapse(bvh):
+def collapse(bvh, sphere_slots=None):
     """(nodes, depth): the wide tree (dtype layout.WIDE_BVH_NODE; node 0 the root) of a binary
-    Bvh. Leaves keep their primitive ranges (the same reordered triangle slots)."""
+    Bvh. Leaves keep their primitive ranges (the same reordered primitive slots); a leaf of
+    spheres (sphere_slots: bool per slot, True for a sphere) gets its count negated, the
+    kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
     lo, hi, index, count = _binary_slots(bvh.nodes)
     interior = (count == 0) & (index >= 0)
     slot_node, slot_side = _grandchild_slots(index, interior)
@@ -29,7 +31,12 @@ def collapse(bvh):
         below = valid & interior[np.maximum(node, 0), side]
         frontier = index[node[below], side[below]]
     binary = np.concatenate(order)
-    return _assemble(binary, wide_of, slot_node, slot_side, lo, hi, index, count), depth
+    nodes = _assemble(binary, wide_of, slot_node, slot_side, lo, hi, index, count)
+    if sphere_slots is not None and np.any(sphere_slots):
+        leaf = nodes["count"] > 0
+        spheres = leaf & np.asarray(sphere_slots)[np.where(leaf, nodes["child"], 0)]
+        nodes["count"][spheres] *= -1
+    return nodes, depth
 
 
 def _grandchild_slots(index, interior):

@@ -1,18 +1,27 @@
-// Closest-hit and any-hit traversal of the two-child BVH (layout in types.h).
+// Closest-hit and any-hit traversal of the four-wide BVH (layout in types.h) over triangles and
+// analytic spheres.
 #ifndef CLRENDER_BVH_H
 #define CLRENDER_BVH_H
+
+#include "hit.h"
+#include "sphere.h"
 
 // Each wide level pushes at most 3 siblings and the binary tree is at most 63 deep (bvh.py), so
 // 3 * 62 + 1 entries always suffice (on GPUs the array lives in local memory either way).
 #define BVH_STACK_SIZE 192
 
-// One lane of a wide node inside traverse_bvh: intersect a leaf's triangles, or push an
-// interior child by insertion into this node's entries (nearest ends on top).
+// One lane of a wide node inside traverse_bvh: intersect a leaf's triangles (count > 0) or
+// spheres (count < 0, the primitive-type tag), or push an interior child (count 0) by
+// insertion into this node's entries (nearest ends on top).
 #define VISIT_LANE(s)                                                                        \
     if (t.s < hit->t) {                                                                      \
         if (count.s > 0) {                                                                   \
             for (int i = child.s; i < child.s + count.s; ++i)                                \
                 found |= intersect_triangle(triangles + i, i, origin, dir, hit);             \
+            if (found && any_hit) return true;                                               \
+        } else if (count.s < 0) {                                                            \
+            for (int i = child.s; i < child.s - count.s; ++i)                                \
+                found |= intersect_sphere((__global const Sphere*)(triangles + i), i, origin, dir, hit); \
             if (found && any_hit) return true;                                               \
         } else {                                                                             \
             int k = stack_size++;                                                            \
@@ -25,12 +34,6 @@
             stack_t[k] = t.s;                                                                \
         }                                                                                    \
     }
-
-typedef struct {
-    float t;
-    float b1, b2;   // barycentrics of v1 and v2
-    int triangle;   // index into the reordered triangle arrays, -1 for a miss
-} Hit;
 
 // Moller-Trumbore, two-sided. Returns true and updates *hit if closer than hit->t.
 bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, float3 dir,
@@ -51,7 +54,8 @@ bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, 
     hit->t = t;
     hit->b1 = b1;
     hit->b2 = b2;
-    hit->triangle = index;
+    hit->prim = index;
+    hit->sphere = false;
     return true;
 }
 

@@ -32,7 +32,7 @@ float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoin
     if (prev_delta) return le;
     __global const Emitter* e = scene->emitters + sp->emitter;
     float light_pdf_w = emitter_selection_pmf(scene, sp->emitter) *
-                        triangle_emitter_pdf_w(e, length(sp->p - prev_p), -dot(dir, sp->ng));
+                        area_emitter_pdf_w(e, prev_p, sp->p, -dot(dir, sp->ng));
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
@@ -219,7 +219,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #if GRID_MEDIA == VOLUME_NULL
         // The chain ends at a surface or in the distance (unless the surface is a boundary):
         // its spectral-MIS weight, and its transmittance pdfs for the emission's MIS weight.
-        bool chain_ends = !found || scene->materials[scene->info[hit.triangle].info.x].kind.x != MATERIAL_INTERFACE;
+        bool chain_ends = !found || scene->materials[scene->info[hit.prim].info.x].kind.x != MATERIAL_INTERFACE;
         if (chain_ends) {
             throughput *= chain_weight(&chain, spectral_mis);
             prev_pdf_w *= chain_pdf_ratio(&chain, spectral_mis);

@@ -5,7 +5,7 @@ import pyopencl as cl
 from clrender import layout
 from conftest import build_test_kernels
 
-ORDER = ["WideBvhNode", "Triangle", "TriangleShading", "TriangleInfo", "Material", "Emitter",
+ORDER = ["WideBvhNode", "Triangle", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Emitter",
          "Medium", "Camera", "RenderParams"]
 
 

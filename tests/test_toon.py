@@ -63,7 +63,7 @@ def lit_sphere(material, light_direction, irradiance=2.0, resolution=(48, 48), s
     return {
         "camera": camera(resolution=resolution, fov=28),
         "materials": [material],
-        "shapes": [{"type": "sphere", "material": material["name"], "radius": 1.0,
+        "shapes": [{"type": "sphere", "mesh": True, "material": material["name"], "radius": 1.0,
                     "subdivisions": 4, "smooth": smooth}],
         "lights": lights or [{"type": "directional", "direction": list(light_direction),
                               "irradiance": irradiance}],
@@ -221,7 +221,7 @@ def test_uniform_environment_on_a_convex_toon_object():
     data = {
         "camera": camera(fov=30),
         "materials": [toon(color=color, shadow_color=shadow, softness=softness)],
-        "shapes": [{"type": "sphere", "material": "toon", "radius": 1.0, "subdivisions": 3,
+        "shapes": [{"type": "sphere", "mesh": True, "material": "toon", "radius": 1.0, "subdivisions": 3,
                     "smooth": False}],
         "lights": [{"type": "environment", "radiance": le}],
         "render": {"max_depth": 4},
@@ -276,9 +276,9 @@ def toon_enclosure(max_depth):
         "materials": [toon(name="dome", color=[0.9, 0.8, 0.7], shadow_color=[0.5, 0.25, 0.125],
                            shadow_factor=0.0, highlight_size=0.3),
                       {"name": "ball", "type": "diffuse", "albedo": [0.6, 0.5, 0.4]}],
-        "shapes": [{"type": "sphere", "material": "dome", "radius": 4.0, "subdivisions": 2,
+        "shapes": [{"type": "sphere", "mesh": True, "material": "dome", "radius": 4.0, "subdivisions": 2,
                     "smooth": False, "flip_normals": True},
-                   {"type": "sphere", "material": "ball", "radius": 1.0, "subdivisions": 3,
+                   {"type": "sphere", "mesh": True, "material": "ball", "radius": 1.0, "subdivisions": 3,
                     "smooth": False}],
         "lights": [{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2.0}],
         "render": {"max_depth": max_depth, "rr_depth": 100},
@@ -408,7 +408,7 @@ def test_toon_object_keeps_its_tones_in_a_mirror():
     tint = np.array([0.9, 0.8, 0.7])
     material = toon(bands=2, softness=0.0, shadow_color=[0.3] * 3)
     sun = [{"type": "directional", "direction": [0.2, -1.0, 0.4], "irradiance": 2.0}]
-    sphere = {"type": "sphere", "material": "toon", "center": [4, 0, 4], "radius": 1.0,
+    sphere = {"type": "sphere", "mesh": True, "material": "toon", "center": [4, 0, 4], "radius": 1.0,
               "subdivisions": 3, "smooth": False}
     mirror = {"type": "rectangle", "material": "mirror", "transform": {"scale": 3}}
     seen_in_mirror = render({

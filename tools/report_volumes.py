@@ -12,7 +12,6 @@ Timings are kernel time on the chosen device after a warm-up launch, the median 
 renders; on a shared machine they vary by some 10%, so compare ratios rather than absolute figures.
 """
 import argparse
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -20,6 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
+from clrender.bench import interleaved, median  # noqa: E402
 
 SCENES = ("cloud_cornell_box", "cloud_low_sun")
 NULL_SPP = (4, 16, 64)
@@ -48,10 +48,10 @@ def reference(name, scene, spp, device):
 def measure(scene, device, ref, spp, seed, repeats, **options):
     """Error of one render; its time the median of `repeats` identical renders (same seed)."""
     renderer = clrender.Renderer(scene, device, **options)
-    renderer.render(spp=1, seed=seed + 1000)   # warm-up: the kernel's first launch compiles it
-    results = [renderer.render(spp=spp, seed=seed) for _ in range(repeats)]
+    # The warm-up's first launch compiles the kernel.
+    results = interleaved({"render": lambda: renderer.render(spp=spp, seed=seed)}, rounds=repeats)["render"]
     result = results[0]
-    seconds = statistics.median(r.seconds for r in results)
+    seconds = median([r.seconds for r in results])
     mse = clrender.mse(result.image, ref)
     return {"spp": spp, "seconds": seconds, "rmse": mse ** 0.5, "mse": mse,
             "relmse": clrender.relative_mse(result.image, ref),
