@@ -502,8 +502,7 @@ def test_furnace_albedo_one_cloud_vanishes(device, mixed):
     if mixed:
         data["media"].append({"name": "fog", "sigma_t": [0.3, 0.5, 0.8], "albedo": 1.0, "g": -0.3})
         data["shapes"][0]["exterior"] = "fog"
-        data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2,
-                               "subdivisions": 3})
+        data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2})
     scene = clrender.load_scene_dict(data)
     renderer = clrender.Renderer(scene, device)
     transmitted = renderer.render(spp=8, seed=1, max_depth=1).image
