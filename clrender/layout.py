@@ -1,7 +1,7 @@
 """numpy dtypes that mirror the structs in kernels/types.h.
 
-Every struct is built from 16-byte vectors (float4/int4), so the C layout has no hidden padding
-and the numpy dtype is a plain sequence of 4-wide fields. tests/test_layout.py compiles a kernel
+Every struct is built from 16- or 32-byte vectors (float4/int4, float8/int8), so the C layout
+has no hidden padding and the numpy dtype is a plain sequence of 4- and 8-wide fields. tests/test_layout.py compiles a kernel
 that reports sizeof/offsetof of each struct and compares them with these dtypes.
 """
 import numpy as np
@@ -21,12 +21,14 @@ def _struct(*fields):
 # first primitive in the reordered triangle array; *_hi.w holds (as int bits) the primitive count.
 BVH_NODE = _struct(("left_lo", F4), ("left_hi", F4), ("right_lo", F4), ("right_hi", F4))
 
-# Four-wide BVH node: the boxes of up to four children, one child per float4 lane. child: node
+# Eight-wide BVH node: the boxes of up to eight children, one child per float8 lane. child: node
 # index (count 0) or the first primitive slot of a leaf of `count` triangles (count > 0) or
 # `-count` spheres (count < 0); an empty lane has child -1, count 0 and its box at +inf, which
 # no ray enters.
-WIDE_BVH_NODE = _struct(("lo_x", F4), ("hi_x", F4), ("lo_y", F4), ("hi_y", F4), ("lo_z", F4), ("hi_z", F4),
-                        ("child", I4), ("count", I4))
+F8 = ("<f4", (8,))
+I8 = ("<i4", (8,))
+WIDE_BVH_NODE = _struct(("lo_x", F8), ("hi_x", F8), ("lo_y", F8), ("hi_y", F8), ("lo_z", F8), ("hi_z", F8),
+                        ("child", I8), ("count", I8))
 
 # Triangle geometry for Moller-Trumbore: v0 and the two edges. The triangle buffer's slots hold
 # triangles or, in leaves tagged as spheres (negative count), a SPHERE in the slot's first bytes.

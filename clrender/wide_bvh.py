@@ -1,7 +1,7 @@
-"""The four-wide BVH the kernel traverses, collapsed from the binary SAH tree (bvh.py).
+"""The eight-wide BVH the kernel traverses, collapsed from the binary SAH tree (bvh.py).
 
-Each wide node holds up to four children's boxes in structure-of-arrays form (one child per
-float4 lane), so the kernel tests all four with a handful of vector instructions. A wide node
+Each wide node holds up to eight children's boxes in structure-of-arrays form (one child per
+float8 lane), so the kernel tests all eight with a handful of vector instructions. A wide node
 starts from a binary node's two children and fills its lanes greedily: while a lane is free, the
 interior child of largest surface area (the one rays enter most often) is replaced by its own
 two children (as Embree and pbrt collapse binary trees). Leaves stay as they are. Done level by
@@ -40,7 +40,11 @@ def collapse(bvh, sphere_slots=None):
     return nodes, depth
 
 
-def _greedy_slots(lo, hi, index, interior, width=4):
+# Children per wide node: the lanes of layout.WIDE_BVH_NODE.
+WIDTH = 8
+
+
+def _greedy_slots(lo, hi, index, interior, width=WIDTH):
     """Per binary node, its wide node's `width` lanes as (binary node, side) slot references
     (-1: an empty lane): its two children, then, while a lane is free, the interior lane of
     largest surface area replaced by that child's two children."""
@@ -49,7 +53,9 @@ def _greedy_slots(lo, hi, index, interior, width=4):
     sides = np.zeros((n, width), np.int64)
     nodes[:, :2] = np.arange(n)[:, None]
     sides[:, 1] = 1
-    extent = np.where(np.isfinite(hi - lo), hi - lo, 0.0)
+    with np.errstate(invalid="ignore"):   # empty slots: inf - inf
+        extent = hi - lo
+    extent = np.where(np.isfinite(extent), extent, 0.0)
     area = extent[..., 0] * extent[..., 1] + extent[..., 1] * extent[..., 2] + extent[..., 2] * extent[..., 0]
     rows = np.arange(n)
     for free in range(2, width):

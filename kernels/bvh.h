@@ -1,4 +1,4 @@
-// Closest-hit and any-hit traversal of the four-wide BVH (layout in types.h) over triangles and
+// Closest-hit and any-hit traversal of the eight-wide BVH (layout in types.h) over triangles and
 // analytic spheres.
 #ifndef CLRENDER_BVH_H
 #define CLRENDER_BVH_H
@@ -6,9 +6,9 @@
 #include "hit.h"
 #include "sphere.h"
 
-// Each wide level pushes at most 3 siblings and the binary tree is at most 63 deep (bvh.py), so
-// 3 * 62 + 1 entries always suffice (on GPUs the array lives in local memory either way).
-#define BVH_STACK_SIZE 192
+// Each wide level pushes at most 7 siblings and the binary tree is at most 63 deep (bvh.py), so
+// 7 * 62 + 1 entries always suffice (on GPUs the array lives in local memory either way).
+#define BVH_STACK_SIZE 435
 
 // Moller-Trumbore, two-sided. Returns true and updates *hit if closer than hit->t.
 bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, float3 dir,
@@ -34,7 +34,7 @@ bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, 
     return true;
 }
 
-// Entry distances of a ray into the four boxes of a wide node (INFINITY where missed).
+// Entry distances of a ray into the eight boxes of a wide node (INFINITY where missed).
 // Each plane distance is one fma, lo * inv_dir - origin * inv_dir (origin * inv_dir is the same
 // for every node; measured 1.6x faster traversal on PoCL than (lo - origin) * inv_dir). That
 // product is rounded relative to |origin * inv_dir|, which far from the world origin exceeds the
@@ -44,24 +44,26 @@ bool intersect_triangle(__global const Triangle* tri, int index, float3 origin, 
 // The smaller and larger of two values, per lane. No operand is NaN here, so fmin/fmax's NaN
 // rules (three instructions each on x86) are not needed; unlike OpenCL's min/max these are
 // defined for infinities (the empty lanes' boxes), and compile to one vminps/vmaxps.
-float4 min4(float4 a, float4 b) { return select(b, a, a < b); }
-float4 max4(float4 a, float4 b) { return select(b, a, a > b); }
+float8 min8(float8 a, float8 b) { return select(b, a, a < b); }
+float8 max8(float8 a, float8 b) { return select(b, a, a > b); }
 
-float4 intersect_boxes(__global const WideBvhNode* n, float3 origin_scaled, float3 rounding,
+float8 intersect_boxes(__global const WideBvhNode* n, float3 origin_scaled, float3 rounding,
                        float3 inv_dir, float t_max) {
-    float4 x0 = fma(n->lo_x, inv_dir.x, -origin_scaled.x), x1 = fma(n->hi_x, inv_dir.x, -origin_scaled.x);
-    float4 y0 = fma(n->lo_y, inv_dir.y, -origin_scaled.y), y1 = fma(n->hi_y, inv_dir.y, -origin_scaled.y);
-    float4 z0 = fma(n->lo_z, inv_dir.z, -origin_scaled.z), z1 = fma(n->hi_z, inv_dir.z, -origin_scaled.z);
-    float4 t_enter = max4(max4(min4(x0, x1) - rounding.x, min4(y0, y1) - rounding.y),
-                          max4(min4(z0, z1) - rounding.z, (float4)(0.0f)));
-    float4 t_exit = min4(min4(max4(x0, x1) + rounding.x, max4(y0, y1) + rounding.y),
-                         max4(z0, z1) + rounding.z) * (1.0f + 2.0f * 3.0f * FLT_EPSILON);
-    return select((float4)(INFINITY), t_enter, t_enter <= min4(t_exit, (float4)(t_max)));
+    float8 x0 = fma(n->lo_x, inv_dir.x, -origin_scaled.x), x1 = fma(n->hi_x, inv_dir.x, -origin_scaled.x);
+    float8 y0 = fma(n->lo_y, inv_dir.y, -origin_scaled.y), y1 = fma(n->hi_y, inv_dir.y, -origin_scaled.y);
+    float8 z0 = fma(n->lo_z, inv_dir.z, -origin_scaled.z), z1 = fma(n->hi_z, inv_dir.z, -origin_scaled.z);
+    float8 t_enter = max8(max8(min8(x0, x1) - rounding.x, min8(y0, y1) - rounding.y),
+                          max8(min8(z0, z1) - rounding.z, (float8)(0.0f)));
+    float8 t_exit = min8(min8(max8(x0, x1) + rounding.x, max8(y0, y1) + rounding.y),
+                         max8(z0, z1) + rounding.z) * (1.0f + 2.0f * 3.0f * FLT_EPSILON);
+    return select((float8)(INFINITY), t_enter, t_enter <= min8(t_exit, (float8)(t_max)));
 }
 
 // Intersect the primitives of a leaf: count > 0 triangles, count < 0 spheres (the type tag)
 // from primitive slot first. Returns whether one is nearer than hit->t (then recorded there).
-bool intersect_leaf(__global const Triangle* triangles, int first, int count, float3 origin,
+// Inlined into the traversal loop: as a call it spills the loop's vector registers (3.6% of the
+// Cornell box's time on PoCL).
+__attribute__((always_inline)) bool intersect_leaf(__global const Triangle* triangles, int first, int count, float3 origin,
                     float3 dir, bool any_hit, Hit* hit) {
     bool found = false;
     if (count > 0) {
@@ -93,17 +95,17 @@ bool traverse_bvh(__global const WideBvhNode* nodes, __global const Triangle* tr
     bool found = false;
     for (;;) {
         __global const WideBvhNode* n = nodes + node;
-        float lane_t[4];
-        vstore4(intersect_boxes(n, origin_scaled, rounding, inv_dir, hit->t), 0, lane_t);
+        float lane_t[8];
+        vstore8(intersect_boxes(n, origin_scaled, rounding, inv_dir, hit->t), 0, lane_t);
         __global const int* child = (__global const int*)&n->child;
         __global const int* count = (__global const int*)&n->count;
         // Leaf children are intersected at once; interior ones (count 0) go on the stack, sorted
         // so that the nearest is on top (insertion among this node's entries only). One loop
-        // over the lanes, not four copies: each call site of the leaf intersection would
+        // over the lanes, not eight copies: each call site of the leaf intersection would
         // otherwise spill and reload the traversal's registers.
         int first_pushed = stack_size;
 #pragma unroll 1
-        for (int lane = 0; lane < 4; ++lane) {
+        for (int lane = 0; lane < 8; ++lane) {
             float t = lane_t[lane];
             if (!(t < hit->t)) continue;
             if (count[lane] != 0) {

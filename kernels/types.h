@@ -4,13 +4,13 @@
 #ifndef CLRENDER_TYPES_H
 #define CLRENDER_TYPES_H
 
-// Four-wide BVH node: the boxes of up to four children, one child per lane. child: node index
+// Eight-wide BVH node: the boxes of up to eight children, one child per lane. child: node index
 // (count 0) or first primitive slot of a leaf of count triangles (count > 0) or -count spheres
 // (count < 0); empty lanes: child -1, count 0, box at +inf.
 typedef struct {
-    float4 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
-    int4 child;
-    int4 count;
+    float8 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
+    int8 child;
+    int8 count;
 } WideBvhNode;
 
 // A primitive slot of the triangle buffer holds a Triangle or (a leaf with a negative count)
