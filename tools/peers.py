@@ -104,6 +104,8 @@ def prepare(name, data, cache):
     Mitsuba description mitsuba.json with its assets (rewritten every run, the exporter may
     have changed). Returns (folder, {renderer: a hash of what it renders}), which keys the
     references."""
+    import numpy as np
+
     import clrender
     from clrender import mitsuba_export
     from clrender.arrays import build_scene_arrays
@@ -118,11 +120,14 @@ def prepare(name, data, cache):
     digest = hashlib.sha256(description.encode())
     for asset in sorted((folder / "assets").iterdir()):
         digest.update(asset.read_bytes())
-    # Ours: the arrays the kernel reads (the same scene file may load into other geometry, as
-    # spheres did when they became analytic).
+    # Ours: the geometry, materials and media the kernel reads (the same scene file may load into
+    # other geometry, as spheres did when they became analytic), not their BVH order.
     arrays = build_scene_arrays(scene)
     ours = hashlib.sha256()
-    for name in ("nodes", "triangles", "shading", "info", "materials", "media", "emitters", "grid_data"):
+    for per_slot in (arrays.triangles, arrays.shading, arrays.info, arrays.emitters):
+        rows = np.ascontiguousarray(per_slot).view(f"V{per_slot.dtype.itemsize}")
+        ours.update(np.sort(rows).tobytes())
+    for name in ("materials", "media", "grid_data"):
         ours.update(getattr(arrays, name).tobytes())
     return folder, {"clrender": ours.hexdigest()[:12], "mitsuba": digest.hexdigest()[:12]}
 
