@@ -111,7 +111,13 @@ def prepare(name, data, cache):
     from clrender.arrays import build_scene_arrays
 
     text = json.dumps(data, indent=1, sort_keys=True)
-    folder = Path(cache) / f"{name}-{hashlib.sha256(text.encode()).hexdigest()[:12]}"
+    # Named by the content, mesh files by theirs (not by where the checkout lies).
+    named = json.loads(text)
+    for shape in named["shapes"]:
+        if "file" in shape:
+            shape["file"] = hashlib.sha256(Path(shape["file"]).read_bytes()).hexdigest()
+    digest = hashlib.sha256(json.dumps(named, sort_keys=True).encode()).hexdigest()[:12]
+    folder = Path(cache) / f"{name}-{digest}"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "scene.json").write_text(text)
     scene = clrender.load_scene(folder / "scene.json")
