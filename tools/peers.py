@@ -123,7 +123,7 @@ def prepare(name, data, cache):
     scene = clrender.load_scene(folder / "scene.json")
     description = json.dumps(mitsuba_export.mitsuba_description(scene, folder / "assets"), indent=1)
     (folder / "mitsuba.json").write_text(description)
-    digest = hashlib.sha256(description.encode())
+    digest = hashlib.sha256(description.replace(str(folder.resolve()), "").encode())
     for asset in sorted((folder / "assets").iterdir()):
         digest.update(asset.read_bytes())
     # Ours: the geometry, materials and media the kernel reads (the same scene file may load into
