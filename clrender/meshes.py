@@ -126,7 +126,13 @@ def box():
 
 
 def load_mesh_file(path: Path, smooth: bool):
-    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged) with trimesh."""
+    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged). OBJ files of vertices and faces
+    are read here (importing trimesh takes 0.7 s, longer than rendering a small scene); other
+    formats, and OBJ files with normals of their own when `smooth`, with trimesh."""
+    if Path(path).suffix.lower() == ".obj":
+        mesh = read_obj(path, smooth)
+        if mesh is not None:
+            return mesh
     import trimesh
 
     loaded = trimesh.load(str(path), force="mesh", process=False)
@@ -138,3 +144,43 @@ def load_mesh_file(path: Path, smooth: bool):
     if smooth:
         normals = _normalized(np.asarray(loaded.vertex_normals, dtype=float))
     return Mesh(vertices, faces, normals)
+
+
+def read_obj(path, smooth):
+    """A Mesh from the `v` and `f` lines of an OBJ file (polygons as triangle fans; indices
+    1-based or negative, relative to the vertices read so far; `v/vt/vn` takes the position). Other
+    lines (texture coordinates, groups, materials, lines, points) are not geometry we render.
+    Returns None for a file with normals of its own when `smooth` (trimesh reads those).
+    smooth: angle-weighted vertex normals, as trimesh computes them."""
+    vertices, faces = [], []
+    with open(path) as f:
+        for number, line in enumerate(f, start=1):
+            kind, _, rest = line.strip().partition(" ")
+            if kind == "v":
+                vertices.append([float(x) for x in rest.split()[:3]])
+            elif kind == "f":
+                corners = [int(token.split("/")[0]) for token in rest.split()]
+                corners = [c - 1 if c > 0 else len(vertices) + c for c in corners]
+                if not all(0 <= c < len(vertices) for c in corners) or len(corners) < 3:
+                    raise ValueError(f"line {number}: invalid face {rest.strip()!r}")
+                faces += [[corners[0], corners[k], corners[k + 1]] for k in range(1, len(corners) - 1)]
+            elif kind == "vn" and smooth:
+                return None
+    if not faces:
+        raise ValueError("the file holds no triangles")
+    vertices, faces = np.asarray(vertices, dtype=float).reshape(-1, 3), np.asarray(faces, dtype=np.int64)
+    return Mesh(vertices, faces, angle_weighted_normals(vertices, faces) if smooth else None)
+
+
+def angle_weighted_normals(vertices, faces):
+    """Unit vertex normals: the faces' normals around each vertex weighted by the face's angle
+    there (trimesh's weighted_vertex_normals)."""
+    corners = vertices[faces]
+    normals = _normalized(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
+    sums = np.zeros_like(vertices)
+    for k in range(3):
+        a = _normalized(corners[:, (k + 1) % 3] - corners[:, k])
+        b = _normalized(corners[:, (k + 2) % 3] - corners[:, k])
+        angle = np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0))
+        np.add.at(sums, faces[:, k], normals * angle[:, None])
+    return _normalized(sums)

@@ -147,3 +147,51 @@ def test_scene_file_round_trip(tmp_path):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(base_scene()))
     assert clrender.load_scene(path).path == path
+
+
+OBJ = """# a quad, a pentagon (fans), relative and v/vt/vn indices, lines that are not geometry
+mtllib none.mtl
+o thing
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+vt 0 0
+vn 0 0 1
+f 1 2 3 4
+v 2 0 0.5
+v 3 0 0.2
+v 3 1 0.1
+v 2.5 1.5 0
+v 2 1 0.3
+s off
+f -5/1/1 -4/1/1 -3/1/1 -2/1/1 -1/1/1
+l 1 2
+"""
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_obj_files_read_without_trimesh_match_trimesh(tmp_path, smooth):
+    import trimesh
+
+    from clrender import meshes
+
+    path = tmp_path / "shape.obj"
+    path.write_text(OBJ.replace("vn 0 0 1\n", "") if smooth else OBJ)  # file normals: trimesh's case
+    ours = meshes.load_mesh_file(path, smooth)
+    theirs = trimesh.load(str(path), force="mesh", process=False)
+    # The same triangles with the same winding (trimesh may start a triangle at another corner),
+    # and the same normals at their corners.
+    def canonical(vertices, faces, normals):
+        corners = np.concatenate([vertices[faces], normals[faces]], axis=2)
+        start = [min(range(3), key=lambda k: tuple(c[k, :3])) for c in corners]
+        rolled = np.stack([np.roll(c, -k, axis=0) for c, k in zip(corners, start)])
+        return rolled[np.lexsort(rolled[:, 0, :3].T[::-1])]
+    their_normals = np.asarray(theirs.vertex_normals) if smooth else np.zeros_like(theirs.vertices)
+    our_normals = ours.normals if smooth else np.zeros_like(ours.vertices)
+    np.testing.assert_allclose(canonical(ours.vertices, ours.faces, our_normals),
+                               canonical(np.asarray(theirs.vertices), np.asarray(theirs.faces), their_normals),
+                               atol=1e-12)
+    path.write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    with pytest.raises(ValueError, match="line 3"):
+        meshes.load_mesh_file(path, smooth)
