@@ -63,7 +63,7 @@ float8 intersect_boxes(__global const WideBvhNode* n, float3 origin_scaled, floa
 // from primitive slot first. Returns whether one is nearer than hit->t (then recorded there).
 // Inlined into the traversal loop: as a call it spills the loop's vector registers (3.6% of the
 // Cornell box's time on PoCL).
-__attribute__((always_inline)) bool intersect_leaf(__global const Triangle* triangles, int first, int count, float3 origin,
+INLINE bool intersect_leaf(__global const Triangle* triangles, int first, int count, float3 origin,
                     float3 dir, bool any_hit, Hit* hit) {
     bool found = false;
     if (count > 0) {

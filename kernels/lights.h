@@ -173,7 +173,7 @@ bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSam
 }
 
 // ----- one sample --------------------------------------------------------------------------
-LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
+INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     LightSample ls;
     ls.pdf_w = 0.0f;
     ls.delta = false;

@@ -25,7 +25,7 @@ float3 escaped_radiance(const Scene* scene, float3 dir, float prev_pdf_w, bool p
 }
 
 // Emission at a surface hit from the previous vertex prev_p (null boundaries may lie between).
-float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
+INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
                         float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {
     if (!sp->front_face || sp->emitter < 0) return (float3)(0.0f);
     float3 le = m->emission.xyz;
@@ -98,7 +98,7 @@ float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int
 #endif
 }
 
-float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                     int medium, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);

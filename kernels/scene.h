@@ -47,7 +47,7 @@ bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
 
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
-SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
+INLINE SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
     __global const Triangle* tri = scene->triangles + hit->prim;
     int4 info = scene->info[hit->prim].info;
     SurfacePoint sp;

@@ -53,7 +53,7 @@ bool material_is_delta(const Material* m) {
     return false;
 }
 
-float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                  float3 wi) {
 #if DIELECTRIC
     if (is_specular_material(m)) {
@@ -70,7 +70,7 @@ float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, 
     return eval_diffuse(m->color.xyz, sp, wi);
 }
 
-float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
 #if DIELECTRIC
     if (is_specular_material(m)) {
         if (material_is_delta(m)) return 0.0f;
@@ -115,7 +115,7 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
 }
 #endif
 
-BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                        Rng* rng) {
 #if DIELECTRIC
     if (is_specular_material(m)) {
