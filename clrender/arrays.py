@@ -90,7 +90,8 @@ def build_scene_arrays(scene):
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
     materials = _material_array(scene.materials)
     used = {shape.material for shape in scene.shapes}
-    table_size, table_materials = _assign_albedo_tables(materials, used)
+    compensated = {i for i, m in enumerate(scene.materials) if m.energy_compensation}
+    table_size, table_materials = _assign_albedo_tables(materials, used & compensated)
 
     camera_medium = scene.camera_medium
     if camera_medium is None:
@@ -217,9 +218,14 @@ def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
     for i, m in enumerate(materials):
         kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
+        if m.index_matched:
+            kind = "interface"
         out[i]["kind"][0] = layout.MATERIAL_KINDS[kind]
+        out[i]["kind"][1] = int(not m.two_sided)
         out[i]["emission"][:3] = m.emission
-        if kind in ("dielectric", "conductor"):
+        if kind == "interface":   # the transmittance of the boundary
+            out[i]["color"][:3] = m.tint if m.index_matched else 1.0
+        elif kind in ("dielectric", "conductor"):
             out[i]["color"][:3] = m.tint
             out[i]["params"][:3] = (m.ior, m.exterior_ior, m.roughness)
         else:
@@ -235,16 +241,15 @@ def needs_albedo_table(material):
     kind = int(material["kind"][0])
     if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
         return False
-    ior, exterior, roughness = material["params"][:3]
-    if kind == layout.MATERIAL_KINDS["dielectric"] and ior == exterior:
-        return False  # index-matched: the interface is skipped, rough or not
+    roughness = material["params"][2]
     return bool(roughness * roughness >= np.float32(1e-3))
 
 
 def _assign_albedo_tables(materials, used):
-    """Give each rough specular material that a shape uses its table slots in params.w (a
-    dielectric needs two: wo outside and wo inside); returns the total size and the owners.
-    Unused materials get none: the kernel of a scene without specular shapes has no table code."""
+    """Give each rough specular material in `used` (those that a shape uses, with energy
+    compensation on) its table slots in params.w (a dielectric needs two: wo outside and wo
+    inside); returns the total size and the owners. Others get none: the kernel of a scene
+    without specular shapes has no table code."""
     size, owners = 0, []
     for i in range(len(materials)):
         materials[i]["params"][3] = -1.0
@@ -313,6 +318,7 @@ def _toon_fields(record, toon):
     record["toon_bands"] = (toon.bands, toon.softness, toon.highlight_size, toon.highlight_softness)
     record["toon_highlight"] = (*toon.highlight_color, toon.rim_width)
     record["toon_rim"] = (*toon.rim_color, toon.rim_threshold)
+    record["toon_ambient"] = (*toon.ambient, 0.0)
 
 
 def _cdf(weights):

@@ -1,6 +1,7 @@
 """Command line: render, info, devices.
 
 Exit codes: 0 success, 1 bad input or failed build, 130 interrupted (the partial image is saved).
+Several scenes render as a batch; --workers/--scheduler render on a Dask cluster (distributed.py).
 """
 import argparse
 import sys
@@ -25,16 +26,18 @@ def _parser():
     parser = argparse.ArgumentParser(prog="clrender", description="OpenCL path tracer")
     commands = parser.add_subparsers(dest="command", required=True)
 
-    render = commands.add_parser("render", help="render a scene to an image")
-    render.add_argument("scene", type=Path)
-    render.add_argument("-o", "--output", type=Path, required=True,
-                        help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB)")
+    render = commands.add_parser("render", help="render scenes to images")
+    render.add_argument("scene", type=Path, nargs="+", help="scene file(s); several render as a batch")
+    render.add_argument("-o", "--output", required=True,
+                        help="output image: .exr (linear float) or .png/.jpg/.tif (sRGB); for several "
+                             "scenes a folder (out/ writes out/STEM.exr) or a pattern with {stem} "
+                             "and/or {index} (out/frame_{index:04d}.png)")
     render.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
     render.add_argument("--time", type=float, metavar="SECONDS",
                         help="render for this long (kernel time); with --spp, whichever comes first")
     render.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
     render.add_argument("--max-depth", type=_positive_int, help="longest path (default: the scene's)")
-    render.add_argument("--device", help="device index, 'cpu', 'gpu' or a name part (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
+    render.add_argument("--device", help="device index, 'cpu', 'gpu', or a part of a platform or device name, e.g. 'pocl', 'intel' (default: $CLRENDER_DEVICE, else a GPU, else the CPU)")
     render.add_argument("--exposure", type=float, default=0.0, help="exposure in stops for 8-bit outputs")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.add_argument("--volume-method", choices=("null", "raymarch"),
@@ -43,15 +46,73 @@ def _parser():
     render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
                         help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+    render.add_argument("--aov", default="", metavar="NAMES",
+                        help="auxiliary outputs, comma-separated: albedo, normal, emission, variance, depth, object_id "
+                             "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
+    render.add_argument("--denoise", action="store_true",
+                        help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
+    render.add_argument("--denoise-prefilter", action="store_true",
+                        help="with --denoise, denoise the albedo and normal guides first (slower; see docs/denoising.md)")
+    render.add_argument("--denoise-keep-emission", action="store_true",
+                        help="with --denoise, leave emitters and the environment seen directly out of the denoiser "
+                             "(exact emitters, raw anti-aliasing noise at their edges; see docs/denoising.md)")
+    render.add_argument("--keep-noisy", action="store_true",
+                        help="with --denoise, also write the image before denoising (EXR layer 'noisy' or NAME.noisy.png)")
+    _add_parameter_option(render)
+    cluster = render.add_argument_group("distributed rendering (docs/distributed.md)").add_mutually_exclusive_group()
+    cluster.add_argument("--workers", type=_positive_int, metavar="N",
+                         help="render on a local Dask cluster of N worker processes")
+    cluster.add_argument("--scheduler", metavar="ADDRESS", help="render on the Dask cluster at tcp://HOST:PORT")
+    render.add_argument("--tiles", type=_positive_int, help="with a cluster: image strips (default: 4 per worker thread)")
+    render.add_argument("--chunk-seconds", type=_positive_float, default=3.0,
+                        help="with a cluster: kernel time per chunk of samples (default: 3)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
-    info.add_argument("scene", type=Path)
+    info.add_argument("scene", type=Path, nargs="?", help="a scene (optional with --kernel)")
+    info.add_argument("--kernel", action="store_true",
+                      help="the render kernel's private memory per work-item, preferred work-group multiple "
+                           "and one-sample launch time on the device: for the scene, or without a scene for "
+                           "every feature combination (docs/portability.md)")
+    info.add_argument("--device", help="device for --kernel (as for render)")
+    info.add_argument("--resolution", type=_positive_int, nargs=2, metavar=("W", "H"), default=(256, 256),
+                      help="--kernel without a scene: image size of the combinations' scenes (default 256 256)")
+    info.add_argument("--no-launch", action="store_true", help="--kernel: leave out the launch timing")
+    _add_parameter_option(info)
     info.set_defaults(run=_info)
 
     devices = commands.add_parser("devices", help="list OpenCL platforms and devices")
     devices.set_defaults(run=_devices)
     return parser
+
+
+def _add_parameter_option(parser):
+    parser.add_argument("-D", dest="parameters", action="append", default=[], metavar="NAME=VALUE",
+                        type=_parameter, help="Mitsuba XML scenes: set parameter $NAME (overrides its <default>)")
+
+
+def _parameter(text):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name, value
+
+
+def _load_scene(path, parameters):
+    """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
+    the translation notes that `info` shows (None for JSON)."""
+    from .scene import load_scene
+
+    parameters = dict(parameters)
+    if path.suffix.lower() != ".xml":
+        return load_scene(path, parameters=parameters), None
+    from . import mitsuba_xml
+
+    translation = mitsuba_xml.read_scene(path, parameters)
+    for message in translation.warnings:
+        print(f"clrender: warning: {message}", file=sys.stderr)
+    scene = mitsuba_xml.scene_from_translation(translation)
+    return scene, translation.notes
 
 
 def _number_at_least(convert, low, strict=False):
@@ -71,16 +132,61 @@ _positive_float = _number_at_least(float, 0.0, strict=True)
 
 
 def _render(args):
+    from .aovs import parse_aovs
+
+    outputs = _output_paths(args.output, args.scene)
+    aovs = parse_aovs(args.aov, source="--aov")
+    for flag in ("keep_noisy", "denoise_prefilter", "denoise_keep_emission"):
+        if getattr(args, flag) and not args.denoise:
+            raise ValueError(f"--{flag.replace('_', '-')}: only with --denoise")
+    if args.workers or args.scheduler:
+        if aovs or args.denoise:
+            raise ValueError("--aov and --denoise are not supported with --workers or --scheduler yet")
+        return _render_distributed(args, outputs)
+    for scene_path, output in zip(args.scene, outputs):
+        status = _render_local(args, scene_path, output, aovs)
+        if status:
+            return status
+    return 0
+
+
+def _output_paths(output, scene_paths):
+    """The image path of each scene: `output` itself for one scene; a folder (an existing one or
+    a path ending in /) holds STEM.exr; a pattern names {stem} (the scene file's name without its
+    suffix) and/or {index} (its position, from 0; format specs allowed: {index:04d})."""
+    from .image import LDR_SUFFIXES
+
+    is_folder = output.endswith(("/", "\\")) or Path(output).is_dir()
+    if "{" in output or is_folder:
+        pattern = str(Path(output) / "{stem}.exr") if is_folder else output
+        try:
+            paths = [Path(pattern.format(stem=p.stem, index=i)) for i, p in enumerate(scene_paths)]
+        except (KeyError, IndexError, ValueError) as e:
+            raise ValueError(f"-o {output}: bad pattern ({e}); use {{stem}} and {{index}}") from None
+    elif len(scene_paths) > 1:
+        raise ValueError(f"-o {output}: {len(scene_paths)} scenes need a folder (out/) or a pattern "
+                         "with {stem} or {index} (out/{stem}.exr)")
+    else:
+        paths = [Path(output)]
+    for path in paths:
+        suffix = path.suffix.lower()
+        if suffix != ".exr" and suffix not in LDR_SUFFIXES:
+            raise ValueError(f"-o {path}: unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
+    seen = {}
+    for scene_path, path in zip(scene_paths, paths):
+        if path in seen:
+            raise ValueError(f"-o {output}: {seen[path]} and {scene_path} would both write {path}; use {{index}}")
+        seen[path] = scene_path
+    return paths
+
+
+def _render_local(args, scene_path, output, aovs):
     from tqdm import tqdm
 
-    from .image import LDR_SUFFIXES, save_image
+    from .image import save_image
     from .render import Renderer, RenderInterrupted
-    from .scene import load_scene
 
-    suffix = args.output.suffix.lower()
-    if suffix != ".exr" and suffix not in LDR_SUFFIXES:
-        raise ValueError(f"unsupported output format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
-    scene = load_scene(args.scene)
+    scene, _ = _load_scene(scene_path, args.parameters)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
     spp = args.spp or (None if args.time else scene.render.spp)
@@ -93,30 +199,122 @@ def _render(args):
 
     try:
         result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
-                                 time_limit=args.time)
+                                 time_limit=args.time, aovs=aovs, denoise=args.denoise,
+                                 denoise_prefilter=args.denoise_prefilter,
+                                 denoise_keep_emission=args.denoise_keep_emission)
         status = 0
     except RenderInterrupted as interrupted:
         result = interrupted.result
         status = 130
     bar.close()
-    save_image(result.image, args.output, exposure=args.exposure)
-    print(f"{args.output}: {result.samples} spp in {result.seconds:.2f} s, "
-          f"{result.samples_per_second / 1e6:.2f} M samples/s on {renderer.device.name.strip()}"
-          + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
-          + (" (interrupted: partial image saved)" if status else ""), file=sys.stderr)
+    save_image(result.image, output, exposure=args.exposure, layers=_layers(args, aovs, result))
+    _report(output, result, renderer.device.name.strip(), status)
     return status
+
+
+def _render_distributed(args, outputs):
+    """Render the scenes on a Dask cluster; each image is written as soon as it is complete, and
+    on Ctrl-C the scenes in flight are written as far as they got."""
+    from tqdm import tqdm
+
+    from .distributed import dask_client, render_many
+    from .image import save_image
+    from .render import RenderInterrupted
+
+    if args.time is not None:
+        raise ValueError("--time is not supported with --workers or --scheduler; use --spp")
+    batch = len(args.scene) > 1
+    # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
+    # them on, so a long sequence is never in memory at once.
+    scenes = (_load_scene(path, args.parameters)[0] for path in args.scene)
+    scenes = scenes if batch else list(scenes)
+    spp = None if batch else args.spp or scenes[0].render.spp
+    try:
+        with dask_client(args.workers, args.scheduler) as client:
+            where = f"{len(client.scheduler_info()['workers'])} Dask workers"
+            bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
+                       disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
+                       bar_format="{l_bar}{bar}| {n:.1f}/{total_fmt} {unit} [{elapsed}<{remaining}, "
+                                  + where + "]")
+
+            def progress(done, total, seconds):
+                bar.update((done if batch else done * spp) - bar.n)
+
+            results = render_many(scenes, client, args.spp, args.seed, args.max_depth, args.device,
+                                  args.volume_method, args.step, args.raymarch_multiple_scattering,
+                                  args.tiles, args.chunk_seconds, progress=progress)
+            saving = []
+            try:
+                for index, result in results:
+                    saving = [(index, result)]
+                    save_image(result.image, outputs[index], exposure=args.exposure)
+                    _report(outputs[index], result, where, 0, bar)
+                    saving = []
+                bar.close()
+                return 0
+            except KeyboardInterrupt as interrupted:
+                partial = interrupted.result if isinstance(interrupted, RenderInterrupted) else _stop(results)
+                bar.close()
+                for index, result in saving:   # complete, but its write was interrupted
+                    save_image(result.image, outputs[index], exposure=args.exposure)
+                    _report(outputs[index], result, where, 0)
+                for index, result in partial:
+                    save_image(result.image, outputs[index], exposure=args.exposure)
+                    _report(outputs[index], result, where, 130)
+                return 130
+    except KeyboardInterrupt:
+        print("clrender: interrupted", file=sys.stderr)
+        return 130
+
+
+def _stop(results):
+    """The partial results of a render_many generator interrupted outside it."""
+    from .render import RenderInterrupted
+
+    try:
+        results.throw(KeyboardInterrupt())
+    except RenderInterrupted as interrupted:
+        return interrupted.result
+    except (StopIteration, KeyboardInterrupt):
+        pass
+    return []
+
+
+def _layers(args, aovs, result):
+    """The extra layers to write beside the image: the AOVs asked for, the noisy image."""
+    layers = {name: result.aovs[name] for name in aovs}
+    if args.keep_noisy:
+        layers["noisy"] = result.noisy_image
+    return layers
+
+
+def _report(output, result, where, status, bar=None):
+    line = (f"{output}: {result.samples} spp in {result.seconds:.2f} s, "
+            f"{result.samples_per_second / 1e6:.2f} M samples/s on {where}"
+            + (f", {result.discarded_samples} non-finite samples discarded" if result.discarded_samples else "")
+            + (f", denoised in {result.denoise_seconds:.2f} s" if result.noisy_image is not None else "")
+            + (" (interrupted: partial image saved)" if status else ""))
+    if bar is not None:
+        bar.write(line, file=sys.stderr)
+    else:
+        print(line, file=sys.stderr)
 
 
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
-    from .scene import load_scene
 
-    scene = load_scene(args.scene)
+    if args.scene is None:
+        if not args.kernel:
+            raise ValueError("info needs a scene (or --kernel for every feature combination)")
+        return _kernel_table(args)
+    scene, notes = _load_scene(args.scene, args.parameters)
     arrays = build_scene_arrays(scene)
     lo, hi = scene.bounds()
     width, height = scene.camera.resolution
     print(f"scene:      {args.scene}")
+    for index, note in enumerate(notes or []):
+        print(f"{'mitsuba:' if index == 0 else '':<12}{note}")
     print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")
@@ -137,6 +335,41 @@ def _info(args):
     o = scene.outlines
     print("outlines:   " + (f"width {o.width:g} px, depth threshold {o.depth_threshold:g}, "
                             f"crease angle {o.crease_angle:g} deg" if o.enabled else "off"))
+    if args.kernel:
+        from .kernel_info import scene_figures
+        from .render import Renderer
+
+        renderer = Renderer(scene, args.device)
+        figures = scene_figures(renderer, launch=not args.no_launch)
+        print(f"device:     {renderer.device.name.strip()} [{renderer.device.platform.name.strip()}]")
+        print(f"kernel:     {figures.private_bytes} bytes private memory per work-item, work-group "
+              f"multiple {figures.preferred_multiple}, at most {figures.max_work_group}")
+        if figures.launch_seconds is not None:
+            print(f"launch:     {figures.launch_seconds:.3f} s for one sample per pixel "
+                  f"(the renderer's shortest launch; longer ones aim at 0.25 s)")
+    return 0
+
+
+def _kernel_table(args):
+    import pyopencl as cl
+
+    from .device import choose_device
+    from .features import all_feature_combinations, describe
+    from .kernel_info import combination_launch_seconds, kernel_figures
+
+    device = choose_device(args.device)
+    context = cl.Context([device])
+    width, height = args.resolution
+    print(f"device: {device.name.strip()} [{device.platform.name.strip()}, {device.driver_version.strip()}]")
+    launch = "" if args.no_launch else f"  1-spp launch at {width}x{height}"
+    print(f"{'features':<66} {'private B':>9} {'multiple':>8} {'max wg':>6}{launch}")
+    for features in all_feature_combinations():
+        f = kernel_figures(context, features)
+        if not args.no_launch:
+            f.launch_seconds = combination_launch_seconds(device, features, (width, height))
+        seconds = "" if f.launch_seconds is None else f"  {f.launch_seconds:10.4f} s"
+        print(f"{describe(features):<66} {f.private_bytes:>9} {f.preferred_multiple:>8} {f.max_work_group:>6}{seconds}",
+              flush=True)
     return 0
 
 
@@ -165,7 +398,7 @@ def _devices(args):
         mark = "*" if device.int_ptr == default.int_ptr else " "
         print(f"{mark} {index}: {device.name.strip()} [{platform.name.strip()}, "
               f"{device.version.strip()}, {device.max_compute_units} compute units]")
-    print("(* = default; choose with --device INDEX|cpu|gpu|NAME or CLRENDER_DEVICE)")
+    print("(* = default; choose with --device INDEX|cpu|gpu|NAME (platform or device) or CLRENDER_DEVICE)")
     return 0
 
 

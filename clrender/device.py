@@ -20,7 +20,6 @@ from .errors import KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
-_programs = {}  # in-memory cache: (context id, key of device, source and options) -> Program
 
 
 def kernel_dir():
@@ -38,32 +37,57 @@ def list_devices():
     return found
 
 
-def choose_device(spec=None):
-    """Pick a device: `spec` (or $CLRENDER_DEVICE) is an index, 'cpu', 'gpu', or a name part.
+_KINDS = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU, "accelerator": cl.device_type.ACCELERATOR}
 
-    Default: the first GPU, else the first device.
+
+def is_simulator(device):
+    """A device reporting several kinds at once: Oclgrind reports CPU, GPU and accelerator. It
+    checks every memory access and is thousands of times slower, so it is never a default and
+    never matches 'cpu' or 'gpu'; name it ('oclgrind') to use it."""
+    kinds = [bit for bit in _KINDS.values() if device.type & bit]
+    return len(kinds) > 1
+
+
+def device_names(platform, device):
+    """The names a device answers to: its platform's name and vendor, its own name and vendor."""
+    return [platform.name, platform.vendor, device.name, device.vendor]
+
+
+def choose_device(spec=None):
+    """Pick a device: `spec` (or $CLRENDER_DEVICE) is an index, 'cpu', 'gpu', or a part of the
+    platform's or device's name or vendor (e.g. 'pocl', 'intel', 'nvidia', 'oclgrind').
+
+    Default: the first GPU, else the first device that is not a simulator. A name part that
+    matches devices of several platforms is an error (e.g. 'amd' may be the CPU's name under
+    two implementations): the choice must be unambiguous.
     """
     spec = spec if spec is not None else os.environ.get("CLRENDER_DEVICE")
     devices = list_devices()
     if not devices:
         raise RuntimeError("no OpenCL device found: install an OpenCL driver (e.g. pocl-opencl-icd)")
+    real = [(p, d) for _, p, d in devices if not is_simulator(d)]
     if spec is None or str(spec).strip() == "":
-        gpus = [d for _, _, d in devices if d.type & cl.device_type.GPU]
-        return gpus[0] if gpus else devices[0][2]
+        gpus = [d for _, d in real if d.type & cl.device_type.GPU]
+        return gpus[0] if gpus else (real[0][1] if real else devices[0][2])
     spec = str(spec).strip()
     if spec.isdigit():
         index = int(spec)
         if index >= len(devices):
             raise ValueError(f"device index {index} out of range: {len(devices)} device(s); see `clrender devices`")
         return devices[index][2]
-    kinds = {"cpu": cl.device_type.CPU, "gpu": cl.device_type.GPU, "accelerator": cl.device_type.ACCELERATOR}
-    if spec.lower() in kinds:
-        matches = [d for _, _, d in devices if d.type & kinds[spec.lower()]]
+    if spec.lower() in _KINDS:
+        matches = [(p, d) for p, d in real if d.type & _KINDS[spec.lower()]]
     else:
-        matches = [d for _, _, d in devices if spec.lower() in d.name.lower()]
+        matches = [(p, d) for _, p, d in devices
+                   if any(spec.lower() in name.lower() for name in device_names(p, d))]
     if not matches:
         raise ValueError(f"no OpenCL device matches {spec!r}; see `clrender devices`")
-    return matches[0]
+    platforms = {p.int_ptr: p.name for p, _ in matches}
+    if spec.lower() not in _KINDS and len(platforms) > 1:
+        raise ValueError(f"device {spec!r} is ambiguous: it matches devices of the platforms "
+                         f"{', '.join(sorted(platforms.values()))}; give a platform name or an index "
+                         f"(see `clrender devices`)")
+    return matches[0][1]
 
 
 def kernel_source(entry="integrator.cl"):
@@ -107,11 +131,19 @@ def build_program(context, features, entry="integrator.cl"):
     identity = "\n".join([device.platform.name, device.platform.version, device.name,
                           device.driver_version, options, source])
     key = hashlib.sha256(identity.encode()).hexdigest()
-    program = _programs.get((id(context), key))
-    if program is None:
-        program = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
-        _programs[(id(context), key)] = program
-    return program
+    programs = _memory_cache(context)
+    if key not in programs:
+        programs[key] = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
+    return programs[key]
+
+
+def _memory_cache(context):
+    """The programs built for `context`, kept on the context object itself: a cache keyed by
+    id(context) handed a collected context's program to a new context that got the same id
+    (Intel's runtime then fails with INVALID_CONTEXT)."""
+    if not hasattr(context, "_clrender_programs"):
+        context._clrender_programs = {}
+    return context._clrender_programs
 
 
 def _binary_path(key):

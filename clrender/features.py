@@ -20,6 +20,9 @@ FEATURE_VALUES = {
     # Grid media and how they are integrated: 0 none, 1 null-scattering path integral,
     # 2 ray marching (VOLUME_* in layout.py). Only the chosen method is compiled in.
     "GRID_MEDIA": tuple(VOLUME_METHODS.values()),
+    # Sample-level AOVs (albedo, normal, colour variance: kernels/aovs.h): decided by the render
+    # request, not the scene, so that colour-only renders carry none of their code.
+    "AOVS": (0, 1),
 }
 
 SPECULAR_MATERIALS = ("dielectric", "conductor")
@@ -34,9 +37,10 @@ def volume_method(scene, override=None):
     return method
 
 
-def scene_features(scene, volume_method_override=None):
+def scene_features(scene, volume_method_override=None, sample_aovs=False):
     """The feature values (name -> int) that `scene` needs; `volume_method_override` replaces
-    the scene's render.volume_method ("null" or "raymarch")."""
+    the scene's render.volume_method ("null" or "raymarch"); `sample_aovs`: whether the render
+    accumulates the sample-level AOVs (clrender/aovs.py)."""
     environment = scene.environment
     if environment is None:
         env_mode = ENVIRONMENT_MODES["none"]
@@ -48,17 +52,23 @@ def scene_features(scene, volume_method_override=None):
         # Only materials some shape uses: an unused toon material cannot be hit.
         "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
         # Only materials that some shape uses: an unused glass definition costs no kernel code.
-        "DIELECTRIC": int(any(scene.materials[shape.material].type in SPECULAR_MATERIALS
-                              for shape in scene.shapes)),
+        "DIELECTRIC": int(any(_is_specular(scene.materials[shape.material]) for shape in scene.shapes)),
         "GRID_MEDIA": VOLUME_METHODS[volume_method(scene, volume_method_override)]
         if any(m.type == "grid" for m in scene.media) else 0,
+        "AOVS": int(bool(sample_aovs)),
     }
 
 
+def _is_specular(material):
+    """An index-matched dielectric is not: it is rendered as an interface (scene.Material)."""
+    return material.type in SPECULAR_MATERIALS and not material.index_matched
+
+
 def _uses_media(scene):
-    """Media matter when some region holds one, or some surface is a pure medium boundary."""
+    """Media matter when some region holds one, or some surface is a pure medium boundary (an
+    interface, or an index-matched dielectric, rendered as one)."""
     return scene.medium >= 0 or any(s.interior >= 0 or s.exterior >= 0 for s in scene.shapes) or any(
-        m.type == "interface" for m in scene.materials)
+        m.type == "interface" or m.index_matched for m in scene.materials)
 
 
 def all_feature_combinations():

@@ -1,5 +1,9 @@
 """Image output and input: tone-mapped sRGB PNG (imageio), linear float EXR (OpenEXR).
 
+Extra layers (AOVs, the noisy image beside a denoised one) go into the same EXR as channels
+"<layer>.<channel>", the layout Blender and Nuke read (the colour itself is R, G, B); with 8-bit
+formats each goes to its own file "<stem>.<layer><suffix>", mapped for viewing (ldr_layer).
+
 Writes are atomic: a temporary file in the target folder, renamed over the target when complete,
 so an interrupted or failed write never leaves a half-written image.
 """
@@ -10,6 +14,9 @@ from pathlib import Path
 import numpy as np
 
 LDR_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+# EXR channel letters of a layer; others: R, G, B (three channels) or Y (one). "depth.Z" is
+# Nuke's depth channel; normals are vectors, X, Y, Z as in Blender's Normal pass.
+LAYER_CHANNELS = {"normal": "XYZ", "depth": "Z", "object_id": "X"}
 
 
 def linear_to_srgb(x):
@@ -27,29 +34,85 @@ def tonemap(image, exposure=0.0):
     return np.round(linear_to_srgb(scaled) * 255.0).astype(np.uint8)
 
 
-def save_image(image, path, exposure=0.0):
-    """Save a linear HxWx3 float image; the format follows the suffix (.exr linear, else sRGB)."""
+def save_image(image, path, exposure=0.0, layers=None):
+    """Save a linear HxWx3 float image; the format follows the suffix (.exr linear, else sRGB).
+    `layers`: name -> (H, W) or (H, W, 3) array, written as EXR layers of the same file, or with
+    8-bit formats as separate files (layer_path)."""
     path = Path(path)
     image = np.asarray(image, dtype=np.float32)
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f"expected an HxWx3 image, got shape {image.shape}")
+    layers = dict(layers or {})
+    for name, layer in layers.items():
+        if np.shape(layer)[:2] != image.shape[:2] or np.ndim(layer) not in (2, 3):
+            raise ValueError(f"layer {name!r}: expected {image.shape[0]}x{image.shape[1]} pixels, "
+                             f"got shape {np.shape(layer)}")
     suffix = path.suffix.lower()
     if suffix == ".exr":
-        _atomic_write(path, lambda tmp: _write_exr(image, tmp))
+        channels = {"RGB": np.ascontiguousarray(image)}
+        channels.update(exr_layer_channels(layers))
+        _atomic_write(path, lambda tmp: _write_exr(channels, tmp))
     elif suffix in LDR_SUFFIXES:
-        import imageio.v3 as iio
-
-        pixels = tonemap(image, exposure)
-        _atomic_write(path, lambda tmp: iio.imwrite(tmp, pixels, extension=suffix))
+        _write_ldr(tonemap(image, exposure), path)
+        for name, layer in layers.items():
+            _write_ldr(ldr_layer(name, layer, exposure), layer_path(path, name))
     else:
         raise ValueError(f"unsupported image format {suffix!r}; use .exr or one of {', '.join(LDR_SUFFIXES)}")
 
 
-def _write_exr(image, path):
+def layer_path(path, name):
+    """Where an 8-bit output puts a layer: image.png -> image.albedo.png."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.{name}{path.suffix}")
+
+
+def exr_layer_channels(layers):
+    """EXR channels "<layer>.<channel>" -> float32 (H, W) for the layers."""
+    channels = {}
+    for name, layer in layers.items():
+        layer = np.asarray(layer, dtype=np.float32)
+        planes = layer[..., None] if layer.ndim == 2 else layer
+        letters = LAYER_CHANNELS.get(name, "RGB" if planes.shape[2] == 3 else "Y")
+        if len(letters) != planes.shape[2]:
+            raise ValueError(f"layer {name!r}: expected {len(letters)} channels, got {planes.shape[2]}")
+        for i, letter in enumerate(letters):
+            channels[f"{name}.{letter}"] = np.ascontiguousarray(planes[..., i])
+    return channels
+
+
+def ldr_layer(name, layer, exposure=0.0):
+    """An 8-bit view of a layer (exact values only in EXR): normals (n + 1) / 2; depth as grey,
+    white at the nearest and black at the farthest hit and where nothing was hit; object ids as
+    distinct colours (background black); variance as its square root, the standard error,
+    tone-mapped like the image; albedo tone-mapped without exposure; others like the image."""
+    layer = np.asarray(layer)
+    if name == "normal":
+        return np.round(np.clip((layer + 1.0) * 0.5, 0.0, 1.0) * 255.0).astype(np.uint8)
+    if name == "depth":
+        hit = np.isfinite(layer) & (layer > 0)
+        near, far = (layer[hit].min(), layer[hit].max()) if hit.any() else (0.0, 1.0)
+        grey = np.where(hit, 1.0 - 0.8 * (layer - near) / max(far - near, 1e-30), 0.0)
+        return np.round(np.repeat(grey[..., None], 3, axis=2) * 255.0).astype(np.uint8)
+    if name == "object_id":
+        hue = (layer.astype(np.float64) * 0.618033988749895) % 1.0
+        rgb = np.clip(np.abs(((hue[..., None] * 6.0 + np.array([0.0, 4.0, 2.0])) % 6.0) - 3.0) - 1.0, 0, 1)
+        return np.round(np.where(layer[..., None] >= 0, 0.25 + 0.75 * rgb, 0.0) * 255.0).astype(np.uint8)
+    if name == "variance":
+        return tonemap(np.sqrt(np.maximum(layer, 0.0)), exposure)
+    return tonemap(layer, 0.0 if name == "albedo" else exposure)
+
+
+def _write_ldr(pixels, path):
+    import imageio.v3 as iio
+
+    _atomic_write(path, lambda tmp: iio.imwrite(tmp, pixels, extension=path.suffix.lower()))
+
+
+def _write_exr(channels, path):
     import OpenEXR
 
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(image)}) as exr:
+    with OpenEXR.File(header, channels) as exr:
         exr.write(str(path))
 
 
@@ -67,6 +130,26 @@ def _atomic_write(path, write):
     except BaseException:
         os.unlink(tmp)
         raise
+
+
+def load_exr_layers(path):
+    """The layers of an EXR written by save_image: name -> float32 (H, W, channels) in the
+    channel order of LAYER_CHANNELS (R, G, B otherwise); the colour under the name ""."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
+        planes = {name: np.asarray(channel.pixels, dtype=np.float32)
+                  for name, channel in exr.channels().items()}
+    grouped = {}
+    for name in planes:
+        layer, _, letter = name.rpartition(".")
+        grouped.setdefault(layer, []).append(letter)
+    layers = {}
+    for layer, letters in grouped.items():
+        order = LAYER_CHANNELS.get(layer, "RGB" if sorted(letters) == ["B", "G", "R"] else "".join(sorted(letters)))
+        prefix = f"{layer}." if layer else ""
+        layers[layer] = np.stack([planes[prefix + letter] for letter in order], axis=-1)
+    return layers
 
 
 def load_image(path):

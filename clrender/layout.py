@@ -41,15 +41,18 @@ TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
 # info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))
 
-# kind: x MATERIAL_*; color: albedo (diffuse), tint (dielectric: transmission, conductor:
+# kind: x MATERIAL_*, y one-sided (1: black seen from behind its front face, for Mitsuba's
+# BSDFs without `twosided`); color: albedo (diffuse), tint (dielectric: transmission, conductor:
 # reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
 # and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
-# (-1: none). The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
-# toon_shadow: rgb shadow colour (fraction of the lit tone kept where unlit), w shadow factor;
-# toon_bands: x band count, y band softness, z highlight size, w highlight softness;
-# toon_highlight: rgb highlight colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
+# (-1: none: smooth, or `energy_compensation` off). The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
+# toon_shadow: rgb shadow colour (tints the shadow factor: a blocked point keeps
+# shadow_factor x shadow_colour of its colour), w shadow factor; toon_bands: x band count,
+# y band softness, z highlight size, w highlight softness; toon_highlight: rgb highlight colour,
+# w rim width; toon_rim: rgb rim colour, w rim threshold; toon_ambient: rgb ambient colour, w 0.
 MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4),
-                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4))
+                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4),
+                   ("toon_ambient", F4))
 
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
@@ -69,12 +72,19 @@ RENDER_PARAMS = np.dtype([
     ("camera", CAMERA),
     ("frame", I4),         # width, height, first sample, samples in this pass
     ("config", I4),        # max depth, roulette depth, seed, emitter count
-    ("environment", I4),   # emitter index, image width, image height
+    ("environment", I4),   # emitter index, image width, image height, hide from camera rays (1/0)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
+    ("tile", I4),          # the pixels of this pass: first column, first row, width, height
 ])
+
+# Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
+# whose w counts the samples: albedo, normal and emission (xyz) summed over the samples, colour_m2
+# (xyz) the sum of squared deviations of the colour samples from their mean; w unused.
+# clrender/aovs.py turns them into images.
+AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("emission", F4), ("colour_m2", F4))
 
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,
@@ -87,6 +97,7 @@ STRUCTS = {
     "Medium": MEDIUM,
     "Camera": CAMERA,
     "RenderParams": RENDER_PARAMS,
+    "AovSums": AOV_SUMS,
 }
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the

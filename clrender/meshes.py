@@ -1,5 +1,6 @@
 """Shape geometry: triangle meshes (primitives, files loaded with trimesh) and analytic spheres,
 and their transforms."""
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -106,6 +107,18 @@ def rectangle():
     return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), None)
 
 
+def disk(segments=128):
+    """The unit disk in the plane z = 0, facing +z: a fan of `segments` triangles whose polygon
+    has the disk's area (pi), so an emitting disk has the exact power."""
+    angles = 2 * np.pi * np.arange(segments) / segments
+    radius = np.sqrt(2 * np.pi / (segments * np.sin(2 * np.pi / segments)))
+    rim = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(segments)], axis=1)
+    vertices = np.concatenate([np.zeros((1, 3)), rim])
+    index = np.arange(segments)
+    faces = np.stack([np.zeros(segments, int), 1 + index, 1 + (index + 1) % segments], axis=1)
+    return Mesh(vertices, faces, None)
+
+
 def box():
     """The cube [-1, 1]^3 with outward-facing flat faces."""
     faces = []
@@ -126,11 +139,11 @@ def box():
 
 
 def load_mesh_file(path: Path, smooth: bool):
-    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged). OBJ files of vertices and faces
-    are read here (importing trimesh takes 0.7 s, longer than rendering a small scene); other
-    formats, and OBJ files with normals of their own when `smooth`, with trimesh."""
+    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged). Plain OBJ files (vertices and
+    triangles only) are read here, as trimesh reads them (importing trimesh takes 0.7 s, longer
+    than rendering a small scene); everything else with trimesh."""
     if Path(path).suffix.lower() == ".obj":
-        mesh = read_obj(path, smooth)
+        mesh = read_plain_obj(path, smooth)
         if mesh is not None:
             return mesh
     import trimesh
@@ -146,29 +159,32 @@ def load_mesh_file(path: Path, smooth: bool):
     return Mesh(vertices, faces, normals)
 
 
-def read_obj(path, smooth):
-    """A Mesh from the `v` and `f` lines of an OBJ file (polygons as triangle fans; indices
-    1-based or negative, relative to the vertices read so far; `v/vt/vn` takes the position). Other
-    lines (texture coordinates, groups, materials, lines, points) are not geometry we render.
-    Returns None for a file with normals of its own when `smooth` (trimesh reads those).
-    smooth: angle-weighted vertex normals, as trimesh computes them."""
-    vertices, faces = [], []
-    with open(path) as f:
-        for number, line in enumerate(f, start=1):
-            kind, _, rest = line.strip().partition(" ")
-            if kind == "v":
-                vertices.append([float(x) for x in rest.split()[:3]])
-            elif kind == "f":
-                corners = [int(token.split("/")[0]) for token in rest.split()]
-                corners = [c - 1 if c > 0 else len(vertices) + c for c in corners]
-                if not all(0 <= c < len(vertices) for c in corners) or len(corners) < 3:
-                    raise ValueError(f"line {number}: invalid face {rest.strip()!r}")
-                faces += [[corners[0], corners[k], corners[k + 1]] for k in range(1, len(corners) - 1)]
-            elif kind == "vn" and smooth:
-                return None
-    if not faces:
-        raise ValueError("the file holds no triangles")
-    vertices, faces = np.asarray(vertices, dtype=float).reshape(-1, 3), np.asarray(faces, dtype=np.int64)
+# The only lines of a plain OBJ file: `v x y z`, `f a b c` (1-based indices), comments, blanks.
+_OBJ_VERTEX = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)[ \t]*\r?$", re.M)
+_OBJ_TRIANGLE = re.compile(rb"^f[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+)[ \t]*\r?$", re.M)
+_OBJ_STATEMENT = re.compile(rb"^[ \t]*[^#\s]", re.M)
+
+
+def read_plain_obj(path, smooth):
+    """A Mesh from an OBJ file holding only vertex positions and triangles of positive indices,
+    or None for any other file (polygons, negative indices, texture coordinates, normals,
+    groups, materials, ...: trimesh reads those). The same triangles as trimesh's, and with
+    `smooth` its angle-weighted vertex normals."""
+    text = Path(path).read_bytes()
+    vertices, triangles = _OBJ_VERTEX.findall(text), _OBJ_TRIANGLE.findall(text)
+    if not triangles or len(vertices) + len(triangles) != len(_OBJ_STATEMENT.findall(text)):
+        return None
+    try:
+        vertices = np.array(vertices).astype(float)
+    except ValueError:   # not numbers: trimesh's error message
+        return None
+    faces = np.array(triangles).astype(np.int64) - 1
+    bad = np.flatnonzero(np.any(faces >= len(vertices), axis=1) | np.any(faces < 0, axis=1))
+    if len(bad):
+        match = next(m for k, m in enumerate(_OBJ_TRIANGLE.finditer(text)) if k == bad[0])
+        line = text.count(b"\n", 0, match.start()) + 1
+        raise ValueError(f"line {line}: face {match.group(0).decode().strip()!r} names a vertex "
+                         f"beyond the {len(vertices)} of the file")
     return Mesh(vertices, faces, angle_weighted_normals(vertices, faces) if smooth else None)
 
 

@@ -1,4 +1,4 @@
-"""Ink outlines from the auxiliary buffers (depth, normal, object id) of the pixel-centre rays.
+"""Ink outlines from the pixel-centre record (depth, normal, object id; aovs.pixel_centre_record).
 
 An *edge* lies between two neighbouring pixels (horizontal or vertical) when
   - silhouette: their object ids differ (the background has id -1), or, on one object, the depth
@@ -12,14 +12,6 @@ centres; a pixel at distance d from the nearest edge midpoint gets the coverage
 clip(width / 2 + 0.5 - d, 0, 1) (a box-filtered line: antialiased, no extra samples needed).
 """
 import numpy as np
-
-
-def aux_dict(geometry, object_id, width, height):
-    """The kernel's aux buffers as arrays: depth (H, W), normal (H, W, 3), object_id (H, W)."""
-    geometry = geometry.reshape(height, width, 4)
-    return {"depth": np.ascontiguousarray(geometry[..., 3]),
-            "normal": np.ascontiguousarray(geometry[..., :3]),
-            "object_id": object_id.reshape(height, width).copy()}
 
 
 def edges(aux, depth_threshold=0.1, crease_angle=30.0):

@@ -1,4 +1,5 @@
-"""Progressive rendering: short kernel launches that each add a few samples per pixel."""
+"""Progressive rendering: short kernel launches that each add a few samples per pixel of a tile
+(the whole image unless distributed.py splits it) to running per-pixel sums."""
 import time
 from dataclasses import dataclass
 
@@ -6,7 +7,9 @@ import numpy as np
 import pyopencl as cl
 
 from . import layout
-from .outlines import apply_outlines, aux_dict
+from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
+from .denoise import DenoiseSettings, check_denoiser, denoise_render
+from .outlines import apply_outlines, composite
 from .arrays import build_scene_arrays
 from .device import build_program, choose_device
 from .energy import fill_albedo_tables
@@ -24,6 +27,9 @@ class RenderResult:
     # shape index; where the ray escapes: depth 0, normal 0, object_id -1.
     aux: dict = None
     outline_alpha: np.ndarray = None   # (H, W) ink coverage composited into image, or None
+    aovs: dict = None                  # the AOVs asked for, name -> array (clrender/aovs.py)
+    noisy_image: np.ndarray = None     # with denoise: the image before denoising (else None)
+    denoise_seconds: float = 0.0       # time spent denoising
 
     @property
     def samples_per_second(self):
@@ -34,10 +40,68 @@ class RenderResult:
 MAX_SPP = 2 ** 31 - 1   # sample indices are int32 in the kernel
 
 
+@dataclass
+class Accumulation:
+    """The running per-pixel sums of one tile of the image after samples 0 .. samples - 1: what a
+    render resumes from. Each pixel's samples are added one by one in index order onto these sums,
+    so a tile rendered in chained chunks (distributed.py) holds exactly the bits of one render.
+    Host arrays in the tile's row-major pixel order."""
+    tile: tuple                  # (x, y, width, height): first column and row, size in pixels
+    samples: int = 0             # samples per pixel summed so far: the next sample index
+    sums: np.ndarray = None      # (width * height, 4) float32: radiance sums, w the samples counted
+    discarded: int = 0           # non-finite samples dropped so far
+    seconds: float = 0.0         # kernel time so far
+    geometry: np.ndarray = None  # the aux buffers, written with sample 0 (None before):
+    object_id: np.ndarray = None # (n, 4) float32 and (n,) int32, see RenderResult.aux
+    aov_sums: np.ndarray = None  # (n,) layout.AOV_SUMS: the sample-level AOVs' sums, when they
+                                 # are accumulated (the kernel's AOVS build), else None
+
+    @classmethod
+    def start(cls, tile, sample_aovs=False):
+        """No samples yet; `sample_aovs`: accumulate the sample-level AOVs too."""
+        n = tile[2] * tile[3]
+        return cls(tuple(int(v) for v in tile), 0, np.zeros((n, 4), np.float32),
+                   aov_sums=np.zeros(n, layout.AOV_SUMS) if sample_aovs else None)
+
+
+def image_result(scene, state, aovs=(), denoising=None):
+    """The RenderResult of a whole-image Accumulation: sums normalised per pixel by their sample
+    count (so an interrupted render is exact for what was done), the AOVs named in `aovs`
+    (their sums must be in `state` for the sample-level ones), denoised with the
+    DenoiseSettings `denoising` unless None, with the scene's outlines."""
+    width, height = scene.camera.resolution
+    if tuple(state.tile) != (0, 0, width, height):
+        raise ValueError(f"expected the whole {width}x{height} image, got tile {state.tile}")
+    counts = state.sums[:, 3:4]
+    image = np.where(counts > 0, state.sums[:, :3] / np.maximum(counts, 1), 0.0)
+    image = image.reshape(height, width, 3).astype(np.float32)
+    geometry, object_id = state.geometry, state.object_id
+    if geometry is None:   # interrupted before sample 0: as if every centre ray escaped
+        geometry, object_id = np.zeros((width * height, 4), np.float32), np.full(width * height, -1, np.int32)
+    aux = pixel_centre_record(geometry, object_id, width, height)
+    sample_images = {}
+    if state.aov_sums is not None:
+        sample_images = sample_aov_images(state.aov_sums, state.sums, width, height)
+    images = aov_images(aovs, aux, sample_images)
+    noisy, denoise_seconds = None, 0.0
+    if denoising:
+        start = time.perf_counter()
+        noisy, image = image, denoise_render(image, images, denoising)
+        denoise_seconds = time.perf_counter() - start
+    # Ink goes on after denoising: it is exact, and the denoiser would blur it.
+    image, alpha = apply_outlines(image, aux, scene.outlines)
+    if noisy is not None and alpha is not None:
+        noisy = composite(noisy, alpha, scene.outlines.color)
+    return RenderResult(image, int(counts.min()) if counts.size else 0, state.seconds, state.discarded,
+                        aux=aux, outline_alpha=alpha, aovs=images, noisy_image=noisy,
+                        denoise_seconds=denoise_seconds)
+
+
 def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True,
-                  step=None, raymarch_multiple_scattering=None):
+                  step=None, raymarch_multiple_scattering=None, tile=None):
     """The RenderParams struct of one launch. `step` and `raymarch_multiple_scattering` (ray
-    marching of grid media) default to the scene's render settings."""
+    marching of grid media) default to the scene's render settings; `tile` (x, y, width, height)
+    to the whole image."""
     camera = scene.camera
     width, height = camera.resolution
     forward, right, up = camera.basis()
@@ -48,7 +112,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["camera"]["up"][0, :3] = up
     p["frame"] = (width, height, first_sample, samples)
     p["config"] = (max_depth, rr_depth, seed, len(arrays.emitters))
-    p["environment"] = (arrays.env_index, *arrays.env_size, 0)
+    p["environment"] = (arrays.env_index, *arrays.env_size, int(scene.render.hide_environment))
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
     step = settings.step if step is None else step
@@ -57,11 +121,13 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["volume"] = (step, float(bool(multiple)), 0, 0)
     p["scene_sphere"] = arrays.scene_sphere
     p["lights"] = (arrays.first_light, 0, 0, 0)
+    p["tile"] = (0, 0, width, height) if tile is None else tile
     return p
 
 
 class RenderInterrupted(KeyboardInterrupt):
-    """Ctrl-C during a render; `result` holds the image of the samples completed so far."""
+    """Ctrl-C during a render; `result` holds what was completed so far: the RenderResult of
+    `render`, the Accumulation of `Renderer.accumulate`."""
 
     def __init__(self, result):
         super().__init__("render interrupted")
@@ -72,14 +138,16 @@ class Renderer:
     """A scene uploaded to one device with its specialised kernel, ready to render many times."""
 
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
-                 volume_method=None, step=None, raymarch_multiple_scattering=None):
+                 volume_method=None, step=None, raymarch_multiple_scattering=None, context=None):
         """`volume_method` ("null" or "raymarch"), `step` (> 0, scene units) and
-        `raymarch_multiple_scattering` override the scene's render settings for grid media."""
+        `raymarch_multiple_scattering` override the scene's render settings for grid media.
+        `context`: an existing context of `device` to share, so renderers of many scenes reuse
+        its built programs."""
         if step is not None and not (np.isfinite(step) and step > 0):
             raise ValueError(f"step must be a positive number, got {step!r}")
         self.scene = scene
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
-        self.context = cl.Context([self.device])
+        self.context = context if context is not None else cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
         self.features = scene_features(scene, volume_method)
         self.step = step
@@ -87,6 +155,7 @@ class Renderer:
         self.arrays = build_scene_arrays(scene)
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
+        self._aov_kernel = None   # the AOVS build, made when a render first asks for it
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
@@ -111,39 +180,73 @@ class Renderer:
         return cl.Buffer(self.context, flags, hostbuf=np.ascontiguousarray(data))
 
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
-               samples_per_pass=None, time_limit=None):
+               samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
+               denoise_keep_emission=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
         after every launch. Samples per launch adapt to `pass_seconds` unless fixed by
         `samples_per_pass`; the image does not depend on the split. With `time_limit` (seconds of
-        kernel time) rendering stops after the launch that reaches it, or at `spp` if given."""
-        settings = self.scene.render
+        kernel time) rendering stops after the launch that reaches it, or at `spp` if given.
+        `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py); they
+        leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
+        Denoise guided by the albedo and normal AOVs (returned too), result.noisy_image keeps the
+        raw one; `denoise_prefilter` denoises the guides first, `denoise_keep_emission` leaves the
+        emission AOV out of the filter and adds it back (clrender/denoise.py, docs/denoising.md)."""
+        names = parse_aovs(aovs)
+        denoising = DenoiseSettings(denoise_prefilter, denoise_keep_emission) if denoise else None
+        if denoising:
+            check_denoiser()   # before the render, not after it
+            names = parse_aovs(names + denoising.aovs())
         if spp is None:
-            spp = MAX_SPP if time_limit is not None else settings.spp
+            spp = MAX_SPP if time_limit is not None else self.scene.render.spp
+        width, height = self.scene.camera.resolution
+        empty = Accumulation.start((0, 0, width, height), needs_sample_aovs(names))
+        try:
+            state = self.accumulate(empty, spp, seed, max_depth, rr_depth, progress, samples_per_pass, time_limit)
+        except RenderInterrupted as interrupted:
+            raise RenderInterrupted(image_result(self.scene, interrupted.result, names, denoising)) from None
+        return image_result(self.scene, state, names, denoising)
+
+    def accumulate(self, state, samples, seed=None, max_depth=None, rr_depth=None, progress=None,
+                   samples_per_pass=None, time_limit=None):
+        """Add samples state.samples ... state.samples + samples - 1 to the sums of the tile of
+        `state` and return the new Accumulation; the arguments are those of `render`, with
+        `progress(samples_done, samples_end, seconds)`. Ctrl-C raises RenderInterrupted with the
+        Accumulation of the launches completed. The sample-level AOVs are accumulated too when
+        `state` holds their sums."""
+        settings = self.scene.render
         seed = settings.seed if seed is None else seed
         max_depth = settings.max_depth if max_depth is None else max_depth
         rr_depth = settings.rr_depth if rr_depth is None else rr_depth
-        width, height = self.scene.camera.resolution
+        _, _, tile_width, tile_height = state.tile
+        n = tile_width * tile_height
         mf = cl.mem_flags
-        accumulator = np.zeros((height * width, 4), np.float32)
-        accum_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=accumulator)
+        sums = np.ascontiguousarray(state.sums, dtype=np.float32)
+        accum_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=sums)
         discarded = np.zeros(1, np.int32)
         discarded_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=discarded)
-        # Written by the launch holding sample 0 (every render starts there).
-        aux_buffers = (cl.Buffer(self.context, mf.WRITE_ONLY, height * width * 16),
-                       cl.Buffer(self.context, mf.WRITE_ONLY, height * width * 4))
+        # Written by the launch holding sample 0.
+        aux_buffers = (cl.Buffer(self.context, mf.WRITE_ONLY, n * 16),
+                       cl.Buffer(self.context, mf.WRITE_ONLY, n * 4))
+        # Read by the AOVS build only; the colour-only build gets a placeholder.
+        aov_sums = state.aov_sums if state.aov_sums is not None else np.zeros(1, layout.AOV_SUMS)
+        aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
+                               hostbuf=np.ascontiguousarray(aov_sums, dtype=layout.AOV_SUMS))
+        kernel = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
-        global_size = self._global_size(width, height)
+        global_size = self._global_size(tile_width, tile_height)
 
-        done, per_pass, seconds = 0, samples_per_pass or 1, 0.0
+        end = state.samples + samples
+        done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
         try:
-            while done < spp and (time_limit is None or seconds < time_limit):
-                count = min(per_pass, spp - done)
+            while done < end and (time_limit is None or seconds < time_limit):
+                count = min(per_pass, end - done)
                 params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
-                                       seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering)
+                                       seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering,
+                                       state.tile)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 start = time.perf_counter()
-                self.kernel(self.queue, global_size, self.local_size, params_buffer,
-                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers)
+                kernel(self.queue, global_size, self.local_size, params_buffer,
+                       *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer)
                 self.queue.finish()
                 elapsed = time.perf_counter() - start
                 seconds += elapsed
@@ -151,12 +254,21 @@ class Renderer:
                 if samples_per_pass is None:
                     per_pass = self._next_pass_size(count, elapsed)
                 if progress is not None:
-                    progress(done, spp, seconds)
+                    progress(done, end, state.seconds + seconds)
         except KeyboardInterrupt:
             self.queue.finish()
-            raise RenderInterrupted(self._result(accum_buffer, discarded_buffer, aux_buffers,
-                                                 seconds)) from None
-        return self._result(accum_buffer, discarded_buffer, aux_buffers, seconds)
+            raise RenderInterrupted(self._download(state, accum_buffer, discarded_buffer, aux_buffers,
+                                                   aov_buffer, seconds)) from None
+        return self._download(state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, done)
+
+    def _kernel(self, sample_aovs):
+        """The colour-only kernel, or the one that also accumulates the sample-level AOVs."""
+        if not sample_aovs:
+            return self.kernel
+        if self._aov_kernel is None:
+            program = build_program(self.context, {**self.features, "AOVS": 1})
+            self._aov_kernel = cl.Kernel(program, "render_pass")
+        return self._aov_kernel
 
     def _global_size(self, width, height):
         if self.local_size is None:
@@ -170,29 +282,33 @@ class Renderer:
         target = int(count * self.pass_seconds / elapsed)
         return max(1, min(target, count * 4))
 
-    def _result(self, accum_buffer, discarded_buffer, aux_buffers, seconds):
-        width, height = self.scene.camera.resolution
-        accumulator = np.empty((height * width, 4), np.float32)
+    def _download(self, state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, samples=None):
+        """The Accumulation after the launches completed on `state`'s buffers, which hold
+        `samples` per pixel (None: count them, after Ctrl-C)."""
+        sums = np.empty_like(state.sums, dtype=np.float32)
         discarded = np.empty(1, np.int32)
-        geometry = np.empty((height * width, 4), np.float32)
-        object_id = np.empty(height * width, np.int32)
-        cl.enqueue_copy(self.queue, accumulator, accum_buffer)
+        cl.enqueue_copy(self.queue, sums, accum_buffer)
         cl.enqueue_copy(self.queue, discarded, discarded_buffer)
-        cl.enqueue_copy(self.queue, geometry, aux_buffers[0])
-        cl.enqueue_copy(self.queue, object_id, aux_buffers[1])
-        # The w channel counts the samples each pixel received, so an interrupted render is
-        # normalised exactly by what was done.
-        counts = accumulator[:, 3:4]
-        image = np.where(counts > 0, accumulator[:, :3] / np.maximum(counts, 1), 0.0)
-        image = image.reshape(height, width, 3).astype(np.float32)
-        aux = aux_dict(geometry, object_id, width, height)
-        image, alpha = apply_outlines(image, aux, self.scene.outlines)
-        return RenderResult(image, int(counts.min()) if counts.size else 0, seconds,
-                            int(discarded[0]), aux=aux, outline_alpha=alpha)
+        # Every launch adds its samples to every pixel of the tile and w counts them, so the
+        # sums say how many were taken even when Ctrl-C came between a launch and its count.
+        if samples is None:
+            samples = int(sums[:, 3].min())
+        geometry, object_id = state.geometry, state.object_id
+        if state.samples == 0 and samples > 0:
+            geometry = np.empty((len(sums), 4), np.float32)
+            object_id = np.empty(len(sums), np.int32)
+            cl.enqueue_copy(self.queue, geometry, aux_buffers[0])
+            cl.enqueue_copy(self.queue, object_id, aux_buffers[1])
+        aov_sums = None
+        if state.aov_sums is not None:
+            aov_sums = np.empty(len(sums), layout.AOV_SUMS)
+            cl.enqueue_copy(self.queue, aov_sums, aov_buffer)
+        return Accumulation(state.tile, samples, sums, state.discarded + int(discarded[0]),
+                            state.seconds + seconds, geometry, object_id, aov_sums)
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
-           step=None):
-    """Render `scene` and return the linear float32 (H, W, 3) image."""
+           step=None, denoise=False):
+    """Render `scene` and return the linear float32 (H, W, 3) image (denoised if `denoise`)."""
     return Renderer(scene, device, volume_method=volume_method, step=step).render(
-        spp=spp, seed=seed, max_depth=max_depth, progress=progress).image
+        spp=spp, seed=seed, max_depth=max_depth, progress=progress, denoise=denoise).image

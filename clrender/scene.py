@@ -13,7 +13,7 @@ from . import grids, meshes
 from .errors import SceneError
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
-SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box")
+SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
@@ -55,18 +55,19 @@ class Camera:
 class Toon:
     """Cel-shading parameters of a `toon` material (docs/materials-toon.md; kernels/materials/toon.h).
 
-    Per light the surface shows color x (shadow_color + (1 - shadow_color) x band x visibility),
-    plus highlight and rim, all scaled by the light's irradiance / pi."""
-    shadow_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.3))
-    shadow_factor: float = 0.1       # visibility of a light from points it does not reach
-    bands: int = 1                   # lit tones above the shadow tone (1: classic two-tone)
+    The defaults give the classic formula C' x (specular + light_intensity + ambient + rim), with
+    C' = C x shadow_factor where the light is blocked; shadow_color and bands extend it."""
+    ambient: np.ndarray = field(default_factory=lambda: np.full(3, 0.1))   # added once, any lights
+    shadow_factor: float = 0.1       # fraction of the colour a point keeps where the light is blocked
+    shadow_color: np.ndarray = field(default_factory=lambda: np.ones(3))  # tints that fraction
+    bands: int = 1                   # lit tones of light_intensity (1: the formula's two tones)
     softness: float = 0.01           # smoothstep width of each band edge, in N.L
-    highlight_size: float = 0.02     # highlight where N.H > 1 - size (0: none)
+    highlight_size: float = 0.02     # highlight where R.V > 1 - size (0: none)
     highlight_softness: float = 0.005
     highlight_color: np.ndarray = field(default_factory=lambda: np.ones(3))
-    rim_threshold: float = 0.0       # rim where N.V < threshold (0: none)
-    rim_width: float = 0.05
-    rim_color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    rim_threshold: float = 0.25      # rim where N.V < threshold (0: none)
+    rim_width: float = 0.02
+    rim_color: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
 
 
 @dataclass
@@ -81,6 +82,18 @@ class Material:
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
     roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
+    # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
+    # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
+    # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
+    two_sided: bool = True
+    energy_compensation: bool = True
+
+    @property
+    def index_matched(self):
+        """A dielectric with the same index on both sides (compared in float32, as the kernel
+        would): no reflection, no refraction, only its tint. It is rendered as an `interface`
+        boundary, so it costs no path vertex and shadow rays pass it."""
+        return self.type == "dielectric" and np.float32(self.ior) == np.float32(self.exterior_ior)
 
 
 @dataclass
@@ -128,6 +141,7 @@ class RenderSettings:
     volume_method: str = "null"
     step: float = 0.02
     raymarch_multiple_scattering: bool = False
+    hide_environment: bool = False   # camera rays that escape see black (Mitsuba's hide_emitters)
 
 
 @dataclass
@@ -275,9 +289,17 @@ class _Node:
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
-def load_scene(path):
-    """Load and validate a JSON scene file; relative file paths resolve against its folder."""
+def load_scene(path, parameters=None):
+    """Load and validate a scene file: JSON, or Mitsuba 3 XML (`.xml`, docs/mitsuba-xml.md;
+    `parameters` override its <default> values, like Mitsuba's -D). Relative file paths resolve
+    against the file's folder."""
     path = Path(path)
+    if path.suffix.lower() == ".xml":
+        from . import mitsuba_xml
+
+        return mitsuba_xml.load_scene(path, parameters)
+    if parameters:
+        raise SceneError("", "parameters apply to Mitsuba XML scenes only")
     try:
         text = path.read_text()
     except FileNotFoundError:
@@ -358,6 +380,7 @@ def _read_render(node):
         volume_method=node.string("volume_method", "null", choices=VOLUME_METHODS),
         step=float(node.number("step", 0.02, low=0, low_open=True)),
         raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", False),
+        hide_environment=node.boolean("hide_environment", False),
     )
     node.finish()
     return settings
@@ -368,7 +391,8 @@ def _read_material(node):
     kind = node.string("type", choices=MATERIAL_TYPES)
     if kind == "diffuse":
         material = Material(name, kind, albedo=node.vector("albedo", [0.8, 0.8, 0.8], non_negative=True),
-                            emission=node.vector("emission", [0, 0, 0], non_negative=True))
+                            emission=node.vector("emission", [0, 0, 0], non_negative=True),
+                            two_sided=node.boolean("two_sided", True))
         if np.any(material.albedo > 1):
             raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {material.albedo.tolist()}")
     elif kind == "toon":
@@ -380,7 +404,10 @@ def _read_material(node):
     elif kind in ("dielectric", "conductor"):
         material = Material(name, kind, albedo=np.zeros(3),
                             tint=_unit_color(node, "tint"),
-                            roughness=node.number("roughness", 0.0, low=0, high=1))
+                            roughness=node.number("roughness", 0.0, low=0, high=1),
+                            energy_compensation=node.boolean("energy_compensation", True))
+        if kind == "conductor":
+            material.two_sided = node.boolean("two_sided", True)
         if kind == "dielectric":
             material.ior = node.number("ior", 1.5, low=0, low_open=True)
             material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
@@ -404,6 +431,7 @@ def _read_toon(node):
     highlight = node.child("highlight", {})
     rim = node.child("rim", {})
     toon = Toon(
+        ambient=node.vector("ambient", d.ambient.tolist(), non_negative=True, allow_scalar=True),
         shadow_color=_unit_color(node, "shadow_color", d.shadow_color.tolist()),
         shadow_factor=float(node.number("shadow_factor", d.shadow_factor, low=0, high=1)),
         bands=node.number("bands", d.bands, low=1, high=MAX_TOON_BANDS, integer=True),
@@ -545,6 +573,8 @@ def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
         mesh = _read_sphere(node)
     elif kind == "rectangle":
         mesh = meshes.rectangle()
+    elif kind == "disk":
+        mesh = meshes.disk(node.number("segments", 128, low=3, high=4096, integer=True))
     else:
         mesh = meshes.box()
     if "transform" in node.data:
@@ -628,6 +658,16 @@ def _read_light(node, base_dir):
 
 def _read_environment(node, base_dir):
     scale = node.number("scale", 1.0, low=0)
+    if sum(key in node.data for key in ("image", "file", "radiance")) > 1:
+        raise SceneError(node.where, "give one of radiance, file or image")
+    if "image" in node.data:   # Python API: an (H, W, 3) lat-long array instead of a file
+        image = np.asarray(node.raw("image"))
+        if image.ndim != 3 or image.shape[2] != 3 or min(image.shape[:2]) < 1 or not np.issubdtype(image.dtype, np.number):
+            raise SceneError(node.at("image"), f"must be an (H, W, 3) array of numbers, got shape {image.shape}")
+        image = image.astype(np.float32)
+        if not np.all(np.isfinite(image)) or np.any(image < 0):
+            raise SceneError(node.at("image"), "image must be finite and non-negative")
+        return Light("environment", np.ones(3) * scale, image=image * scale)
     if "file" in node.data:
         from .image import load_image
 

@@ -1,7 +1,8 @@
 // Auxiliary per-pixel buffers: the first surface seen through the pixel centre. Written once per
 // render (by the launch holding sample 0) and read by the host for ink outlines (outlines.py);
-// also returned by the API for denoisers and debugging. The centre ray makes them deterministic:
-// independent of the seed, the sample count and how samples are split into launches.
+// also the source of the depth and object_id AOVs (clrender/aovs.py). The centre ray makes them
+// deterministic: independent of the seed, the sample count and how samples are split into
+// launches, and never a blend of two surfaces (an object id cannot be averaged).
 #ifndef CLRENDER_AUX_BUFFERS_H
 #define CLRENDER_AUX_BUFFERS_H
 
@@ -9,7 +10,8 @@
 // (distance along the camera axis: 1 / depth is affine in the image over a plane, which the
 // outline pass uses to tell a slope from a jump); all 0 where the ray escapes.
 // object: the shape index of the hit (TriangleInfo.info.y), -1 where the ray escapes.
-void write_aux(const Scene* scene, int x, int y, int pixel, __global float4* aux_geometry,
+// (x, y) is the pixel in the full image, `slot` its index in this tile's buffers.
+void write_aux(const Scene* scene, int x, int y, int slot, __global float4* aux_geometry,
                __global int* aux_object) {
     __constant Camera* camera = &scene->params->camera;
     Ray ray = camera_ray(camera, x, y, scene->params->frame.x, scene->params->frame.y,
@@ -22,8 +24,8 @@ void write_aux(const Scene* scene, int x, int y, int pixel, __global float4* aux
         geometry = (float4)(sp.ns, dot(sp.p - ray.origin, camera->forward.xyz));
         object = sp.object;
     }
-    aux_geometry[pixel] = geometry;
-    aux_object[pixel] = object;
+    aux_geometry[slot] = geometry;
+    aux_object[slot] = object;
 }
 
 #endif

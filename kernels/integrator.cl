@@ -1,6 +1,9 @@
-// The megakernel: one work-item per pixel adds `frame.w` samples to its accumulator.
+// The megakernel: one work-item per pixel of the tile adds `frame.w` samples to its accumulator.
 // Samples are taken in index order and added one by one, so the sum is the same however the
-// samples are split into launches.
+// samples are split into launches; the random numbers and the camera ray are keyed by the pixel
+// of the full image, so a pixel's sum is also the same whichever tile holds it (distributed.py).
+// With AOVS the sample-level AOVs accumulate beside it (aovs.h).
+#include "portability.h"
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -30,46 +33,61 @@
 #elif GRID_MEDIA == VOLUME_RAYMARCH
 #include "media/raymarch.h"
 #endif
+#include "aovs.h"
 #include "path.h"
 #include "aux_buffers.h"
 
-__kernel void render_pass(__constant RenderParams* params,
-                          __global const WideBvhNode* nodes,
-                          __global const Triangle* triangles,
-                          __global const TriangleShading* shading,
-                          __global const TriangleInfo* info,
-                          __global const Material* materials,
-                          __global const Medium* media,
-                          __global const Emitter* emitters,
-                          __global const float* emitter_cdf,
-                          __global const float4* env_texels,
-                          __global const float* env_cdf,
-                          __global const float* specular_albedo,
-                          __global const float* grid_data,
-                          __global const float* majorant_data,
-                          __global float4* accumulator,
-                          __global int* discarded_samples,
-                          __global float4* aux_geometry,
-                          __global int* aux_object) {
-    int x = get_global_id(0), y = get_global_id(1);
+KERNEL void render_pass(__constant RenderParams* params,
+                        __global const WideBvhNode* nodes,
+                        __global const Triangle* triangles,
+                        __global const TriangleShading* shading,
+                        __global const TriangleInfo* info,
+                        __global const Material* materials,
+                        __global const Medium* media,
+                        __global const Emitter* emitters,
+                        __global const float* emitter_cdf,
+                        __global const float4* env_texels,
+                        __global const float* env_cdf,
+                        __global const float* specular_albedo,
+                        __global const float* grid_data,
+                        __global const float* majorant_data,
+                        __global float4* accumulator,
+                        __global int* discarded_samples,
+                        __global float4* aux_geometry,
+                        __global int* aux_object,
+                        __global AovSums* aov_sums) {
+    int tx = get_global_id(0), ty = get_global_id(1);
+    if (tx >= params->tile.z || ty >= params->tile.w) return;
+    int x = params->tile.x + tx, y = params->tile.y + ty;
     int width = params->frame.x, height = params->frame.y;
-    if (x >= width || y >= height) return;
     Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
                    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data};
-    int pixel = y * width + x;
-    if (params->frame.z == 0) write_aux(&scene, x, y, pixel, aux_geometry, aux_object);
-    float4 sum = accumulator[pixel];
+    int pixel = y * width + x;            // keys the random numbers
+    int slot = ty * params->tile.z + tx;  // in this tile's buffers
+    if (params->frame.z == 0) write_aux(&scene, x, y, slot, aux_geometry, aux_object);
+    float4 sum = accumulator[slot];
+#if AOVS
+    AovSums aovs = aov_sums[slot];
+#endif
     int discarded = 0;
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_sample((uint)pixel, (uint)s, (uint)params->config.z);
         Ray ray = camera_ray(&params->camera, x, y, width, height, rng_float2(&rng));
-        float3 radiance = trace_path(&scene, ray, &rng);
+        AovSample aov = aov_sample_none();
+        float3 radiance = trace_path(&scene, ray, &rng, &aov);
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         bool finite = isfinite(radiance.x) && isfinite(radiance.y) && isfinite(radiance.z);
         discarded += finite ? 0 : 1;
-        sum += (float4)(finite ? radiance : (float3)(0.0f), 1.0f);
+        float3 value = finite ? radiance : (float3)(0.0f);
+#if AOVS
+        accumulate_aovs(&aovs, &aov, value, finite, sum);
+#endif
+        sum += (float4)(value, 1.0f);
     }
-    accumulator[pixel] = sum;
+    accumulator[slot] = sum;
+#if AOVS
+    aov_sums[slot] = aovs;
+#endif
     if (discarded > 0) atomic_add(discarded_samples, discarded);
 }

@@ -2,10 +2,13 @@
 // with the power heuristic; Russian roulette on the throughput after the roulette depth.
 // Depth counts scattering vertices after the camera: depth 1 sees emitters directly, so max
 // depth 1 renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
-// Index-matched boundaries (MATERIAL_INTERFACE) only switch the current medium; they are not
-// path vertices.
+// Index-matched boundaries (MATERIAL_INTERFACE: interfaces and index-matched dielectrics) only
+// switch the current medium and transmit their colour (the dielectric's tint, else 1); they are
+// not path vertices.
 #ifndef CLRENDER_PATH_H
 #define CLRENDER_PATH_H
+
+#include "aovs.h"
 
 // A path that keeps crossing null boundaries (e.g. coincident surfaces) must still end.
 #define MAX_NULL_CROSSINGS 1024
@@ -63,7 +66,7 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
 #if GRID_MEDIA == VOLUME_NULL
         if (medium >= 0 && !ratio_track(scene, medium, origin, dir, found ? hit.t : remaining, &tracker, rng))
             return (float3)(0.0f);
-        if (!found) return ratio_transmittance(&tracker, spectral_mis, pdf_ratio);
+        if (!found) return tr * ratio_transmittance(&tracker, spectral_mis, pdf_ratio);
 #elif GRID_MEDIA == VOLUME_RAYMARCH
         if (medium >= 0) {
             __global const Medium* md = scene->media + medium;
@@ -77,7 +80,9 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
         if (!found) return tr;
 #endif
         SurfacePoint sp = surface_point(scene, &hit, dir);
-        if (scene->materials[sp.material].kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
+        __global const Material* boundary = scene->materials + sp.material;
+        if (boundary->kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
+        tr *= boundary->color.xyz;
         medium = medium_beyond(&sp);
         origin = spawn_ray_origin(&sp, dir);
     }
@@ -143,7 +148,8 @@ bool survive_roulette(float3* throughput, float eta_scale, int depth, int rr_dep
     return true;
 }
 
-float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
+// The radiance of one camera path; with AOVS, *aov receives its first non-delta vertex (aovs.h).
+float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     int max_depth = scene->params->config.x;
     int rr_depth = scene->params->config.y;
     float3 radiance = (float3)(0.0f);
@@ -193,6 +199,9 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
 #else
             MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
 #endif
+#if AOVS
+            if (event.scattered) aov_record_medium(aov, md, throughput, eta_scale);
+#endif
             throughput *= event.weight;
             if (event.scattered) {
                 if (depth == max_depth || is_black(throughput)) break;
@@ -227,18 +236,29 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         }
 #endif
         if (!found) {
-            radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
+#if AOVS
+            aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
+                              depth > 1 || scene->params->environment.w == 0);
+#endif
+            // RenderParams.environment.w (render.hide_environment): camera rays that escape,
+            // through null boundaries or not, see black; the environment still lights the scene.
+            if (depth > 1 || scene->params->environment.w == 0)
+                radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
         Material m = scene->materials[sp.material];
 #if MEDIA
         if (m.kind.x == MATERIAL_INTERFACE) {
+            throughput *= m.color.xyz;
             medium = medium_beyond(&sp);
             ray.origin = spawn_ray_origin(&sp, ray.direction);
             if (++null_crossings > MAX_NULL_CROSSINGS) break;
             continue;
         }
+#endif
+#if AOVS
+        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
 #endif
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
@@ -249,7 +269,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng) {
         // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
         // counts as direct lighting, hence after the max-depth test), and the path ends.
         if (m.kind.x == MATERIAL_TOON) {
-            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, rng);
+            radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, medium, rng);
             break;
         }
 #endif

@@ -1,4 +1,5 @@
 // Small kernels that expose device functions to the Python tests (tests/). Not used to render.
+#include "portability.h"
 #include "types.h"
 #include "math.h"
 #include "rng.h"
@@ -34,11 +35,11 @@
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
-__kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
-                            __global TriangleShading* sh, __global TriangleInfo* info,
-                            __global Material* m, __global Emitter* e, __global Medium* md,
-                            __global Camera* c,
-                            __global RenderParams* p, __global int* out) {
+KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
+                          __global TriangleShading* sh, __global TriangleInfo* info,
+                          __global Material* m, __global Emitter* e, __global Medium* md,
+                          __global Camera* c,
+                          __global RenderParams* p, __global AovSums* a, __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
     out[k++] = OFFSET(node, lo_x); out[k++] = OFFSET(node, hi_x); out[k++] = OFFSET(node, lo_y);
@@ -55,7 +56,7 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri, 
     out[k++] = sizeof(Material);
     out[k++] = OFFSET(m, kind); out[k++] = OFFSET(m, color); out[k++] = OFFSET(m, emission);
     out[k++] = OFFSET(m, params); out[k++] = OFFSET(m, toon_shadow); out[k++] = OFFSET(m, toon_bands);
-    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim);
+    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim); out[k++] = OFFSET(m, toon_ambient);
     out[k++] = sizeof(Emitter);
     out[k++] = OFFSET(e, kind); out[k++] = OFFSET(e, radiance); out[k++] = OFFSET(e, p0);
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
@@ -69,13 +70,16 @@ __kernel void struct_layout(__global WideBvhNode* node, __global Triangle* tri, 
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
-    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights);
+    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
+    out[k++] = sizeof(AovSums);
+    out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
+    out[k++] = OFFSET(a, colour_m2);
 }
 
 // ----- BVH: closest hit per ray (over the primitive slots: triangles and spheres) -----------
-__kernel void trace_rays(__global const WideBvhNode* nodes, __global const Triangle* triangles,
-                         __global const float4* origins, __global const float4* directions,
-                         __global float* hit_t, __global int* hit_prim, __global int* any_hit) {
+KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const Triangle* triangles,
+                       __global const float4* origins, __global const float4* directions,
+                       __global float* hit_t, __global int* hit_prim, __global int* any_hit) {
     int i = get_global_id(0);
     Hit hit;
     hit.t = INFINITY;
@@ -90,7 +94,7 @@ __kernel void trace_rays(__global const WideBvhNode* nodes, __global const Trian
 }
 
 // ----- sampling routines: directions and their pdfs, for chi-square tests -------------------
-__kernel void sample_directions(int routine, float g, uint seed, __global float4* out) {
+KERNEL void sample_directions(int routine, float g, uint seed, __global float4* out) {
     int i = get_global_id(0);
     Rng rng = rng_for_sample((uint)i, 0u, seed);
     float2 u = rng_float2(&rng);
@@ -111,10 +115,10 @@ __kernel void sample_directions(int routine, float g, uint seed, __global float4
 // ----- area emitters: one light sample of emitter 0 (the only one) from points[i] -----------
 // out_sample: (wi, pdf_w); out_point: (the sampled point q, its distance); out_pdf: x the pdf that
 // area_emitter_pdf_w gives for reaching q from the point (the MIS weight's), y the cosine at q.
-__kernel void sample_area_emitter(__global const Emitter* emitters, __global const float* emitter_cdf,
-                                  __constant RenderParams* params, __global const float4* points,
-                                  uint seed, __global float4* out_sample, __global float4* out_point,
-                                  __global float2* out_pdf) {
+KERNEL void sample_area_emitter(__global const Emitter* emitters, __global const float* emitter_cdf,
+                                __constant RenderParams* params, __global const float4* points,
+                                uint seed, __global float4* out_sample, __global float4* out_point,
+                                __global float2* out_pdf) {
     int i = get_global_id(0);
     Scene scene;
     scene.params = params;
@@ -132,9 +136,9 @@ __kernel void sample_area_emitter(__global const Emitter* emitters, __global con
 }
 
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
-__kernel void sample_environment(__constant RenderParams* params, __global const float4* texels,
-                                 __global const float* env_cdf, uint seed,
-                                 __global float4* out, __global float4* radiance) {
+KERNEL void sample_environment(__constant RenderParams* params, __global const float4* texels,
+                               __global const float* env_cdf, uint seed,
+                               __global float4* out, __global float4* radiance) {
     int i = get_global_id(0);
     Scene scene;
     scene.params = params;
@@ -164,9 +168,9 @@ SurfacePoint test_surface_point(int front_face, float3 ns) {
 
 // One sample of sample_bsdf per work-item, for wo[i]: (wi, pdf_w) and (weight, eta * (delta ? -1 : 1)).
 // albedo: the material's energy-compensation tables (or one unused float).
-__kernel void sample_bsdf_values(__global const Material* material, __global const float* albedo,
-                                 int front_face, float4 ns, __global const float4* wo, uint seed,
-                                 __global float4* out_wi, __global float4* out_weight) {
+KERNEL void sample_bsdf_values(__global const Material* material, __global const float* albedo,
+                               int front_face, float4 ns, __global const float4* wo, uint seed,
+                               __global float4* out_wi, __global float4* out_weight) {
     int i = get_global_id(0);
     Material m = *material;
     Scene scene;
@@ -179,9 +183,9 @@ __kernel void sample_bsdf_values(__global const Material* material, __global con
 }
 
 // eval_bsdf (f * |cos|) and sample_bsdf_pdf for pairs (wo[i], wi[i]).
-__kernel void eval_bsdf_values(__global const Material* material, __global const float* albedo,
-                               int front_face, float4 ns, __global const float4* wo,
-                               __global const float4* wi, __global float4* out) {
+KERNEL void eval_bsdf_values(__global const Material* material, __global const float* albedo,
+                             int front_face, float4 ns, __global const float4* wo,
+                             __global const float4* wi, __global float4* out) {
     int i = get_global_id(0);
     Material m = *material;
     Scene scene;
@@ -193,18 +197,20 @@ __kernel void eval_bsdf_values(__global const Material* material, __global const
 
 #if DIELECTRIC
 // fresnel_dielectric(cos_i, eta) and refract(wo, +z, eta): (F, wt.xyz), wt = 0 under TIR.
-__kernel void fresnel_refract_values(__global const float2* cos_eta, __global float4* out) {
+KERNEL void fresnel_refract_values(__global const float2* cos_eta, __global float4* out) {
     int i = get_global_id(0);
     float cos_i = cos_eta[i].x, eta = cos_eta[i].y;
     float3 wo = (float3)(sqrt(fmax(0.0f, 1.0f - cos_i * cos_i)), 0.0f, cos_i);
     float3 wt = (float3)(0.0f);
     if (!refract(wo, (float3)(0.0f, 0.0f, 1.0f), eta, &wt)) wt = (float3)(0.0f);
-    out[i] = (float4)(fresnel_dielectric(cos_i, eta), wt);
+    // Components spelled out: clang widens a float3 after a scalar with an undefined lane,
+    // on which Oclgrind 21.10's uninitialised-value checker crashes (docs/portability.md).
+    out[i] = (float4)(fresnel_dielectric(cos_i, eta), wt.x, wt.y, wt.z);
 }
 
 // GGX around +z: D(h), G1(cos_o), and the visible-normal density of h seen from wo.
-__kernel void microfacet_values(float alpha, __global const float4* wo, __global const float4* h,
-                                __global float4* out) {
+KERNEL void microfacet_values(float alpha, __global const float4* wo, __global const float4* h,
+                              __global float4* out) {
     int i = get_global_id(0);
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
     out[i] = (float4)(ggx_d(n, h[i].xyz, alpha), ggx_g1(wo[i].z, alpha),
@@ -212,8 +218,8 @@ __kernel void microfacet_values(float alpha, __global const float4* wo, __global
 }
 
 // Visible normals sampled for wo[i].
-__kernel void sample_vndf_values(float alpha, __global const float4* wo, uint seed,
-                                 __global float4* out) {
+KERNEL void sample_vndf_values(float alpha, __global const float4* wo, uint seed,
+                               __global float4* out) {
     int i = get_global_id(0);
     Rng rng = rng_for_sample((uint)i, 2u, seed);
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
@@ -225,11 +231,11 @@ __kernel void sample_vndf_values(float alpha, __global const float4* wo, uint se
 // ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
 // sign picks the side), and report both hits: (first slot, second slot, second t, front face).
-__kernel void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
-                              __global const TriangleShading* shading,
-                              __global const TriangleInfo* info, __global const float4* origins,
-                              __global const float4* directions, __global const float4* leave,
-                              __global float4* out) {
+KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
+                            __global const TriangleShading* shading,
+                            __global const TriangleInfo* info, __global const float4* origins,
+                            __global const float4* directions, __global const float4* leave,
+                            __global float4* out) {
     int i = get_global_id(0);
     Scene scene;
     scene.nodes = nodes;
@@ -261,9 +267,9 @@ Scene media_scene(__constant RenderParams* params, __global const Medium* media,
 }
 
 // Density of medium points[i].w at world point points[i].xyz.
-__kernel void grid_lookup(__constant RenderParams* params, __global const Medium* media,
-                          __global const float* grid_data, __global const float* majorant_data,
-                          __global const float4* points, __global float* out) {
+KERNEL void grid_lookup(__constant RenderParams* params, __global const Medium* media,
+                        __global const float* grid_data, __global const float* majorant_data,
+                        __global const float4* points, __global float* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     out[i] = medium_density(&scene, media + (int)points[i].w, points[i].xyz);
@@ -271,11 +277,11 @@ __kernel void grid_lookup(__constant RenderParams* params, __global const Medium
 
 // The majorant segments of ray i (at most max_segments: (t0, t1, d_max, d_min)), their count,
 // and over `samples` jittered points per segment: max(density - d_max), min(density - d_min).
-__kernel void majorant_walk(__constant RenderParams* params, __global const Medium* media,
-                            __global const float* grid_data, __global const float* majorant_data,
-                            int medium, __global const float4* origins, __global const float4* dirs,
-                            float t_max, int max_segments, int samples, uint seed,
-                            __global float4* segments, __global int* counts, __global float2* bounds) {
+KERNEL void majorant_walk(__constant RenderParams* params, __global const Medium* media,
+                          __global const float* grid_data, __global const float* majorant_data,
+                          int medium, __global const float4* origins, __global const float4* dirs,
+                          float t_max, int max_segments, int samples, uint seed,
+                          __global float4* segments, __global int* counts, __global float2* bounds) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     __global const Medium* m = media + medium;
@@ -300,10 +306,10 @@ __kernel void majorant_walk(__constant RenderParams* params, __global const Medi
 // One transmittance estimate per work-item along origin + t dir, t in [0, t_max), through one
 // medium: ratio tracking (null scattering: xyz the estimate, w the tentative collisions) or
 // marching (w 0). `spectral_mis` as RenderParams.media.y (null scattering only).
-__kernel void transmittance_estimates(__constant RenderParams* params, __global const Medium* media,
-                                      __global const float* grid_data, __global const float* majorant_data,
-                                      int medium, float4 origin, float4 dir, float t_max, uint seed,
-                                      int spectral_mis, __global float4* out) {
+KERNEL void transmittance_estimates(__constant RenderParams* params, __global const Medium* media,
+                                    __global const float* grid_data, __global const float* majorant_data,
+                                    int medium, float4 origin, float4 dir, float t_max, uint seed,
+                                    int spectral_mis, __global float4* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     Rng rng = rng_for_sample((uint)i, 0u, seed);
@@ -322,10 +328,10 @@ __kernel void transmittance_estimates(__constant RenderParams* params, __global 
 #if GRID_MEDIA == VOLUME_NULL
 // Delta tracking over one medium segment: the chain weight when the ray passes (its expectation
 // is the transmittance per channel), 0 when it scatters or is absorbed; w the collisions.
-__kernel void delta_pass_estimates(__constant RenderParams* params, __global const Medium* media,
-                                   __global const float* grid_data, __global const float* majorant_data,
-                                   int medium, float4 origin, float4 dir, float t_max, uint seed,
-                                   int spectral_mis, __global float4* out) {
+KERNEL void delta_pass_estimates(__constant RenderParams* params, __global const Medium* media,
+                                 __global const float* grid_data, __global const float* majorant_data,
+                                 int medium, float4 origin, float4 dir, float t_max, uint seed,
+                                 int spectral_mis, __global float4* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     Rng rng = rng_for_sample((uint)i, 0u, seed);

@@ -23,15 +23,16 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
-// kind: x MATERIAL_*; color: albedo (diffuse), tint (dielectric: transmission, conductor:
-// reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
+// kind: x MATERIAL_*, y one-sided (1: black seen from behind, materials/bsdf.h); color: albedo (diffuse), tint (dielectric: transmission, conductor:
+// reflectance), base colour (toon) or transmittance (interface); params: x ior inside, y ior outside, z roughness (dielectric
 // and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
 // (-1: none). toon_* are read by MATERIAL_TOON only (materials/toon.h): toon_shadow: rgb shadow
 // colour, w shadow factor; toon_bands: x bands, y band softness, z highlight size, w highlight
-// softness; toon_highlight: rgb colour, w rim width; toon_rim: rgb rim colour, w rim threshold.
+// softness; toon_highlight: rgb colour, w rim width; toon_rim: rgb rim colour, w rim threshold;
+// toon_ambient: rgb ambient colour, w unused (0).
 typedef struct {
     int4 kind; float4 color; float4 emission; float4 params;
-    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim;
+    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim; float4 toon_ambient;
 } Material;
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Sphere: p0.xyz centre, p0.w signed
@@ -58,11 +59,19 @@ typedef struct {
     Camera camera;
     int4 frame;        // x width, y height, z first sample index of this pass, w samples in pass
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
-    int4 environment;  // x emitter index (-1: none), y image width, z image height
+    int4 environment;  // x emitter index (-1: none), y image width, z image height,
+                       // w hide the environment from camera rays (1/0)
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
+    int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
 } RenderParams;
+
+// Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose
+// w counts the samples: albedo.xyz, normal.xyz and emission.xyz summed over the samples;
+// colour_m2.xyz the sum of squared deviations of the colour samples from their mean (Welford).
+// The w fields are unused.
+typedef struct { float4 albedo; float4 normal; float4 emission; float4 colour_m2; } AovSums;
 
 #endif

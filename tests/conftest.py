@@ -1,5 +1,11 @@
-"""Shared fixtures: one OpenCL context for the session (the CPU device unless
-$CLRENDER_TEST_DEVICE names another) and helpers for scenes built in code."""
+"""Shared fixtures: one OpenCL context for the session and helpers for scenes built in code.
+
+The device: $CLRENDER_TEST_DEVICE, as clrender.choose_device reads it (an index, 'cpu', 'gpu' or a
+platform or device name: 'pocl', 'intel', 'nvidia'); default 'cpu'. A name matching devices of
+several platforms is an error, so the suite never runs on another implementation than the one
+named; command-line tests get it through $CLRENDER_DEVICE. The device is printed in pytest's
+header.
+"""
 import os
 
 import numpy as np
@@ -11,11 +17,22 @@ from clrender.device import build_program
 from clrender.features import FEATURE_VALUES
 
 TEST_DEVICE = os.environ.get("CLRENDER_TEST_DEVICE", "cpu")
+# The command line run by the tests (subprocesses) renders on the same device.
+os.environ.setdefault("CLRENDER_DEVICE", TEST_DEVICE)
 
 
 @pytest.fixture(scope="session")
 def device():
     return clrender.choose_device(TEST_DEVICE)
+
+
+def pytest_report_header(config):
+    try:
+        chosen = clrender.choose_device(TEST_DEVICE)
+    except (RuntimeError, ValueError) as e:
+        return f"clrender test device {TEST_DEVICE!r}: {e}"
+    return (f"clrender test device {TEST_DEVICE!r}: {chosen.name.strip()} [{chosen.platform.name.strip()}, "
+            f"{chosen.driver_version.strip()}]")
 
 
 @pytest.fixture(scope="session")
@@ -26,6 +43,20 @@ def context(device):
 @pytest.fixture(scope="session")
 def queue(context):
     return cl.CommandQueue(context)
+
+
+@pytest.fixture(autouse=True)
+def no_discarded_samples(monkeypatch):
+    """Every render of the suite must be free of non-finite samples (the renderer drops them as
+    black and counts them, which would hide a bias): checked after each Renderer.render."""
+    render = clrender.Renderer.render
+
+    def checked(self, *args, **kwargs):
+        result = render(self, *args, **kwargs)
+        assert result.discarded_samples == 0, f"{result.discarded_samples} non-finite samples were discarded"
+        return result
+
+    monkeypatch.setattr(clrender.Renderer, "render", checked)
 
 
 def no_features(**overrides):

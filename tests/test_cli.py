@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 import clrender
+from clrender.features import all_feature_combinations
+from conftest import TEST_DEVICE
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -45,6 +47,18 @@ def test_info_and_devices():
     assert "triangles:  36" in info.stdout and "features:   environment=none" in info.stdout
     devices = run("devices")
     assert devices.returncode == 0 and "0:" in devices.stdout
+
+
+def test_info_kernel_reports_what_a_device_needs():
+    scene = run("info", "scenes/cornell_box.json", "--kernel", "--device", TEST_DEVICE)
+    assert scene.returncode == 0, scene.stderr
+    assert "bytes private memory per work-item" in scene.stdout and "for one sample per pixel" in scene.stdout
+    table = run("info", "--kernel", "--no-launch", "--device", TEST_DEVICE)
+    assert table.returncode == 0, table.stderr
+    rows = [line.split() for line in table.stdout.splitlines() if line.startswith("environment=")]
+    assert len(rows) == len(list(all_feature_combinations()))
+    assert all(int(row[-3]) >= 0 and int(row[-2]) >= 1 and int(row[-1]) >= 1 for row in rows)
+    assert run("info").returncode == 1   # neither a scene nor --kernel
 
 
 @pytest.mark.parametrize("content,message", [

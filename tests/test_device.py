@@ -1,5 +1,6 @@
 """Device choice, the program cache and the error metrics."""
 import os
+from types import SimpleNamespace
 
 import numpy as np
 import pyopencl as cl
@@ -23,17 +24,57 @@ def test_device_choice_by_kind_index_and_environment(monkeypatch):
         clrender.choose_device("no-such-device-name")
 
 
+def fake_devices(with_gpu):
+    """(index, platform, device) as list_devices gives them, for a machine with Oclgrind, Intel's
+    CPU runtime, PoCL and perhaps an NVIDIA GPU (the CPU named by two implementations)."""
+    t = cl.device_type
+    rows = [("Oclgrind", "Oclgrind", "Oclgrind Simulator", "Oclgrind", t.CPU | t.GPU | t.ACCELERATOR | t.DEFAULT),
+            ("Intel(R) OpenCL", "Intel(R) Corporation", "AMD EPYC 7B13", "Intel(R) Corporation", t.CPU),
+            ("Portable Computing Language", "The pocl project", "pthread-AMD EPYC 7B13", "AuthenticAMD", t.CPU)]
+    if with_gpu:
+        rows.append(("NVIDIA CUDA", "NVIDIA Corporation", "NVIDIA H100", "NVIDIA Corporation", t.GPU))
+    return [(i, SimpleNamespace(name=p, vendor=pv, int_ptr=100 + i),
+             SimpleNamespace(name=d, vendor=dv, type=kind, int_ptr=200 + i))
+            for i, (p, pv, d, dv, kind) in enumerate(rows)]
+
+
+@pytest.mark.parametrize("with_gpu", [False, True])
+def test_device_choice_by_platform_name_is_unambiguous(monkeypatch, with_gpu):
+    devices = fake_devices(with_gpu)
+    monkeypatch.setattr(device_module, "list_devices", lambda: devices)
+    monkeypatch.delenv("CLRENDER_DEVICE", raising=False)
+    name = lambda spec: clrender.choose_device(spec).name
+    assert name(None) == ("NVIDIA H100" if with_gpu else "AMD EPYC 7B13")   # never the simulator
+    assert name("cpu") == "AMD EPYC 7B13" and name("0") == "Oclgrind Simulator"
+    assert name("intel") == "AMD EPYC 7B13" and name("pocl") == "pthread-AMD EPYC 7B13"
+    assert name("oclgrind") == "Oclgrind Simulator" and name("Portable") == "pthread-AMD EPYC 7B13"
+    if with_gpu:
+        assert name("gpu") == "NVIDIA H100" and name("nvidia") == "NVIDIA H100"
+    for spec in ("amd", "EPYC"):   # the CPU under two implementations
+        with pytest.raises(ValueError, match="ambiguous.*Intel.*Portable"):
+            clrender.choose_device(spec)
+
+
 def test_programs_are_cached_in_memory_and_on_disk(device, tmp_path, monkeypatch):
     monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(device_module, "_programs", {})
     context = cl.Context([device])
     first = build_program(context, no_features())
     assert build_program(context, no_features()) is first          # memory
     assert build_program(context, no_features(TOON=1)) is not first  # other defines
     assert any(os.scandir(tmp_path))                                # disk: binaries were stored
-    monkeypatch.setattr(device_module, "_programs", {})
     again = build_program(cl.Context([device]), no_features())      # a new context, from disk
     assert again is not first and again.get_info(cl.program_info.NUM_DEVICES) == 1
+
+
+def test_a_program_always_belongs_to_the_context_it_is_built_for(device, monkeypatch):
+    # A collected context's id() is reused by later objects (pyopencl's Program lets go of its
+    # context after a source build): a memory cache keyed by id(context) once handed a dead
+    # context's program to a new context (Intel's runtime: INVALID_CONTEXT). Here every id()
+    # in the device module coincides, which keying by id could not survive.
+    monkeypatch.setattr(device_module, "id", lambda obj: 0, raising=False)
+    for context in [cl.Context([device]), cl.Context([device])]:
+        program = build_program(context, no_features())
+        assert program.get_info(cl.program_info.CONTEXT).int_ptr == context.int_ptr
 
 
 def test_metrics():

@@ -557,6 +557,8 @@ HARD_MEDIA = {
     "transparent_channels": ({"procedural": "noise_cloud", "resolution": [12, 12, 12]},
                              {"sigma_a": [0, 0, 5], "sigma_s": [0, 2, 0]}, {}),
     "peaked_phase": ({"procedural": "noise_cloud", "resolution": [12, 12, 12]}, {"sigma_t": 4.0, "albedo": 0.9, "g": 0.999}, {}),
+    "g_rounds_to_one": ({"procedural": "noise_cloud", "resolution": [12, 12, 12]},
+                        {"sigma_t": 4.0, "albedo": 0.9, "g": -0.99999999}, {}),
 }
 
 
@@ -595,3 +597,43 @@ def test_rays_grazing_the_grid_box(device, method):
         assert np.all(result.image[:4] == 1.0)     # above the face: nothing in the way
         if position[2] == 0:
             assert np.all(result.image[5:] < 1e-3)  # below: through 2 units of sigma_a = 4
+
+
+@pytest.mark.parametrize("method", ["null", "raymarch"])
+def test_absorbing_fog_beside_a_grid_cloud_renders_as_without_it(device, method):
+    # An absorbing homogeneous fog sphere under a sun, and beside it (in view, not between the fog
+    # and the camera or the sun) a grid cloud that only absorbs (albedo 0); the background is
+    # black. No path through the fog's pixels can gain or lose light by the cloud, so they must
+    # render as with no cloud at all, where the kernel has no grid-media code. The cloud only
+    # switches the grid-media code on, which once ran the grid lookup for the homogeneous fog
+    # too (reading an unset voxel map): camera rays then crossed the fog as if it were empty.
+    # Tolerance: 5 standard errors of the mean per-pixel difference over the fog's pixels.
+    fog = {"name": "fog", "sigma_t": 2.0, "albedo": 0.5, "g": 0.3}
+    cloud = {"name": "cloud", "type": "grid", "sigma_t": 3.0, "albedo": 0.0,
+             "density": {"procedural": "noise_cloud", "resolution": [8, 8, 8], "seed": 1},
+             "transform": {"scale": 1.2, "translate": [0.6, -0.6, -0.6]}}
+    data = {"camera": camera(position=(0, 0, 6), look_at=(0, 0, 0), fov=40, resolution=(24, 24)),
+            "media": [fog, cloud],
+            "materials": [BOUNDARY],
+            "shapes": [{"type": "sphere", "material": "boundary", "interior": "fog", "center": [-0.9, 0, 0],
+                        "radius": 0.8},
+                       {"type": "box", "material": "boundary", "interior": "cloud",
+                        "transform": {"scale": 0.6, "translate": [1.2, 0, 0]}}],
+            "lights": [{"type": "directional", "direction": [0, -1, -0.2], "irradiance": 10.0}],
+            "render": {"max_depth": 16}}
+    without = {**data, "media": [fog], "shapes": data["shapes"][:1]}
+    images = []
+    for scene_data in (data, without):
+        scene = clrender.load_scene_dict(scene_data)
+        renderer = clrender.Renderer(scene, device, volume_method=method, step=0.05)
+        assert renderer.features["GRID_MEDIA"] == (len(scene.media) - 1) * {"null": 1, "raymarch": 2}[method]
+        images.append(renderer.render(spp=32, seed=5))
+    fog_pixels = images[1].aux["object_id"] == 0
+    assert fog_pixels.sum() > 40 and np.all(images[0].aux["object_id"][fog_pixels] == 0)
+    assert images[1].image[fog_pixels].mean() > 0.1    # the fog is lit
+    for result in images:
+        assert result.discarded_samples == 0
+    for c in range(3):
+        difference = images[0].image[..., c][fog_pixels] - images[1].image[..., c][fog_pixels]
+        assert z_bound(difference, 0.0) < 5.0, (c, images[0].image[..., c][fog_pixels].mean(),
+                                                images[1].image[..., c][fog_pixels].mean())

@@ -7,6 +7,7 @@ import pytest
 
 import clrender
 from clrender import image as image_module
+from clrender.image import load_exr_layers, load_image, save_image
 
 
 def test_exr_round_trip_is_exact(tmp_path):
@@ -56,3 +57,44 @@ def test_unsupported_format_and_shape_are_rejected(tmp_path):
         clrender.save_image(np.zeros((2, 2, 3)), tmp_path / "a.gif")
     with pytest.raises(ValueError, match="HxWx3"):
         clrender.save_image(np.zeros((2, 2)), tmp_path / "a.png")
+
+
+def test_exr_layers_round_trip_through_the_openexr_reader(tmp_path):
+    import OpenEXR
+
+    rng = np.random.default_rng(3)
+    image = rng.random((5, 7, 3), dtype=np.float32)
+    layers = {"albedo": rng.random((5, 7, 3), dtype=np.float32),
+              "normal": rng.uniform(-1, 1, (5, 7, 3)).astype(np.float32),
+              "depth": np.where(rng.random((5, 7)) < 0.2, np.inf, rng.random((5, 7))).astype(np.float32),
+              "object_id": rng.integers(-1, 9, (5, 7)).astype(np.int32)}
+    path = tmp_path / "layers.exr"
+    save_image(image, path, layers=layers)
+    with OpenEXR.File(str(path), separate_channels=True) as exr:
+        channels = {name: channel.pixels for name, channel in exr.channels().items()}
+    assert set(channels) == {"R", "G", "B", "albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y",
+                             "normal.Z", "depth.Z", "object_id.X"}
+    for i, c in enumerate("RGB"):
+        assert np.array_equal(channels[c], image[..., i])
+        assert np.array_equal(channels[f"albedo.{c}"], layers["albedo"][..., i])
+    for i, c in enumerate("XYZ"):
+        assert np.array_equal(channels[f"normal.{c}"], layers["normal"][..., i])
+    assert np.array_equal(channels["depth.Z"], layers["depth"])
+    assert np.array_equal(channels["object_id.X"], layers["object_id"].astype(np.float32))
+    loaded = load_exr_layers(path)
+    assert np.array_equal(loaded[""], image) and np.array_equal(loaded["normal"], layers["normal"])
+    assert np.array_equal(load_image(path), image)
+
+
+def test_png_layers_go_to_separate_files(tmp_path):
+    import imageio.v3 as iio
+
+    image = np.full((4, 6, 3), 0.5, np.float32)
+    normal = np.zeros((4, 6, 3), np.float32)
+    normal[..., 2] = 1.0
+    save_image(image, tmp_path / "out.png", layers={"normal": normal, "depth": np.full((4, 6), 2.0)})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.depth.png", "out.normal.png", "out.png"]
+    assert np.all(iio.imread(tmp_path / "out.normal.png") == [128, 128, 255])
+    with pytest.raises(ValueError, match="layer 'depth': expected 4x6 pixels"):
+        save_image(image, tmp_path / "bad.exr", layers={"depth": np.zeros((3, 6))})
+    assert not (tmp_path / "bad.exr").exists()

@@ -5,8 +5,9 @@ import pyopencl as cl
 from clrender import layout
 from conftest import build_test_kernels
 
-ORDER = ["WideBvhNode", "Triangle", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Emitter",
-         "Medium", "Camera", "RenderParams"]
+ORDER = [  # the argument order of struct_layout in kernels/tests.cl
+    "WideBvhNode", "Triangle", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Emitter",
+    "Medium", "Camera", "RenderParams", "AovSums"]
 
 
 def expected_layout():

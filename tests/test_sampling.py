@@ -72,6 +72,17 @@ def test_uniform_sphere(context, queue):
     np.testing.assert_allclose(pdf, 1 / (4 * np.pi), rtol=1e-6)
 
 
+@pytest.mark.parametrize("g", [0.99999999, -0.99999999])
+def test_henyey_greenstein_with_g_rounding_to_one(context, queue, g):
+    # g is valid (|g| < 1) but rounds to +-1 in float32, where the density is 0 / 0 at the peak:
+    # the kernel uses the largest float32 g below 1 instead, a lobe within 1e-7 rad of the axis.
+    assert abs(np.float32(g)) == 1.0
+    d, pdf = sample(context, queue, 2, g)
+    assert np.all(np.isfinite(d)) and np.all(np.isfinite(pdf)) and np.all(pdf > 0)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1, rtol=1e-5)
+    assert np.mean(np.sign(g) * d[:, 2] > 1 - 1e-6) > 0.99
+
+
 @pytest.mark.parametrize("g", [-0.9, -0.3, 0.0, 0.5, 0.9, 0.999])
 def test_henyey_greenstein(context, queue, g):
     d, pdf = sample(context, queue, 2, g)

@@ -115,14 +115,16 @@ def test_transform_moves_and_mirrors_keep_normals_outward():
 
 
 def test_features_follow_what_the_scene_contains():
-    assert scene_features(clrender.load_scene("scenes/cornell_box.json")) == {
-        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0}
+    cornell_box = clrender.load_scene("scenes/cornell_box.json")
+    assert scene_features(cornell_box) == {
+        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0}
+    assert scene_features(cornell_box, sample_aovs=True)["AOVS"] == 1   # asked by the render, not the scene
     with_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1}]))
     assert scene_features(with_env)["ENVIRONMENT"] == 1
     with_sun = clrender.load_scene_dict(base_scene(lights=[{"type": "directional", "direction": [0, -1, 0],
                                                            "irradiance": 3}]))
     assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0,
-                                         "DIELECTRIC": 0, "GRID_MEDIA": 0}
+                                         "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0}
     glass = [{"name": "glass", "type": "dielectric", "ior": 1.5}]
     unused_glass = clrender.load_scene_dict(base_scene(materials=base_scene()["materials"] + glass))
     assert scene_features(unused_glass)["DIELECTRIC"] == 0
@@ -149,49 +151,61 @@ def test_scene_file_round_trip(tmp_path):
     assert clrender.load_scene(path).path == path
 
 
-OBJ = """# a quad, a pentagon (fans), relative and v/vt/vn indices, lines that are not geometry
-mtllib none.mtl
-o thing
-v 0 0 0
-v 1 0 0
-v 1 1 0
-v 0 1 0
-vt 0 0
-vn 0 0 1
-f 1 2 3 4
-v 2 0 0.5
-v 3 0 0.2
-v 3 1 0.1
-v 2.5 1.5 0
-v 2 1 0.3
-s off
-f -5/1/1 -4/1/1 -3/1/1 -2/1/1 -1/1/1
-l 1 2
-"""
+PLAIN_OBJ = "# plain: vertices and triangles only\r\nv 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 9 9 9\n\n" \
+            "v 0 1 0\nv 0.5 0.5 -1e-3\nf 1 2 3\nf 1 3 5\t\nf 2 6 3\nf 3 6 5\n   # unreferenced vertex 4\nf 5 6 1\n"
 
 
-@pytest.mark.parametrize("smooth", [False, True])
-def test_obj_files_read_without_trimesh_match_trimesh(tmp_path, smooth):
+def assert_same_mesh_as_trimesh(path, smooth):
+    """load_mesh_file gives trimesh's triangles (corner positions, in order) and, with `smooth`,
+    its vertex normals at those corners."""
     import trimesh
 
     from clrender import meshes
 
-    path = tmp_path / "shape.obj"
-    path.write_text(OBJ.replace("vn 0 0 1\n", "") if smooth else OBJ)  # file normals: trimesh's case
     ours = meshes.load_mesh_file(path, smooth)
     theirs = trimesh.load(str(path), force="mesh", process=False)
-    # The same triangles with the same winding (trimesh may start a triangle at another corner),
-    # and the same normals at their corners.
-    def canonical(vertices, faces, normals):
-        corners = np.concatenate([vertices[faces], normals[faces]], axis=2)
-        start = [min(range(3), key=lambda k: tuple(c[k, :3])) for c in corners]
-        rolled = np.stack([np.roll(c, -k, axis=0) for c, k in zip(corners, start)])
-        return rolled[np.lexsort(rolled[:, 0, :3].T[::-1])]
-    their_normals = np.asarray(theirs.vertex_normals) if smooth else np.zeros_like(theirs.vertices)
-    our_normals = ours.normals if smooth else np.zeros_like(ours.vertices)
-    np.testing.assert_allclose(canonical(ours.vertices, ours.faces, our_normals),
-                               canonical(np.asarray(theirs.vertices), np.asarray(theirs.faces), their_normals),
-                               atol=1e-12)
-    path.write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")
-    with pytest.raises(ValueError, match="line 3"):
+    vertices, faces = np.asarray(theirs.vertices), np.asarray(theirs.faces)
+    np.testing.assert_array_equal(ours.vertices[ours.faces], vertices[faces])
+    if smooth:
+        np.testing.assert_allclose(ours.normals[ours.faces], np.asarray(theirs.vertex_normals)[faces], atol=1e-12)
+    else:
+        assert ours.normals is None
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_plain_obj_files_are_read_without_trimesh_as_trimesh_reads_them(tmp_path, smooth):
+    from clrender import meshes
+
+    path = tmp_path / "shape.obj"
+    path.write_text(PLAIN_OBJ)
+    assert meshes.read_plain_obj(path, smooth) is not None
+    assert_same_mesh_as_trimesh(path, smooth)
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\nf 1 2 4\n")
+    with pytest.raises(ValueError, match="line 6: face 'f 1 2 4' names a vertex beyond the 3"):
         meshes.load_mesh_file(path, smooth)
+
+
+@pytest.mark.parametrize("change", [
+    ("f 1 2 3\n", "f 1 2 3 4\n"),                     # a quad
+    ("f 1 2 3\n", "f 1 2 3 4 6\n"),                   # a pentagon
+    ("f 2 6 3\n", "f -5 -1 -4\n"),                    # relative indices
+    ("f 2 6 3\n", "vt 0 0\nvn 0 0 1\nf 2/1/1 6/1/1 3/1/1\n"),
+    ("f 2 6 3\n", "vt 0 0\nf 2/1 6/1 3/1\n"),
+    ("f 2 6 3\n", "vn 0 0 1\nf 2//1 6//1 3//1\n"),
+    ("f 2 6 3\n", "o part\ng side\nusemtl red\nf 2 6 3\n"),
+    ("# plain", "mtllib a.mtl\n# plain"),
+    ("f 2 6 3\n", "s off\nf 2 6 3\n"),
+    ("v 0 0 0\n", "v 0 0 0 1\n"),                      # a w coordinate
+    ("v 0 0 0\n", "v 0 0 0 0.5 0.5 0.5\n"),            # vertex colours
+    ("f 5 6 1\n", "f 5 6 1\nl 1 2\n"),
+], ids=["quad", "pentagon", "negative", "v/vt/vn", "v/vt", "v//vn", "groups", "mtllib", "smoothing",
+        "w", "colours", "line"])
+def test_obj_files_beyond_vertices_and_triangles_are_left_to_trimesh(tmp_path, change):
+    from clrender import meshes
+
+    assert change[0] in PLAIN_OBJ
+    path = tmp_path / "shape.obj"
+    path.write_text(PLAIN_OBJ.replace(*change, 1))
+    assert meshes.read_plain_obj(path, True) is None
+    for smooth in (False, True):
+        assert_same_mesh_as_trimesh(path, smooth)

@@ -40,21 +40,27 @@ float3 specular_energy_scale(const Scene* scene, const Material* m, const Surfac
 bool sides_agree(float a, float b) { return (a > 0.0f && b > 0.0f) || (a < 0.0f && b < 0.0f); }
 #endif
 
+// A one-sided material (Material.kind.y = 1; Mitsuba's BSDFs without `twosided`) seen from
+// behind its front face (the side the triangle winding faces) neither reflects nor transmits:
+// the path ends there and lights do not reach it.
+bool is_one_sided_back(const Material* m, const SurfacePoint* sp) {
+    return m->kind.y != 0 && !sp->front_face;
+}
+
 bool is_specular_material(const Material* m) {
     return m->kind.x == MATERIAL_DIELECTRIC || m->kind.x == MATERIAL_CONDUCTOR;
 }
 
 bool material_is_delta(const Material* m) {
 #if DIELECTRIC
-    if (m->kind.x == MATERIAL_DIELECTRIC)
-        return microfacet_is_smooth(material_alpha(m)) || m->params.x == m->params.y;
-    if (m->kind.x == MATERIAL_CONDUCTOR) return microfacet_is_smooth(material_alpha(m));
+    if (is_specular_material(m)) return microfacet_is_smooth(material_alpha(m));
 #endif
     return false;
 }
 
 INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                  float3 wi) {
+    if (is_one_sided_back(m, sp)) return (float3)(0.0f);
 #if DIELECTRIC
     if (is_specular_material(m)) {
         // A delta lobe has no finite value for a direction chosen elsewhere (light sampling).
@@ -71,6 +77,7 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
 }
 
 INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+    if (is_one_sided_back(m, sp)) return 0.0f;
 #if DIELECTRIC
     if (is_specular_material(m)) {
         if (material_is_delta(m)) return 0.0f;
@@ -96,9 +103,7 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
     float eta = dielectric ? material_eta(m, sp) : 1.0f;
     if (material_is_delta(m)) {
         if (!dielectric) return sample_conductor_delta(m->color.xyz, n, sp->ng, wo);
-        // Index-matched: exactly eta = 1, whichever way the division rounds.
-        return sample_dielectric_delta(m->color.xyz, m->params.x == m->params.y ? 1.0f : eta, n,
-                                       sp->ng, wo, rnl);
+        return sample_dielectric_delta(m->color.xyz, eta, n, sp->ng, wo, rnl);
     }
     BsdfSample bs = bsdf_sample_none();
     float3 wi = dielectric ? sample_dielectric(eta, alpha, n, wo, rnl, rn) : sample_conductor(alpha, n, wo, rn);
@@ -117,6 +122,7 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
 
 INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                        Rng* rng) {
+    if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC
     if (is_specular_material(m)) {
         float rnl = rng_float(rng);

@@ -14,10 +14,13 @@
 // with specular_albedo_table below, so they come from the very code that renders.
 #ifndef CLRENDER_ENERGY_H
 #define CLRENDER_ENERGY_H
+#include "portability.h"
 #if DIELECTRIC
 
 // ALBEDO_TABLE_SIZE comes from clrender/layout.py.
+#ifndef ALBEDO_GRID          // (tests/test_oclgrind.py shrinks it: the simulator is slow)
 #define ALBEDO_GRID 192      // u-grid per table entry: ALBEDO_GRID^2 visible normals
+#endif
 
 float albedo_table_mu(int k) {
     float s = (float)k / (float)(ALBEDO_TABLE_SIZE - 1);
@@ -61,8 +64,8 @@ float specular_albedo(bool dielectric, float eta, float alpha, float cos_o) {
 
 // Fills the tables of one material: global size (2, ALBEDO_TABLE_SIZE); side 0 has wo outside
 // (eta = ior / exterior_ior), side 1 inside. A conductor has only side 0.
-__kernel void specular_albedo_table(__global const Material* materials, int material,
-                                    __global float* tables) {
+KERNEL void specular_albedo_table(__global const Material* materials, int material,
+                                  __global float* tables) {
     int side = get_global_id(0), k = get_global_id(1);
     Material m = materials[material];
     bool dielectric = m.kind.x == MATERIAL_DIELECTRIC;

@@ -1,32 +1,45 @@
-// Cel ("toon") shading inside the path tracer.
+// Cel ("toon") shading inside the path tracer: the classic cel formula
+//
+//     light_intensity = smoothstep(0, 0.01, N.L)
+//     specular        = highlight where R.V is near 1, R = the reflection of L about N
+//     rim             = glow where N.V is small
+//     C'              = C * 0.1 if the shadow ray to the light is blocked, else C
+//     result          = C' * (specular + light_intensity + ambient + rim)
+//
+// generalised to any number of lights, media and extended by options whose defaults leave it
+// unchanged (docs/materials-toon.md has the derivation and every parameter):
+//
+//     result = C * [ sum_j s_j T_j (band(N.L_j) + specular_j)  +  visibility * (ambient + rim) ]
+//     visibility = b + (1 - b) * sum_j p_j T_j      (1 without lights),   b = shadow_factor * shadow_color
+//
+// s_j: the light's strength, its irradiance / pi (a white Lambertian surface facing a unit-strength
+// light shows 1, so toon and physical objects share one exposure); T_j: its transmittance along
+// the shadow ray, 0 where an opaque surface blocks it or it is below the surface, exp(-tau)
+// through media, 1 in vacuum; p_j: its share of the scene's light power (the probability with
+// which next-event estimation picks it). With one light and T = 0 or 1 this is the formula: a
+// blocked point shows C * 0.1 * (ambient + rim), its light term being blocked too.
 //
 // A toon surface is shaded, not scattered: a path vertex that hits one adds
 // throughput * eval_toon_radiance(...) and the path ends (path.h). So a toon object looks the
 // same seen directly, in a mirror or through glass (only the throughput differs), and physical
 // surfaces next to it receive its toon radiance as indirect light; it still casts shadows.
 //
-// For one light arriving from direction L (unit) with irradiance E, the surface leaves
-//
-//     E / pi * [ color * (S + (1 - S) * band(N.L) * v)         diffuse tones
-//                + highlight_color * highlight(N.H) * [visible]  (only where the light is seen)
-//                + rim_color * rim(N.V) * v ]
-//
-// with S the shadow colour, v = 1 where the light is visible and the shadow factor where a
-// shadow ray is blocked or the light is behind the surface, H = normalize(L + V). Several
-// lights add up. Dividing by pi makes a fully lit toon point equal a Lambertian one of the same
-// colour lit at normal incidence, so toon and physical objects share one exposure; every term is
-// proportional to E, so the image stays linear in the light power.
-//
 // Which lights: point and directional lights are few and noiseless, so every one is evaluated
-// (deterministic, hard shadows). Emissive triangles get one sample per vertex, as next-event
-// estimation draws it, and the environment one sample of its own, with E = Le / pdf_w: unbiased
-// estimates of the integral of the bracket over the light, converging with the samples per
-// pixel (shadows and band edges are then soft by the light's extent, as they should be). The
-// environment's shadow-tone term does not depend on visibility and is added exactly.
+// (deterministic, hard shadows). Area lights (emissive triangles and spheres) get one sample
+// per vertex, as next-event estimation draws it, and the environment one sample of its own,
+// weighted by 1 / pdf: unbiased estimates of the integrals over the light, converging with the
+// samples per pixel.
 #ifndef CLRENDER_TOON_H
 #define CLRENDER_TOON_H
 
 #if TOON
+
+// Fraction of light arriving along a shadow ray (transmittance through media and interface
+// boundaries, 0 where an opaque surface blocks it). Defined in path.h, which is included after
+// this header because trace_path calls eval_toon_radiance.
+// TODO(issue 11): include the media transport header that will hold it, and drop this line.
+float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium, Rng* rng,
+                  float* pdf_ratio);
 
 // smoothstep(0, width, x). Width 0 is the crisp step x > 0 (no division by zero), so the
 // default band edge smoothstep(0, 0.01, N.L) and a zero softness both behave.
@@ -36,114 +49,129 @@ float toon_step(float x, float width) {
     return t * t * (3.0f - 2.0f * t);
 }
 
-// Banded diffuse response in [0, 1]: edges at N.L = k / bands (k = 0 .. bands - 1), each a
-// smoothstep of width `softness`. With crisp edges the values are exactly 0, 1/n, ..., 1: the
-// shadow tone plus n lit tones. The count is divided once at the end so that level k is the
-// correctly rounded k / n, the same float wherever it occurs.
+// light_intensity with `bands` lit tones: edges at N.L = k / bands (k = 0 .. bands - 1), each a
+// smoothstep of width `softness`; one band is the formula's smoothstep(0, softness, N.L). With
+// crisp edges the values are exactly 0, 1/n, ..., 1. The count is divided once at the end so
+// that level k is the correctly rounded k / n, the same float wherever it occurs.
 float toon_band(float n_dot_l, int bands, float softness) {
     float levels = 0.0f;
     for (int k = 0; k < bands; ++k) levels += toon_step(n_dot_l - (float)k / (float)bands, softness);
     return levels / (float)bands;
 }
 
-// Specular highlight: on where N.H exceeds 1 - size, reaching full strength `softness` later.
-float toon_highlight(const Material* m, float n_dot_h) {
+// Highlight strength: on where R.V exceeds 1 - size, reaching full strength `softness` later.
+float toon_highlight(const Material* m, float r_dot_v) {
     float size = m->toon_bands.z;
-    return size > 0.0f ? toon_step(n_dot_h - (1.0f - size), m->toon_bands.w) : 0.0f;
+    return size > 0.0f ? toon_step(r_dot_v - (1.0f - size), m->toon_bands.w) : 0.0f;
 }
 
-// Rim light: on only where the view grazes the surface, N.V < threshold, reaching full
-// strength `width` below it. Threshold 0 switches it off.
-float toon_rim(const Material* m, float n_dot_v) {
-    return toon_step(m->toon_rim.w - n_dot_v, m->toon_highlight.w);
+// Rim: on only where the view grazes the surface, N.V < threshold, reaching full strength
+// `width` below it. Threshold 0 switches it off.
+float3 toon_rim(const Material* m, float n_dot_v) {
+    return m->toon_rim.xyz * toon_step(m->toon_rim.w - n_dot_v, m->toon_highlight.w);
 }
 
-// The bracket of the formula above splits into the shadow tone color * S, which every light
-// adds whatever its visibility, and the lit part, which depends on the light's direction and
-// on whether it is seen.
-float3 toon_shadow_tone(const Material* m) { return m->color.xyz * m->toon_shadow.xyz; }
-
-float3 toon_lit_response(const Material* m, float3 n, float3 wo, float3 wi, bool visible) {
-    float v = visible ? 1.0f : m->toon_shadow.w;
+// light_intensity + specular for one light direction wi (unit, towards the light), before the
+// light's strength and transmittance. The highlight is gated by the first band edge, so it
+// fades with the lit side at the terminator (R.V can only come near 1 behind it at grazing
+// views, where it would otherwise light up a dark silhouette).
+float3 toon_light_terms(const Material* m, float3 n, float3 wo, float3 wi) {
     float n_dot_l = dot(n, wi);
-    float band = toon_band(n_dot_l, (int)m->toon_bands.x, m->toon_bands.y);
-    float3 tone = m->color.xyz * (1.0f - m->toon_shadow.xyz) * (band * v);
-    float3 h = wi + wo;
-    float h_len = length(h);
-    if (visible && n_dot_l > 0.0f && h_len > 0.0f)
-        tone += m->toon_highlight.xyz * toon_highlight(m, dot(n, h) / h_len);
-    tone += m->toon_rim.xyz * (toon_rim(m, dot(n, wo)) * v);
-    return tone;
+    float softness = m->toon_bands.y;
+    float intensity = toon_band(n_dot_l, (int)m->toon_bands.x, softness);
+    float3 r = 2.0f * n_dot_l * n - wi;  // the reflection of L about N
+    float highlight = toon_highlight(m, dot(r, wo)) * toon_step(n_dot_l, softness);
+    return intensity + m->toon_highlight.xyz * highlight;
 }
 
-// Hard shadows: one shadow ray to the light. A light below the geometric surface is shadowed
-// by the surface itself; no ray is needed to know it.
-bool toon_light_visible(const Scene* scene, const SurfacePoint* sp, float3 wi, float dist) {
-    if (dot(wi, sp->ng) <= 0.0f) return false;
-    return !occluded(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f));
+// T_j: the light's transmittance from the toon point, through interface boundaries and media
+// like any shadow ray. A light below the geometric surface is blocked by the surface itself
+// (the classic shader's self-shadowing): no ray is needed to know it.
+float3 toon_light_transmittance(const Scene* scene, const SurfacePoint* sp, float3 wi, float dist,
+                                int medium, Rng* rng) {
+    if (dot(wi, sp->ng) <= 0.0f) return (float3)(0.0f);
+    float pdf_ratio;  // MIS between transmittance estimators: not needed, toon takes one technique
+    return shadow_ray(scene, spawn_ray_origin(sp, wi), wi, dist, medium, rng, &pdf_ratio);
 }
 
-float3 toon_lit(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                float3 wi, float dist) {
-    return toon_lit_response(m, sp->ns, wo, wi, toon_light_visible(scene, sp, wi, dist));
+// The sums over lights: lit = sum_j s_j pi T_j (band + specular) and reached = sum_j p_j T_j.
+typedef struct {
+    float3 lit;
+    float3 reached;
+} ToonLighting;
+
+// One light (or one sample of it) arriving from wi: `irradiance` = s_j pi (or its estimate
+// radiance / pdf), `share` = p_j (or the estimator's weight for it).
+void toon_add_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                    float3 wi, float dist, float3 irradiance, float share, int medium, Rng* rng,
+                    ToonLighting* lighting) {
+    float3 tr = toon_light_transmittance(scene, sp, wi, dist, medium, rng);
+    lighting->reached += share * tr;
+    if (!is_black(tr)) lighting->lit += irradiance * tr * toon_light_terms(m, sp->ns, wo, wi);
 }
 
 #if ENVIRONMENT != ENVIRONMENT_NONE
-// The environment's part, with its own sample at every toon vertex. Its shadow tone ignores
-// visibility, so it is exact: the integral of the radiance over the sphere is 4 pi times its
-// mean (Emitter.e1). Only the lit part is sampled:
+// The environment, with its own sample at every toon vertex:
 //  - constant sky: a uniform direction and its opposite (antithetic pair, each of pdf
-//    1 / (4 pi)). The lit tone vanishes below the surface, so one of the two always lands where
-//    it lives and only visibility is left to vary; the lower one usually needs no shadow ray.
-//  - image: one direction importance-sampled from the image.
-float3 toon_environment(const Scene* scene, const Material* m, const SurfacePoint* sp,
-                        float3 wo, float3 shadow_tone, Rng* rng) {
+//    1 / (4 pi), each half the estimate). The light terms vanish below the surface, so one of
+//    the two always lands where they live; the lower one needs no shadow ray.
+//  - image: one direction importance-sampled from the image (by luminance, so its
+//    transmittance estimates the luminance-weighted mean over the sky).
+void toon_environment(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                      int medium, Rng* rng, ToonLighting* lighting) {
     int env = scene->params->environment.x;
-    if (env < 0) return (float3)(0.0f);
-    float3 radiance = (4.0f * PI_F) * scene->emitters[env].e1.xyz * shadow_tone;
     float2 u = rng_float2(rng);
+    if (env < 0) return;
+    float share = emitter_selection_pmf(scene, env);
 #if ENVIRONMENT == ENVIRONMENT_CONSTANT
     float3 wi = sample_uniform_sphere(u);
-    float3 lit = toon_lit(scene, m, sp, wo, wi, INFINITY) + toon_lit(scene, m, sp, wo, -wi, INFINITY);
-    radiance += environment_radiance(scene, wi) * (2.0f * PI_F) * lit;  // (1/2) / pdf
+    float3 irradiance = environment_radiance(scene, wi) * (2.0f * PI_F);  // (1/2) / pdf
+    toon_add_light(scene, m, sp, wo, wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
+    toon_add_light(scene, m, sp, wo, -wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
 #else
     float3 wi = sample_environment_direction(scene, u);
     float pdf_w = environment_pdf_w(scene, wi);
     if (pdf_w > 0.0f)
-        radiance += environment_radiance(scene, wi) / pdf_w * toon_lit(scene, m, sp, wo, wi, INFINITY);
+        toon_add_light(scene, m, sp, wo, wi, INFINITY, environment_radiance(scene, wi) / pdf_w, share,
+                       medium, rng, lighting);
 #endif
-    return radiance;
 }
 #endif
 
-// Radiance leaving a toon surface towards wo (see the top of this file).
+// Radiance leaving a toon surface towards wo (the formula at the top of this file); `medium`:
+// the medium on the side the path arrived from, where the shadow rays start.
 float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
-                          float3 wo, Rng* rng) {
-    float3 shadow_tone = toon_shadow_tone(m);
-    float3 radiance = (float3)(0.0f);
-    // Point and directional lights follow the emissive triangles in the emitter array.
-    for (int i = scene->params->lights.x; i < scene->params->config.w; ++i) {
+                          float3 wo, int medium, Rng* rng) {
+    ToonLighting lighting;
+    lighting.lit = (float3)(0.0f);
+    lighting.reached = (float3)(0.0f);
+    // Point and directional lights follow the area lights in the emitter array.
+    int count = scene->params->config.w;
+    for (int i = scene->params->lights.x; i < count; ++i) {
         LightSample ls;
-        if (!delta_light_sample(scene->emitters + i, sp->p, 1.0f, &ls) || is_black(ls.radiance))
-            continue;
-        radiance += ls.radiance * (shadow_tone + toon_lit(scene, m, sp, wo, ls.wi, ls.dist));
+        if (delta_light_sample(scene->emitters + i, sp->p, 1.0f, &ls))
+            toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance, emitter_selection_pmf(scene, i),
+                           medium, rng, &lighting);
     }
 #if ENVIRONMENT != ENVIRONMENT_NONE
-    radiance += toon_environment(scene, m, sp, wo, shadow_tone, rng);
+    toon_environment(scene, m, sp, wo, medium, rng, &lighting);
 #endif
-    // Emissive triangles (they come first in the emitter array): one sample as next-event
-    // estimation draws it. Other emitters drawn here were counted above and are skipped (a
-    // triangle sample is the only kind that is not delta and lies at a finite distance); the
-    // estimate stays unbiased because each sample is divided by the probability of its own
-    // selection. The cost: a wasted draw with the probability of the other lights.
+    // Area lights (they come first in the emitter array): one sample as next-event estimation
+    // draws it. Other emitters drawn here were counted above and are skipped (an area-light
+    // sample is the only kind that is not delta and lies at a finite distance). The sample was
+    // picked with probability p_j, so share 1 makes E[share * T] = sum p_j T_j over the area
+    // lights, and radiance / pdf_w (pdf_w includes p_j) estimates their irradiance.
     if (scene->params->lights.x > 0) {
         LightSample ls = sample_light(scene, sp->p, rng);
-        bool triangle = !ls.delta && ls.dist < INFINITY;
-        if (triangle && ls.pdf_w > 0.0f && !is_black(ls.radiance))
-            radiance += (ls.radiance / ls.pdf_w) *
-                        (shadow_tone + toon_lit(scene, m, sp, wo, ls.wi, ls.dist));
+        if (!ls.delta && ls.dist < INFINITY && ls.pdf_w > 0.0f)
+            toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance / ls.pdf_w, 1.0f, medium, rng,
+                           &lighting);
     }
-    return radiance * INV_PI_F;
+    // Ambient and rim are counted once, dimmed by the shadow factor as far as the light is blocked.
+    float3 blocked = m->toon_shadow.xyz * m->toon_shadow.w;
+    float3 visibility = count > 0 ? blocked + (1.0f - blocked) * lighting.reached : (float3)(1.0f);
+    float3 once = m->toon_ambient.xyz + toon_rim(m, dot(sp->ns, wo));
+    return m->color.xyz * (lighting.lit * INV_PI_F + visibility * once);
 }
 
 #endif  // TOON

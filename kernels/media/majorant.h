@@ -120,10 +120,11 @@ bool majorant_next(const Scene* scene, __global const Medium* m, MajorantIterato
     return false;
 }
 
-// Density at distance t along the iterator's ray (grid media only).
+// Density at distance t along the iterator's ray: 1 in a homogeneous medium (whose iterator
+// has no voxel map: a grid lookup there would read outside every grid).
 float majorant_ray_density(const Scene* scene, __global const Medium* m, const MajorantIterator* it,
                            float t) {
-    return grid_density(scene, m, it->voxel_origin + t * it->voxel_dir);
+    return medium_is_grid(m) ? grid_density(scene, m, it->voxel_origin + t * it->voxel_dir) : 1.0f;
 }
 
 #endif

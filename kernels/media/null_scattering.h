@@ -128,7 +128,7 @@ int delta_track(const Scene* scene, int medium, float3 origin, float3 dir, float
             c->tau_maj += optical_depth(sigma_maj, dt);
             c->tau_res += optical_depth(sigma_r, dt);
             if (++c->collisions > NULL_MAX_COLLISIONS) return NULL_ABSORBED;
-            float density = it.homogeneous ? 1.0f : majorant_ray_density(scene, m, &it, t);
+            float density = majorant_ray_density(scene, m, &it, t);
             float3 s_a = density * sigma_a, s_s = density * sigma_s;
             float3 s_n = fmax(sigma_maj - s_a - s_s, (float3)(0.0f));
             // The vertex kind, with the hero's probabilities sigma_kind,h / sigma_maj,h.

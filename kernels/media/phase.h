@@ -12,6 +12,10 @@
 // Below this |g| the isotropic phase is used instead (within O(g) of HG), in both sampling
 // and evaluation so they stay consistent; the inverse CDF divides by g.
 #define HG_ISOTROPIC_G 1e-3f
+// |g| = 1 (e.g. g = 0.99999999, which rounds to 1 in float32) is a delta lobe, whose density is
+// 0 / 0 at the peak. The largest float below 1 keeps every term finite: 1 - g = 6e-8 exactly,
+// a peak density of 5e13.
+#define HG_MAX_G 0.99999994f
 
 // HG for g >= 0 at t = 1 - cos_theta: 1 + g^2 - 2 g cos_theta = (1 - g)^2 + 2 g t, without
 // the cancellation of the usual form near the peak.
@@ -22,6 +26,7 @@ float hg_density(float t, float g) {
 
 float eval_phase_hg(float cos_theta, float g) {
     if (fabs(g) < HG_ISOTROPIC_G) return 0.25f * INV_PI_F;
+    g = clamp(g, -HG_MAX_G, HG_MAX_G);
     // HG(cos; g) = HG(-cos; -g): measure from the peak of the lobe.
     float t = 1.0f - (g >= 0.0f ? cos_theta : -cos_theta);
     return hg_density(t, fabs(g));
@@ -40,6 +45,7 @@ float sample_hg_t(float u, float g) {
 // A direction around `forward` (the incoming travel direction), and its pdf (the phase value).
 float3 sample_phase_hg(float3 forward, float g, float2 u, float* pdf_w) {
     float t, sign;
+    g = clamp(g, -HG_MAX_G, HG_MAX_G);
     if (fabs(g) < HG_ISOTROPIC_G) {
         t = 2.0f * u.x;
         sign = 1.0f;

@@ -1,0 +1,91 @@
+"""A small scene for every feature combination, exercising the code each feature compiles in.
+
+Used where every combination must run, not only compile: the Oclgrind checks of every memory
+access (tests/test_oclgrind.py) and the kernel figures of `clrender info --kernel`. The scene
+needs exactly the given features (`features.scene_features(scene, method, sample_aovs) == features`,
+AOVS being what the render asks for, not a property of the scene).
+"""
+import numpy as np
+
+from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
+from .scene import load_scene_dict
+
+_METHODS = {value: name for name, value in VOLUME_METHODS.items()}
+
+
+def feature_scene(features, resolution=(8, 8), subdivisions=None):
+    """(scene, volume_method) needing exactly `features` (a dict as features.scene_features
+    returns). Every combination has a diffuse floor and box, an area light, a point and a
+    directional light; each feature adds what it compiles in:
+    ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
+    and rough glass, a rough mirror (energy tables) and a smooth one; TOON a toon sphere;
+    MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
+    medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
+    kinds of media. The spheres are analytic (they share BVH leaves with the triangles), or
+    icospheres of level `subdivisions` (0..7) when it is given."""
+    materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
+                 {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
+    shapes = [{"name": "floor", "type": "rectangle", "material": "white",
+               "transform": {"scale": 3, "rotate": [-90, 0, 0], "translate": [0, -1, 0]}},
+              {"name": "block", "type": "box", "material": "white",
+               "transform": {"scale": 0.3, "rotate": [0, 30, 0], "translate": [-1.2, -0.7, -0.5]}},
+              {"name": "lamp", "type": "rectangle", "material": "lamp",
+               "transform": {"scale": 0.4, "rotate": [90, 0, 0], "translate": [0, 1.5, 0]}}]
+    lights = [{"type": "point", "position": [1.5, 1.2, 1.5], "intensity": 2.0},
+              {"type": "directional", "direction": [-0.3, -1, -0.4], "irradiance": 1.0}]
+    media = []
+
+    def sphere(name, material, center, radius, **extra):
+        tessellation = {} if subdivisions is None else {"mesh": True, "subdivisions": subdivisions}
+        shapes.append({"name": name, "type": "sphere", "material": material, "center": center,
+                       "radius": radius, **tessellation, **extra})
+
+    if features["ENVIRONMENT"] != ENVIRONMENT_MODES["none"]:
+        lights.append({"type": "environment", "radiance": [0.3, 0.4, 0.5]})
+    if features["DIELECTRIC"]:
+        materials += [{"name": "glass", "type": "dielectric", "ior": 1.5},
+                      {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4},
+                      {"name": "rough_mirror", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.3},
+                      {"name": "mirror", "type": "conductor"}]
+        sphere("glass", "glass", [0.9, -0.5, 0.3], 0.45)
+        sphere("rough_glass", "rough_glass", [-0.2, -0.6, 0.9], 0.35)
+        shapes.append({"name": "rough_mirror", "type": "box", "material": "rough_mirror",
+                       "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
+        shapes.append({"name": "mirror", "type": "rectangle", "material": "mirror",
+                       "transform": {"scale": 0.4, "rotate": [0, 60, 0], "translate": [-1.6, -0.4, 0.2]}})
+    if features["TOON"]:
+        materials.append({"name": "toon", "type": "toon", "color": [0.9, 0.4, 0.2]})
+        sphere("toon", "toon", [-0.5, -0.6, 0.0], 0.4)
+    if features["MEDIA"]:
+        materials.append({"name": "boundary", "type": "interface"})
+        media.append({"name": "fog", "sigma_t": [0.8, 1.2, 1.8], "albedo": 0.8, "g": 0.4})
+        sphere("fog", "boundary", [0.3, 0.2, 0.0], 0.7, interior="fog")
+        if features["DIELECTRIC"]:
+            media.append({"name": "ink", "sigma_a": [0.5, 2.0, 4.0]})
+            materials.append({"name": "tinted_glass", "type": "dielectric", "ior": 1.4})
+            sphere("tinted_glass", "tinted_glass", [1.3, 0.6, -0.4], 0.35, interior="ink")
+    if features["GRID_MEDIA"]:
+        media.append({"name": "cloud", "type": "grid", "sigma_t": [4.0, 5.0, 6.0], "albedo": 0.9, "g": 0.5,
+                      "density": {"procedural": "noise_cloud", "resolution": [6, 5, 6], "seed": 3},
+                      "transform": {"scale": 1.2, "translate": [-0.9, -0.4, -0.6]}, "majorant_block": 2})
+        # Overlaps the fog sphere: the cloud's exterior inside the sphere is the fog.
+        shapes.append({"name": "cloud", "type": "box", "material": "boundary", "interior": "cloud",
+                       "transform": {"scale": 0.6, "translate": [-0.3, 0.2, 0.0]}})
+    data = {"camera": {"position": [0, 0.6, 4.5], "look_at": [0, -0.2, 0], "fov": 45,
+                       "resolution": list(resolution)},
+            "render": {"max_depth": 4, "rr_depth": 2, "step": 0.3},
+            "materials": materials, "shapes": shapes, "lights": lights, "media": media}
+    scene = load_scene_dict(data)
+    if features["ENVIRONMENT"] == ENVIRONMENT_MODES["image"]:
+        scene.environment.image = _sky(16, 8)
+    method = _METHODS[features["GRID_MEDIA"]] if features["GRID_MEDIA"] else None
+    return scene, method
+
+
+def _sky(width, height):
+    """A lat-long map: a blue gradient and a bright sun texel (importance sampling has a peak)."""
+    v = (np.arange(height) + 0.5)[:, None, None] / height
+    image = np.broadcast_to(np.array([0.2, 0.3, 0.6]) * (1.2 - v), (height, width, 3)).copy()
+    image[1, width // 3] = [40.0, 36.0, 30.0]
+    return image.astype(np.float32)
+

@@ -1,0 +1,129 @@
+// Sample-level auxiliary outputs (AOVS=1): the albedo and shading normal a denoiser wants (Intel
+// Open Image Denoise's definitions), the emission seen directly and the sum of squared deviations
+// of the colour samples, all
+// accumulated per pixel beside the colour, sample by sample in index order, so they are averaged
+// (anti-aliased) like the colour and bit-identical however the samples are split into launches.
+// (Depth and object id come from the pixel-centre ray instead: aux_buffers.h.)
+//
+// The albedo and normal of a sample are those of its path's first non-delta vertex: the camera
+// path follows smooth mirrors, smooth glass and index-matched surfaces, so a reflection or the
+// object behind a window keeps its own albedo and normal, picked in proportion to Fresnel as the
+// path picks its lobe (OIDN's "Fresnel blend of the reflected and transmitted albedos").
+//   albedo = filter * colour of the vertex, where filter is the path throughput up to the vertex
+//   without the eta^2 radiance scaling of refraction, clamped to [0, 1] (the tints of the glass and
+//   mirrors passed, the transmittance of media crossed), and the colour is
+//     diffuse: its albedo; toon: its base colour; rough dielectric: its tint (1 for clear glass);
+//     rough conductor: its reflectance (the colour at normal incidence);
+//     the front face of an emitter: its emission, scaled down to a maximum component of 1 when
+//       brighter (its hue; OIDN wants albedos in [0, 1]);
+//     the back of a one-sided material: 0 (it is black);
+//     a scattering point in a medium: its single-scattering albedo sigma_s / sigma_t (the same at
+//       any density of a grid medium);
+//     an escaped ray: the environment's radiance scaled like an emitter's (0 without one, and
+//       for camera rays when the environment is hidden from them).
+//   normal = the unit shading normal on the side the path arrived from (facing the camera for
+//   the first surface); 0 at medium scattering points and for escaped rays, which have no
+//   surface. A sample whose path ends before any such vertex (depth or roulette in a chain of
+//   mirrors) adds albedo 0 and normal 0.
+//   emission = the part of the sample's colour that the vertex emits towards the camera: an
+//   emitter's front face or the environment, seen directly or through mirrors and glass (times
+//   their filter, eta^2 scaling included: exactly the term the colour adds there). It is exact
+//   (no lighting noise, only the pixel coverage and the Fresnel choice), so the denoiser leaves it
+//   out (clrender/denoise.py). 0 at medium scattering points.
+// Ray marching without multiple scattering never scatters the path: its in-scattered light has
+// no vertex, and the albedo is that of the surface behind the medium.
+#ifndef CLRENDER_AOVS_H
+#define CLRENDER_AOVS_H
+
+#include "types.h"
+#include "math.h"
+#include "scene.h"
+#include "lights.h"
+#include "materials/bsdf.h"
+
+// What one path sample records (filled at most once, by the first non-delta vertex).
+typedef struct {
+    float3 albedo;
+    float3 normal;
+    float3 emission;
+    bool found;
+} AovSample;
+
+AovSample aov_sample_none(void) {
+    AovSample aov;
+    aov.albedo = (float3)(0.0f);
+    aov.normal = (float3)(0.0f);
+    aov.emission = (float3)(0.0f);
+    aov.found = false;
+    return aov;
+}
+
+#if AOVS
+// A radiance seen as a colour: scaled into [0, 1] when brighter, keeping its hue.
+float3 emission_albedo(float3 le) { return le / fmax(max_component(le), 1.0f); }
+
+// The filter of the albedo: the throughput without eta^2 scaling, clamped to [0, 1].
+float3 aov_filter(float3 throughput, float eta_scale) {
+    return clamp(throughput * eta_scale, 0.0f, 1.0f);
+}
+
+void aov_record(AovSample* aov, float3 albedo, float3 normal, float3 emission) {
+    aov->albedo = albedo;
+    aov->normal = normal;
+    aov->emission = emission;
+    aov->found = true;
+}
+
+// A surface vertex with a non-delta material; throughput and eta_scale as in trace_path. Every
+// vertex before it was delta, so the colour adds its emission with full weight (no MIS).
+void aov_record_surface(AovSample* aov, const Material* m, const SurfacePoint* sp, float3 throughput,
+                        float eta_scale) {
+    if (aov->found) return;
+    bool emits = sp->front_face && sp->emitter >= 0;
+    float3 colour = emits ? emission_albedo(m->emission.xyz)
+                          : (is_one_sided_back(m, sp) ? (float3)(0.0f) : m->color.xyz);
+    aov_record(aov, aov_filter(throughput, eta_scale) * colour, sp->ns,
+               emits ? throughput * m->emission.xyz : (float3)(0.0f));
+}
+
+#if MEDIA
+#include "media/homogeneous.h"
+
+// A real scattering event in a medium.
+void aov_record_medium(AovSample* aov, __global const Medium* md, float3 throughput, float eta_scale) {
+    if (aov->found) return;
+    float3 sigma_t = medium_sigma_t(md);
+    float3 albedo = (float3)(sigma_t.x > 0.0f ? md->sigma_s.x / sigma_t.x : 0.0f,
+                             sigma_t.y > 0.0f ? md->sigma_s.y / sigma_t.y : 0.0f,
+                             sigma_t.z > 0.0f ? md->sigma_s.z / sigma_t.z : 0.0f);
+    aov_record(aov, aov_filter(throughput, eta_scale) * albedo, (float3)(0.0f), (float3)(0.0f));
+}
+#endif
+
+// A ray leaving the scene; `visible`: whether the colour shows the environment there (not to
+// camera rays when it is hidden from them).
+void aov_record_escape(AovSample* aov, const Scene* scene, float3 dir, float3 throughput, float eta_scale,
+                       bool visible) {
+    if (aov->found) return;
+    float3 le = (float3)(0.0f);
+#if ENVIRONMENT != ENVIRONMENT_NONE
+    if (visible) le = environment_radiance(scene, dir);
+#endif
+    aov_record(aov, aov_filter(throughput, eta_scale) * emission_albedo(le), (float3)(0.0f), throughput * le);
+}
+
+// Adds one sample: its AOVs, and its colour `value` to the squared deviations (Welford's update,
+// exact in order and far less prone to cancellation than a sum of squares); `sum` is the pixel's
+// colour sum before this sample (w: its sample count), the same floats the colour accumulates.
+// A non-finite sample counts as black in the colour, so its emission does too.
+void accumulate_aovs(AovSums* sums, const AovSample* aov, float3 value, bool finite, float4 sum) {
+    sums->albedo.xyz += aov->albedo;
+    sums->normal.xyz += aov->normal;
+    sums->emission.xyz += finite ? aov->emission : (float3)(0.0f);
+    float3 mean_before = sum.w > 0.0f ? sum.xyz / sum.w : (float3)(0.0f);
+    float3 mean_after = (sum.xyz + value) / (sum.w + 1.0f);
+    sums->colour_m2.xyz += (value - mean_before) * (value - mean_after);
+}
+#endif
+
+#endif

@@ -1,0 +1,217 @@
+"""Runs cases on the Oclgrind device, in a process of its own (started by tests/test_oclgrind.py).
+
+Oclgrind writes its diagnostics to this process's stderr; each case is framed there by marker
+lines, so the caller can tell which case printed what. Cases arrive as a JSON list on stdin:
+  {"kind": "combination", "features": {...}}  render the feature combination's scene
+                                             (clrender/feature_scenes.py)
+  {"kind": "scene", "path": "scenes/x.json"}   render an example scene, shrunk
+  {"kind": "test_kernels", "features": {...}}  every kernel of tests.cl that these features
+                                             compile, on a few work-items
+  {"kind": "canary"}                           a kernel with deliberate errors
+Renders fill the energy tables of rough materials on the device (the table kernel), run two
+launches of one sample (the second reads the first's accumulator) and use local size 4 x 4 for
+example scenes, so images whose size is no multiple of 4 exercise the out-of-range guard.
+"""
+import json
+import sys
+import time
+import warnings
+
+import numpy as np
+import pyopencl as cl
+
+import clrender
+from clrender import layout, wide_bvh
+from clrender.aovs import SAMPLE_AOVS
+from clrender.arrays import build_scene_arrays
+from clrender.bvh import build_bvh
+from clrender.device import build_program
+from clrender.energy import fill_albedo_tables
+from clrender.feature_scenes import feature_scene
+from clrender.features import FEATURE_VALUES
+from clrender.render import render_params
+from test_layout import ORDER as STRUCT_ORDER
+
+MARK = "@@oclgrind-case"
+RESOLUTION = (8, 8)
+mf = cl.mem_flags
+
+
+def render(scene, device, method=None, local_size=None, launches=2, aovs=(), **settings):
+    """`launches` of one sample each (a later one adds to the accumulator of the earlier);
+    `aovs`: the AOVs to accumulate (the AOVS feature when sample-level ones are named)."""
+    renderer = clrender.Renderer(scene, device, local_size=local_size, volume_method=method, **settings)
+    result = renderer.render(spp=launches, samples_per_pass=1, max_depth=min(scene.render.max_depth, 4), seed=1,
+                             aovs=aovs)
+    return {"discarded": result.discarded_samples, "finite": bool(np.all(np.isfinite(result.image)))}
+
+
+def add(a, b):
+    return {"discarded": a["discarded"] + b["discarded"], "finite": a["finite"] and b["finite"]}
+
+
+def run_combination(case, device):
+    features = case["features"]
+    scene, method = feature_scene(features, RESOLUTION)
+    info = render(scene, device, method, aovs=SAMPLE_AOVS if features["AOVS"] else ())
+    # Run-time switches, on a quarter of the pixels: ray marching's other next-event path (one
+    # light sample per segment instead of per step), and hero-only free-flight sampling.
+    small, _ = feature_scene(features, (4, 4))
+    if method == "raymarch":
+        info = add(info, render(small, device, method, launches=1, raymarch_multiple_scattering=True))
+    if features["MEDIA"]:
+        info = add(info, render(small, device, method, launches=1, spectral_mis=False))
+    return info
+
+
+def run_scene(case, device):
+    scene = clrender.load_scene(case["path"])
+    width, height = scene.camera.resolution
+    scene.camera.resolution = (8, max(1, round(8 * height / width)))
+    return render(scene, device, local_size=(4, 4))
+
+
+# ----- tests.cl, on a few work-items --------------------------------------------------------
+def upload(context, array):
+    return cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(array))
+
+
+def outputs(context, *shapes):
+    return [cl.Buffer(context, mf.WRITE_ONLY, int(np.prod(shape)) * 4) for shape in shapes]
+
+
+def float4(rows):
+    rows = np.atleast_2d(np.asarray(rows, np.float32))
+    return np.c_[rows, np.zeros((len(rows), 4 - rows.shape[1]), np.float32)]
+
+
+def small_scene(features):
+    scene, _ = feature_scene(features, RESOLUTION)
+    return scene, build_scene_arrays(scene)
+
+
+def run_test_kernels(case, device):
+    features = {name: values[0] for name, values in FEATURE_VALUES.items()}
+    features.update(case["features"])
+    context = cl.Context([device])
+    queue = cl.CommandQueue(context)
+    program = build_program(context, features, entry="tests.cl")
+    kernel = lambda name: cl.Kernel(program, name)
+    rng = np.random.default_rng(1)
+    n = 4
+    structs = [cl.Buffer(context, mf.READ_WRITE, layout.STRUCTS[name].itemsize) for name in STRUCT_ORDER]
+    kernel("struct_layout")(queue, (1,), None, *structs, *outputs(context, 256))
+
+    v0 = rng.uniform(-1, 1, (6, 3))
+    v1, v2 = v0 + rng.normal(0, 0.5, (6, 3)), v0 + rng.normal(0, 0.5, (6, 3))
+    tree = build_bvh(v0, v1, v2)
+    nodes, _ = wide_bvh.collapse(tree)
+    triangles = np.zeros(6, layout.TRIANGLE)
+    order = tree.prim_order
+    triangles["v0"][:, :3], triangles["e1"][:, :3], triangles["e2"][:, :3] = v0[order], (v1 - v0)[order], (v2 - v0)[order]
+    origins, directions = float4(rng.uniform(-3, 3, (n, 3))), float4(-rng.uniform(-3, 3, (n, 3)))
+    directions[:, :3] /= np.linalg.norm(directions[:, :3], axis=1, keepdims=True)
+    kernel("trace_rays")(queue, (n,), None, upload(context, nodes), upload(context, triangles),
+                         upload(context, origins), upload(context, directions), *outputs(context, n, n, n))
+    for routine, g in ((0, 0.0), (1, 0.0), (2, 0.7), (2, -0.99)):
+        kernel("sample_directions")(queue, (n,), None, np.int32(routine), np.float32(g), np.uint32(3),
+                                    *outputs(context, (n, 4)))
+
+    scene, arrays = small_scene({**features, "DIELECTRIC": 1, "MEDIA": 0, "GRID_MEDIA": 0})
+    wo = float4([[0.3, 0.1, 0.9], [0.6, 0.0, 0.8], [0.1, -0.2, -0.97], [0.99, 0.0, 0.14]])
+    wo[:, :3] /= np.linalg.norm(wo[:, :3], axis=1, keepdims=True)
+    if features["DIELECTRIC"]:
+        fill_albedo_tables(queue, program, arrays)
+    albedo = upload(context, arrays.specular_albedo if arrays.specular_albedo.size else np.zeros(1, np.float32))
+    names = [m.name for m in scene.materials]
+    kinds = ["white", "glass", "rough_glass", "rough_mirror", "mirror"] if features["DIELECTRIC"] else ["white"]
+    for name in kinds:
+        material = upload(context, arrays.materials[names.index(name):names.index(name) + 1])
+        for front in (0, 1):
+            ns = np.float32([0.05, 0.0, 1.0, 0.0])
+            kernel("sample_bsdf_values")(queue, (n,), None, material, albedo, np.int32(front), ns,
+                                         upload(context, wo), np.uint32(5), *outputs(context, (n, 4), (n, 4)))
+            kernel("eval_bsdf_values")(queue, (n,), None, material, albedo, np.int32(front), ns,
+                                       upload(context, wo), upload(context, wo[::-1] * [1, 1, -1, 1]),
+                                       *outputs(context, (n, 4)))
+    if features["DIELECTRIC"]:
+        kernel("fresnel_refract_values")(queue, (n,), None, upload(context, np.float32([[0.9, 1.5], [0.1, 1.5],
+                                                                                        [0.3, 0.7], [1.0, 1.0]])),
+                                         *outputs(context, (n, 4)))
+        kernel("microfacet_values")(queue, (n,), None, np.float32(0.2), upload(context, wo), upload(context, wo),
+                                    *outputs(context, (n, 4)))
+        kernel("sample_vndf_values")(queue, (n,), None, np.float32(0.2), upload(context, wo), np.uint32(4),
+                                     *outputs(context, (n, 4)))
+
+    scene, arrays = small_scene(features)
+    leave = float4([[0.2, 0.0, 1.0], [0.0, 0.3, -1.0], [1.0, 0.0, 0.001], [0.0, 0.0, -1.0]])
+    cam_origins = float4(np.tile(scene.camera.position, (n, 1)))
+    cam_dirs = float4(np.array([[0.0, -0.3, -1.0], [0.1, -0.2, -1.0], [-0.2, -0.25, -1.0], [0.3, -0.4, -1.0]]))
+    cam_dirs[:, :3] /= np.linalg.norm(cam_dirs[:, :3], axis=1, keepdims=True)
+    kernel("spawn_from_hits")(queue, (n,), None, *(upload(context, a) for a in
+                              (arrays.nodes, arrays.triangles, arrays.shading, arrays.info, cam_origins, cam_dirs, leave)),
+                              *outputs(context, (n, 4)))
+    params = upload(context, render_params(scene, arrays, 0, 1, 4, 2, 0))
+    if features["ENVIRONMENT"] == layout.ENVIRONMENT_MODES["image"]:
+        kernel("sample_environment")(queue, (n,), None, params, upload(context, arrays.env_texels),
+                                     upload(context, arrays.env_cdf), np.uint32(9), *outputs(context, (n, 4), (n, 4)))
+    if features["GRID_MEDIA"]:
+        media = [upload(context, a) for a in (arrays.media, arrays.grid_data, arrays.majorant_data)]
+        cloud = [m.name for m in scene.media].index("cloud")
+        points = float4(rng.uniform(-1.5, 1.5, (n, 3)))
+        points[:, 3] = [cloud, cloud, 0, cloud]   # 0: the homogeneous fog
+        kernel("grid_lookup")(queue, (n,), None, params, *media, upload(context, points), *outputs(context, n))
+        kernel("majorant_walk")(queue, (n,), None, params, *media, np.int32(cloud), upload(context, cam_origins), upload(context, cam_dirs),
+                                np.float32(10.0), np.int32(8), np.int32(2), np.uint32(1),
+                                *outputs(context, (n, 8, 4), n, (n, 2)))
+        for medium in (cloud, 0):
+            args = (params, *media, np.int32(medium), cam_origins[0], cam_dirs[0], np.float32(8.0), np.uint32(2),
+                    np.int32(1))
+            kernel("transmittance_estimates")(queue, (n,), None, *args, *outputs(context, (n, 4)))
+            if features["GRID_MEDIA"] == layout.VOLUME_METHODS["null"]:
+                kernel("delta_pass_estimates")(queue, (n,), None, *args, *outputs(context, (n, 4)))
+    queue.finish()
+    return {}
+
+
+CANARY = """
+__kernel void canary(__global float* out, int n) {
+    int i = get_global_id(0);
+    float x;
+    if (out[i] > 0.0f) x = 1.0f;      // out holds zeros: x stays uninitialised
+    if (x > 0.5f) out[i] = 2.0f;      // control flow on an uninitialised value
+    out[i] += out[i + n];             // a read beyond the buffer
+}
+"""
+
+
+def run_canary(case, device):
+    """Deliberate errors: tests/test_oclgrind.py checks that Oclgrind reports them."""
+    context = cl.Context([device])
+    queue = cl.CommandQueue(context)
+    program = cl.Program(context, CANARY).build()
+    buffer = upload(context, np.zeros(4, np.float32))
+    program.canary(queue, (4,), None, buffer, np.int32(4))
+    queue.finish()
+    return {}
+
+
+RUNNERS = {"combination": run_combination, "scene": run_scene, "test_kernels": run_test_kernels,
+           "canary": run_canary}
+
+
+def main():
+    warnings.simplefilter("ignore")   # pyopencl's compiler-output notes: not diagnostics
+    cases = json.load(sys.stdin)
+    device = clrender.choose_device("oclgrind")
+    for case in cases:
+        key = json.dumps(case, sort_keys=True)
+        print(f"{MARK} begin {key}", file=sys.stderr, flush=True)
+        start = time.perf_counter()
+        info = RUNNERS[case["kind"]](case, device)
+        print(f"{MARK} end {key}", file=sys.stderr, flush=True)
+        print(json.dumps({"case": key, "seconds": time.perf_counter() - start, **info}), flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,261 @@
+"""clrender against Mitsuba 3 on the same XML files (Mitsuba's scalar_rgb variant, which needs
+no LLVM; skipped when Mitsuba is not installed: `pip install -e '.[peers]'`).
+
+Conventions that must match exactly are compared exactly: camera rays through pixel centres
+and corners (fov axes, to_world), .vol voxel placement, the envmap lookup, conductor presets,
+named IORs, spectra. Images are compared statistically: both renderers render RENDERS images
+with different seeds; per pixel the mean and the variance of the mean come from those renders,
+and per block of 4 x 4 pixels (and the whole image) z = (mean_clrender - mean_mitsuba) /
+sqrt(var_clrender + var_mitsuba) must stay below Z_MAX = 4.5 (48 block values per scene: a
+false alarm about 1 in 3000 for Gaussian statistics; seeds are fixed, so outcomes are
+deterministic). Blocks where neither renderer varies must agree exactly.
+
+Budget: about 30 s on 2 cores with warm kernel caches (Mitsuba's part about 10 s).
+"""
+import warnings
+
+import numpy as np
+import pytest
+
+import clrender
+from clrender import cie, grids, mitsuba_xml
+import mitsuba_scenes
+
+try:
+    import mitsuba as mi
+except ImportError:
+    pytest.skip("Mitsuba 3 is not installed (pip install -e '.[peers]')", allow_module_level=True)
+
+RES, SPP, RENDERS, BLOCK, Z_MAX = 16, 128, 8, 4, 4.5
+
+
+@pytest.fixture(scope="module", autouse=True)
+def scalar_rgb():
+    mi.set_variant("scalar_rgb")
+
+
+def load_quietly(path, **parameters):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mitsuba_xml.MitsubaXmlWarning)
+        return clrender.load_scene(path, parameters=parameters)
+
+
+# ============================================================================================
+# Images
+# ============================================================================================
+def render_both(path, device, spp=SPP, **parameters):
+    """(clrender renders, Mitsuba renders), each (RENDERS, RES, RES, 3)."""
+    parameters = {"spp": str(spp), **{k: str(v) for k, v in parameters.items()}}
+    theirs = mi.load_file(str(path), **parameters)
+    mitsuba = np.array([np.array(mi.render(theirs, spp=spp, seed=seed)) for seed in range(RENDERS)])
+    renderer = clrender.Renderer(load_quietly(path, **parameters), device)
+    ours = np.array([renderer.render(spp=spp, seed=1000 + seed).image for seed in range(RENDERS)])
+    return ours, mitsuba
+
+
+def block_z_scores(ours, mitsuba, block):
+    """z per block of block x block pixels and channel, from per-pixel means and variances of
+    the mean over the renders (pixels are independent, so block variances add up)."""
+    count, height, width, _ = ours.shape
+    difference = ours.mean(0) - mitsuba.mean(0)
+    variance = (ours.var(0, ddof=1) + mitsuba.var(0, ddof=1)) / count
+    shape = (height // block, block, width // block, block, 3)
+    d = difference.reshape(shape).mean(axis=(1, 3))
+    v = variance.reshape(shape).sum(axis=(1, 3)) / block ** 4
+    steady = v == 0
+    assert np.all(d[steady] == 0), "blocks without noise differ"
+    return np.where(steady, 0.0, d / np.sqrt(np.where(steady, 1.0, v)))
+
+
+def assert_same_image(ours, mitsuba):
+    assert np.all(np.isfinite(ours))
+    for block in (BLOCK, ours.shape[1]):
+        z = block_z_scores(ours, mitsuba, block)
+        assert np.abs(z).max() < Z_MAX, f"{block}x{block} blocks: max |z| {np.abs(z).max():.2f}\n{z.round(1)}"
+
+
+@pytest.mark.parametrize("name", sorted(mitsuba_scenes.SCENES))
+def test_scene_renders_as_in_mitsuba(tmp_path, device, name):
+    ours, mitsuba = render_both(mitsuba_scenes.write(tmp_path, name), device, res=RES)
+    assert_same_image(ours, mitsuba)
+
+
+@pytest.mark.parametrize("max_depth", [2, 8])
+def test_cornell_box_renders_as_in_mitsuba(device, max_depth):
+    # max_depth 2 is direct lighting only in both: Mitsuba's depth convention.
+    ours, mitsuba = render_both("scenes/cornell_box.xml", device, resolution=RES, max_depth=max_depth)
+    assert_same_image(ours, mitsuba)
+
+
+# ============================================================================================
+# Exact conventions
+# ============================================================================================
+def sensor_xml(fov, size, to_world):
+    width, height = size
+    return f"""<scene version="3.0.0">
+    <sensor type="perspective">
+        {fov}
+        <transform name="to_world">{to_world}</transform>
+        <film type="hdrfilm">
+            <integer name="width" value="{width}"/>
+            <integer name="height" value="{height}"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+</scene>"""
+
+
+@pytest.mark.parametrize("fov", [
+    '<float name="fov" value="50"/>',
+    '<float name="fov" value="50"/><string name="fov_axis" value="y"/>',
+    '<float name="fov" value="70"/><string name="fov_axis" value="diagonal"/>',
+    '<float name="fov" value="40"/><string name="fov_axis" value="smaller"/>',
+    '<float name="fov" value="40"/><string name="fov_axis" value="larger"/>',
+    '<string name="focal_length" value="35mm"/>',
+    '',   # Mitsuba's default: a 50 mm lens
+])
+@pytest.mark.parametrize("size", [(40, 24), (24, 40)])
+def test_camera_rays_through_pixel_centres_and_corners_match(tmp_path, fov, size):
+    to_world = """<lookat origin="1, 2, 5" target="0, 0.5, 0" up="0.1, 1, 0"/>
+                  <rotate z="1" angle="12"/><translate value="0.3, -1, 2"/>"""
+    path = tmp_path / "camera.xml"
+    path.write_text(sensor_xml(fov, size, to_world))
+    sensor = mi.load_file(str(path)).sensors()[0]
+    camera = mitsuba_xml.read_scene(path).scene["camera"]
+    ours = clrender.load_scene_dict({"camera": camera}).camera
+    width, height = size
+    # Image positions in pixels: the corners, pixel centres and an edge; (0, 0) is the top left.
+    x, y = np.meshgrid([0, 0.5, 1, 7.5, width / 2, width - 0.5, width],
+                       [0, 0.5, 3.5, height / 2, height - 0.5, height])
+    x, y = x.ravel(), y.ravel()
+    directions = ours.pixel_directions(x, y)
+    for px, py, d in zip(x, y, directions):
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(px / width, py / height), mi.Point2f(0.5, 0.5))
+        assert np.allclose(np.array(ray.d), d, atol=2e-6), (px, py)
+        # Mitsuba starts the ray on its near clip plane, on the same line from the eye.
+        offset = np.array(ray.o) - ours.position
+        assert np.allclose(offset, np.dot(offset, d) * d, atol=1e-5)
+
+
+@pytest.mark.parametrize("placement", ["to_world", "use_grid_bbox", "both"])
+def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
+    density = mitsuba_scenes.cloud_density((5, 4, 3))
+    grids.write_vol(tmp_path / "g.vol", density, bbox=((-1, 0, 2), (1, 3, 2.5)))
+    to_world = ("<transform name=\"to_world\"><scale x=\"2\" y=\"1\" z=\"3\"/><rotate y=\"1\" angle=\"30\"/>"
+                "<translate value=\"1 2 3\"/></transform>") if placement != "use_grid_bbox" else ""
+    bbox = '<boolean name="use_grid_bbox" value="true"/>' if placement != "to_world" else ""
+    volume = f'<volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>{to_world}{bbox}</volume>'
+    (tmp_path / "v.xml").write_text(f'<volume version="3.0.0" type="gridvolume"><string name="filename" '
+                                    f'value="{tmp_path / "g.vol"}"/>{to_world}{bbox}</volume>')
+    theirs = mi.load_file(str(tmp_path / "v.xml"))
+    path = tmp_path / "scene.xml"
+    path.write_text(f"""<scene version="3.0.0"><integrator type="volpath"/>
+        <sensor type="perspective"><medium type="heterogeneous">{volume}</medium></sensor></scene>""")
+    grid = load_quietly(path).media[0].grid
+    rng = np.random.default_rng(1)
+    unit = rng.uniform(0.002, 0.998, (200, 3))
+    world = unit @ grid.to_world[:3, :3].T + grid.to_world[:3, 3]
+    expected = grids.trilinear(density, unit)
+    for point, value in zip(world, expected):
+        interaction = mi.Interaction3f()
+        interaction.p = mi.Point3f(*point)
+        assert abs(theirs.eval_1(interaction) - value) < 2e-5 * max(1.0, value), point
+
+
+def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path):
+    image = mitsuba_scenes.sky_image(12, 7)
+    image[3, 5] = (9.0, 0.1, 2.0)   # a sharp texel shows any misplacement
+    clrender.save_image(image, tmp_path / "sky.exr")
+    rotation = '<rotate y="1" angle="70"/><rotate x="1" angle="25"/>'
+    xml = (f'<emitter version="3.0.0" type="envmap"><string name="filename" value="{tmp_path / "sky.exr"}"/>'
+           f'<transform name="to_world">{rotation}</transform></emitter>')
+    emitter = mi.load_string(xml)
+    matrix = np.array(mi.traverse(emitter)["to_world"].matrix)
+    rng = np.random.default_rng(2)
+    directions = rng.normal(size=(300, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    theirs = []
+    for d in directions:
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*(-d))
+        theirs.append(np.array(emitter.eval(si)))
+    theirs = np.array(theirs)
+    assert np.allclose(mitsuba_xml.mitsuba_envmap_lookup(image, directions @ matrix[:3, :3]), theirs, rtol=1e-5, atol=1e-6)
+    # clrender's texel lookup (lights.h) in the resampled map: close to Mitsuba's, except next to
+    # the sharp texel, where constant texels cannot follow the bilinear ramp.
+    resampled = mitsuba_xml.resample_envmap(image, matrix[:3, :3], 96, 56)
+    u = np.arctan2(directions[:, 0], -directions[:, 2]) / (2 * np.pi) + 0.5
+    v = np.arccos(directions[:, 1]) / np.pi
+    ours = resampled[np.minimum((v * 56).astype(int), 55), np.minimum((u * 96).astype(int), 95)]
+    error = np.abs(ours - theirs).max(axis=1) / theirs.max(axis=1)
+    assert np.median(error) < 0.02
+
+
+def test_conductor_presets_are_mitsubas_normal_reflectance():
+    si = mi.SurfaceInteraction3f()
+    si.wi = mi.Vector3f(0, 0, 1)
+    for name, reflectance in mitsuba_xml.CONDUCTOR_PRESETS.items():
+        bsdf = mi.load_dict({"type": "conductor", "material": name})
+        _, weight = bsdf.sample(mi.BSDFContext(), si, 0.5, mi.Point2f(0.5, 0.5))
+        assert np.allclose(np.array(weight), reflectance, atol=6e-5), name
+
+
+def test_named_iors_are_mitsubas():
+    for name, ior in mitsuba_xml.IOR_PRESETS.items():
+        bsdf = mi.load_dict({"type": "dielectric", "int_ior": name, "ext_ior": "vacuum"})
+        assert np.isclose(mi.traverse(bsdf)["eta"], ior, rtol=1e-6), name
+
+
+@pytest.mark.parametrize("spectrum", [[(400, 1), (500, 2), (600, 1), (700, 1)],
+                                      [(380, 0.1), (450, 0.5), (560, 0.9), (620, 0.2), (780, 0.3)]])
+@pytest.mark.parametrize("illuminant", [False, True])
+def test_spectra_convert_as_in_mitsuba(spectrum, illuminant):
+    wavelengths, values = zip(*spectrum)
+    theirs = np.array(mi.spectrum_list_to_srgb(list(wavelengths), list(values), bounded=False, d65=not illuminant))
+    ours = cie.spectrum_to_rgb(wavelengths, values, illuminant=illuminant)
+    assert np.allclose(ours, theirs, rtol=3e-3, atol=1e-4)
+
+
+def test_spectrum_values_reach_the_scene_as_in_mitsuba(tmp_path):
+    # <spectrum> on a reflectance (D65-weighted, clamped), a uniform one on an emitter (an
+    # equal-energy illuminant), a sampled one on an emitter (no D65), <float> on an emitter.
+    (tmp_path / "s.xml").write_text("""<scene version="3.0.0"><sensor type="perspective"/>
+        <shape type="sphere" id="a"><bsdf type="diffuse">
+            <spectrum name="reflectance" value="400:0.1, 500:0.5, 600:0.9, 700:0.2"/></bsdf></shape>
+        <emitter type="point" id="b"><spectrum name="intensity" value="3"/></emitter>
+        <emitter type="directional" id="c"><spectrum name="irradiance" value="400:1, 500:2, 600:1, 700:1"/></emitter>
+        <emitter type="constant" id="d"><float name="radiance" value="0.4"/></emitter>
+    </scene>""")
+    theirs = mi.traverse(mi.load_file(str(tmp_path / "s.xml")))
+    scene = mitsuba_xml.read_scene(tmp_path / "s.xml").scene
+    ours = {"a.bsdf.reflectance.value": scene["materials"][0]["albedo"],
+            "b.intensity.value": scene["lights"][0]["intensity"],
+            "c.irradiance.value": scene["lights"][1]["irradiance"],
+            "d.radiance.value": scene["lights"][2]["radiance"]}
+    for key, value in ours.items():
+        assert np.allclose(np.array(theirs[key]), value, rtol=3e-3), key
+
+
+def test_transforms_compose_as_in_mitsuba(tmp_path):
+    operations = """<translate x="1" y="-2"/><rotate value="1, 2, 3" angle="37"/><scale x="2" y="0.5" z="3"/>
+        <matrix value="1 0.2 0 1  0 1 0 2  0.1 0 1 3  0 0 0 1"/><rotate z="1" angle="-20"/>
+        <lookat origin="1, 1, 1" target="0, 0, 0" up="0, 0, 1"/><scale value="1.5"/>"""
+    (tmp_path / "s.xml").write_text(f"""<scene version="3.0.0"><sensor type="perspective"/>
+        <shape type="rectangle" id="r"><transform name="to_world">{operations}</transform></shape></scene>""")
+    theirs = np.array(mi.traverse(mi.load_file(str(tmp_path / "s.xml")))["r.to_world"].matrix)
+    ours = mitsuba_xml.read_scene(tmp_path / "s.xml").scene["shapes"][0]["transform"]["matrix"]
+    assert np.allclose(ours, theirs, atol=1e-5)
+
+
+def test_default_bsdfs_of_shapes_are_mitsubas(tmp_path):
+    # No BSDF: diffuse 0.5; no BSDF but an area emitter: black.
+    xml = """<scene version="3.0.0"><sensor type="perspective"/>
+        <shape type="sphere"/>
+        <shape type="sphere"><emitter type="area"/></shape>
+    </scene>"""
+    (tmp_path / "s.xml").write_text(xml)
+    shapes = mi.load_file(str(tmp_path / "s.xml")).shapes()
+    theirs = sorted(float(np.mean(mi.traverse(shape.bsdf())["reflectance.value"])) for shape in shapes)
+    scene = mitsuba_xml.read_scene(tmp_path / "s.xml").scene
+    ours = sorted(float(np.mean(scene["materials"][i]["albedo"])) for i in (0, 1))
+    assert theirs == ours == [0.0, 0.5]
