@@ -15,8 +15,8 @@ _METHODS = {value: name for name, value in VOLUME_METHODS.items()}
 
 def feature_scene(features, resolution=(8, 8), subdivisions=None):
     """(scene, volume_method) needing exactly `features` (a dict as features.scene_features
-    returns). Every combination has a diffuse floor and box, an area light, a point and a
-    directional light; each feature adds what it compiles in:
+    returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
+    sphere), a point and a directional light; each feature adds what it compiles in:
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
     and rough glass, a rough mirror (energy tables) and a smooth one; TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
@@ -40,6 +40,7 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         shapes.append({"name": name, "type": "sphere", "material": material, "center": center,
                        "radius": radius, **tessellation, **extra})
 
+    sphere("bulb", "lamp", [1.3, 0.9, -0.9], 0.15)
     if features["ENVIRONMENT"] != ENVIRONMENT_MODES["none"]:
         lights.append({"type": "environment", "radiance": [0.3, 0.4, 0.5]})
     if features["DIELECTRIC"]:
