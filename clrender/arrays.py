@@ -31,7 +31,7 @@ class SceneArrays:
     spheres: int                # analytic spheres among the primitive slots (the rest: triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
     specular_albedo: np.ndarray  # float32 energy-compensation tables, filled on the device
-    table_materials: list       # indices of the materials that own tables (params.w >= 0)
+    table_materials: list       # indices of the materials that own tables (field albedo_tables >= 0)
     bvh_depth: int
     degenerate_triangles: int   # zero-area triangles dropped at load
 
@@ -220,42 +220,53 @@ def _material_array(materials):
         kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
         if m.index_matched:
             kind = "interface"
-        out[i]["kind"][0] = layout.MATERIAL_KINDS[kind]
-        out[i]["kind"][1] = int(not m.two_sided)
-        out[i]["emission"][:3] = m.emission
+        record = out[i]
+        _set(record, "kind", layout.MATERIAL_KINDS[kind])
+        _set(record, "one_sided", int(not m.two_sided))
+        _set(record, "emission", m.emission)
         if kind == "interface":   # the transmittance of the boundary
-            out[i]["color"][:3] = m.tint if m.index_matched else 1.0
+            _set(record, "color", m.tint if m.index_matched else 1.0)
         elif kind in ("dielectric", "conductor"):
-            out[i]["color"][:3] = m.tint
-            out[i]["params"][:3] = (m.ior, m.exterior_ior, m.roughness)
+            _set(record, "color", m.tint)
+            _set(record, "ior", m.ior)
+            _set(record, "exterior_ior", m.exterior_ior)
+            _set(record, "roughness", m.roughness)
         else:
-            out[i]["color"][:3] = m.albedo
+            _set(record, "color", m.albedo)
         if m.toon is not None:
-            _toon_fields(out[i], m.toon)
+            _toon_fields(record, m.toon)
     return out
+
+
+def _set(material, name, value):
+    layout.set_field(material, layout.MATERIAL_FIELDS, name, value)
+
+
+def _get(material, name):
+    return layout.field(material, layout.MATERIAL_FIELDS, name)
 
 
 def needs_albedo_table(material):
     """Whether a Material record is a rough specular lobe, compensated by tables; mirrors
     material_is_delta in kernels/materials/bsdf.h (float32 alpha against MICROFACET_MIN_ALPHA)."""
-    kind = int(material["kind"][0])
+    kind = int(_get(material, "kind"))
     if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
         return False
-    roughness = material["params"][2]
+    roughness = _get(material, "roughness")
     return bool(roughness * roughness >= np.float32(1e-3))
 
 
 def _assign_albedo_tables(materials, used):
     """Give each rough specular material in `used` (those that a shape uses, with energy
-    compensation on) its table slots in params.w (a dielectric needs two: wo outside and wo
-    inside); returns the total size and the owners. Others get none: the kernel of a scene
+    compensation on) its table slots (field albedo_tables; a dielectric needs two: wo outside and
+    wo inside); returns the total size and the owners. Others get none: the kernel of a scene
     without specular shapes has no table code."""
     size, owners = 0, []
     for i in range(len(materials)):
-        materials[i]["params"][3] = -1.0
+        _set(materials[i], "albedo_tables", -1.0)
         if i in used and needs_albedo_table(materials[i]):
-            materials[i]["params"][3] = size
-            sides = 2 if materials[i]["kind"][0] == layout.MATERIAL_KINDS["dielectric"] else 1
+            _set(materials[i], "albedo_tables", size)
+            sides = 2 if _get(materials[i], "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
             size += sides * layout.ALBEDO_TABLE_SIZE
             owners.append(i)
     return size, owners
@@ -267,18 +278,22 @@ def _medium_array(media):
     voxels, majorants = [], []
     voxel_count = cell_count = 0
     for i, medium in enumerate(media):
-        out[i]["sigma_a"][:3] = medium.sigma_a
-        out[i]["sigma_s"][:3] = medium.sigma_s
-        out[i]["params"][0] = medium.g
-        out[i]["grid"][0] = layout.MEDIUM_KINDS[medium.type]
+        record = out[i]
+        put = lambda name, value: layout.set_field(record, layout.MEDIUM_FIELDS, name, value)  # noqa: E731
+        put("sigma_a", medium.sigma_a)
+        put("sigma_s", medium.sigma_s)
+        put("g", medium.g)
+        put("kind", layout.MEDIUM_KINDS[medium.type])
         if medium.grid is None:
             continue
         grid = medium.grid
         high, low = grid.majorants()
-        out[i]["grid"][1:] = (voxel_count, cell_count, grid.block)
-        out[i]["resolution"][:3] = grid.resolution
-        out[i]["majorant_resolution"][:3] = high.shape[::-1]
-        out[i]["to_voxel"] = grid.world_to_voxel()
+        put("voxel_offset", voxel_count)
+        put("majorant_offset", cell_count)
+        put("majorant_block", grid.block)
+        put("resolution", grid.resolution)
+        put("majorant_resolution", high.shape[::-1])
+        record["to_voxel"] = grid.world_to_voxel()
         voxels.append(grid.density.ravel())
         majorants.append(np.stack([high.ravel(), low.ravel()], axis=1).ravel())
         voxel_count += grid.density.size
@@ -313,12 +328,15 @@ def _medium_at_camera(scene, v0, v1, v2, centres, radii, info):
 
 
 def _toon_fields(record, toon):
-    """The toon_* fields of one Material record (meaning in layout.MATERIAL)."""
-    record["toon_shadow"] = (*toon.shadow_color, toon.shadow_factor)
-    record["toon_bands"] = (toon.bands, toon.softness, toon.highlight_size, toon.highlight_softness)
-    record["toon_highlight"] = (*toon.highlight_color, toon.rim_width)
-    record["toon_rim"] = (*toon.rim_color, toon.rim_threshold)
-    record["toon_ambient"] = (*toon.ambient, 0.0)
+    """The toon_* fields of one Material record (meaning in layout.MATERIAL_FIELDS)."""
+    for name, value in (("toon_shadow_color", toon.shadow_color), ("toon_shadow_factor", toon.shadow_factor),
+                        ("toon_bands", toon.bands), ("toon_band_softness", toon.softness),
+                        ("toon_highlight_size", toon.highlight_size),
+                        ("toon_highlight_softness", toon.highlight_softness),
+                        ("toon_highlight_color", toon.highlight_color), ("toon_rim_width", toon.rim_width),
+                        ("toon_rim_color", toon.rim_color), ("toon_rim_threshold", toon.rim_threshold),
+                        ("toon_ambient", toon.ambient)):
+        _set(record, name, value)
 
 
 def _cdf(weights):

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import KernelBuildError, SceneError
+from .scene import MIN_MARCH_STEP
 
 
 def main(argv=None):
@@ -43,9 +44,12 @@ def _parser():
     render.add_argument("--volume-method", choices=("null", "raymarch"),
                         help="grid media: null-scattering path integral (unbiased) or ray marching "
                              "(biased preview) (default: the scene's, else null)")
-    render.add_argument("--step", type=_positive_float, help="ray-marching step in scene units (default: the scene's)")
+    render.add_argument("--step", type=_march_step,
+                        help="ray marching: longest step in voxels, also scaling the optical depth per step "
+                             "(default: the scene's, else 2)")
     render.add_argument("--raymarch-multiple-scattering", action=argparse.BooleanOptionalAction, default=None,
-                        help="ray marching: continue paths from a scattering point (default: the scene's, else off)")
+                        help="ray marching: continue paths from a scattering point; --no-... renders single "
+                             "scattering (default: the scene's, else on)")
     render.add_argument("--aov", default="", metavar="NAMES",
                         help="auxiliary outputs, comma-separated: albedo, normal, emission, variance, depth, object_id "
                              "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
@@ -129,6 +133,7 @@ def _number_at_least(convert, low, strict=False):
 _positive_int = _number_at_least(int, 1)
 _non_negative_int = _number_at_least(int, 0)
 _positive_float = _number_at_least(float, 0.0, strict=True)
+_march_step = _number_at_least(float, MIN_MARCH_STEP)
 
 
 def _render(args):
@@ -189,6 +194,8 @@ def _render_local(args, scene_path, output, aovs):
     scene, _ = _load_scene(scene_path, args.parameters)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering)
+    for note in renderer.notes:
+        print(f"clrender: note: {note}", file=sys.stderr)
     spp = args.spp or (None if args.time else scene.render.spp)
     bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
 
@@ -328,7 +335,7 @@ def _info(args):
     if any(m.type == "grid" for m in scene.media):
         r = scene.render
         print(f"volumes:    method {r.volume_method}" + (
-            f", step {r.step:g}, multiple scattering {'on' if r.raymarch_multiple_scattering else 'off'}"
+            f", step {r.step:g} voxels, multiple scattering {'on' if r.raymarch_multiple_scattering else 'off'}"
             if r.volume_method == "raymarch" else ""))
     print(f"bounds:     min {_fmt(lo)}  max {_fmt(hi)}")
     print(f"features:   {describe(scene_features(scene))}")

@@ -1,6 +1,7 @@
 """OpenCL device choice and kernel program builds, cached per device, source and defines.
 
-The kernel source is assembled on the host: #include "x.h" lines are expanded (each file once)
+The kernel source is assembled on the host: #include "x.h" lines are expanded (each file once,
+where it is first included: so no include may sit inside an #if, see tests/test_compile.py)
 with #line markers so compiler messages name the right file, and the layout enumerations are
 prepended. The assembled text is therefore the complete input: its hash, with the device, driver and
 options, keys an in-memory cache and a disk cache of program binaries ($CLRENDER_CACHE_DIR,

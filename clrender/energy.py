@@ -12,6 +12,16 @@ from . import layout
 _cache = {}  # (device, kind, ior, exterior_ior, roughness) -> float32 (sides, ALBEDO_TABLE_SIZE)
 
 
+def _field(material, name):
+    return layout.field(material, layout.MATERIAL_FIELDS, name)
+
+
+def _table_key(queue, material):
+    """A table depends on the device and the lobe: kind, ior, exterior ior, roughness."""
+    return (queue.device.int_ptr, *(float(_field(material, name))
+                                    for name in ("kind", "ior", "exterior_ior", "roughness")))
+
+
 def fill_albedo_tables(queue, program, arrays):
     """Fill arrays.specular_albedo for the materials in arrays.table_materials."""
     if not arrays.table_materials:
@@ -22,7 +32,7 @@ def fill_albedo_tables(queue, program, arrays):
     pending = []
     for index in arrays.table_materials:
         m = materials[index]
-        key = (queue.device.int_ptr, int(m["kind"][0]), *m["params"][:3].tolist())
+        key = _table_key(queue, m)
         if key not in _cache:
             pending.append((index, key))
     if pending:
@@ -35,12 +45,12 @@ def fill_albedo_tables(queue, program, arrays):
             kernel(queue, (2, size), None, material_buffer, np.int32(index), out_buffer)
         cl.enqueue_copy(queue, out, out_buffer)
         for index, key in pending:
-            offset = int(materials[index]["params"][3])
-            sides = 2 if materials[index]["kind"][0] == layout.MATERIAL_KINDS["dielectric"] else 1
+            offset = int(_field(materials[index], "albedo_tables"))
+            sides = 2 if _field(materials[index], "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
             _cache[key] = out[offset:offset + sides * size].reshape(sides, size).copy()
     for index in arrays.table_materials:
         m = materials[index]
-        key = (queue.device.int_ptr, int(m["kind"][0]), *m["params"][:3].tolist())
-        offset = int(m["params"][3])
+        key = _table_key(queue, m)
+        offset = int(_field(m, "albedo_tables"))
         table = _cache[key]
         arrays.specular_albedo[offset:offset + table.size] = table.ravel()

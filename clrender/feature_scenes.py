@@ -74,7 +74,7 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
                        "transform": {"scale": 0.6, "translate": [-0.3, 0.2, 0.0]}})
     data = {"camera": {"position": [0, 0.6, 4.5], "look_at": [0, -0.2, 0], "fov": 45,
                        "resolution": list(resolution)},
-            "render": {"max_depth": 4, "rr_depth": 2, "step": 0.3},
+            "render": {"max_depth": 4, "rr_depth": 2},   # marching at its default step, 2 voxels
             "materials": materials, "shapes": shapes, "lights": lights, "media": media}
     scene = load_scene_dict(data)
     if features["ENVIRONMENT"] == ENVIRONMENT_MODES["image"]:

@@ -7,6 +7,7 @@ point and directional lights, for instance, are always compiled in (one untaken 
 """
 import itertools
 
+from .arrays import active_environment
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 
 # Every feature and the values it may take; the first value is "absent".
@@ -41,7 +42,9 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False):
     """The feature values (name -> int) that `scene` needs; `volume_method_override` replaces
     the scene's render.volume_method ("null" or "raymarch"); `sample_aovs`: whether the render
     accumulates the sample-level AOVs (clrender/aovs.py)."""
-    environment = scene.environment
+    # A black environment lights nothing and has no emitter (clrender/arrays.py): compiling the
+    # environment code for it would read the emitter table at index -1.
+    environment = active_environment(scene)
     if environment is None:
         env_mode = ENVIRONMENT_MODES["none"]
     else:

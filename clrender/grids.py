@@ -51,6 +51,11 @@ class DensityGrid:
         """(max, min) per majorant block, each of shape (mz, my, mx)."""
         return block_bounds(self.density, self.block)
 
+    def longest_voxel_step(self):
+        """The longest world length of a unit step in voxel space (any direction)."""
+        voxel_to_world = self.to_world[:3, :3] / np.asarray(self.resolution, dtype=float)
+        return float(np.linalg.norm(voxel_to_world, ord=2))
+
 
 # --------------------------------------------------------------------------------------------
 # Validation

@@ -41,30 +41,68 @@ TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
 # info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))
 
-# kind: x MATERIAL_*, y one-sided (1: black seen from behind its front face, for Mitsuba's
-# BSDFs without `twosided`); color: albedo (diffuse), tint (dielectric: transmission, conductor:
-# reflectance) or base colour (toon); params: x ior inside, y ior outside, z roughness (dielectric
-# and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
-# (-1: none: smooth, or `energy_compensation` off). The toon_* fields are read only by MATERIAL_TOON (kernels/materials/toon.h):
-# toon_shadow: rgb shadow colour (tints the shadow factor: a blocked point keeps
-# shadow_factor x shadow_colour of its colour), w shadow factor; toon_bands: x band count,
-# y band softness, z highlight size, w highlight softness; toon_highlight: rgb highlight colour,
-# w rim width; toon_rim: rgb rim colour, w rim threshold; toon_ambient: rgb ambient colour, w 0.
+# A material. Its lanes are named in MATERIAL_FIELDS below; read and write them by name (field,
+# set_field here, the accessors of kernels/materials/material.h in the kernels).
 MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4),
                    ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4),
                    ("toon_ambient", F4))
 
+# name -> (struct member, first lane, lanes). one_sided: 1 = black seen from behind its front
+# face (Mitsuba's BSDFs without `twosided`, kernels/materials/bsdf.h). color: albedo (diffuse),
+# tint (dielectric: transmission, conductor: reflectance) or base colour (toon). ior /
+# exterior_ior / roughness: dielectrics and conductors. albedo_tables: offset of the material's
+# energy-compensation tables in Scene.specular_albedo (-1: none: smooth, or `energy_compensation`
+# off; kernels/materials/energy.h). toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h):
+# shadow colour (tints the shadow factor: a blocked point keeps shadow_factor x shadow_colour of
+# its colour) and factor, band count and softness, highlight size, softness and colour, rim
+# width, colour and threshold, ambient colour.
+MATERIAL_FIELDS = {
+    "kind": ("kind", 0, 1),
+    "one_sided": ("kind", 1, 1),
+    "color": ("color", 0, 3),
+    "emission": ("emission", 0, 3),
+    "ior": ("params", 0, 1),
+    "exterior_ior": ("params", 1, 1),
+    "roughness": ("params", 2, 1),
+    "albedo_tables": ("params", 3, 1),
+    "toon_shadow_color": ("toon_shadow", 0, 3),
+    "toon_shadow_factor": ("toon_shadow", 3, 1),
+    "toon_bands": ("toon_bands", 0, 1),
+    "toon_band_softness": ("toon_bands", 1, 1),
+    "toon_highlight_size": ("toon_bands", 2, 1),
+    "toon_highlight_softness": ("toon_bands", 3, 1),
+    "toon_highlight_color": ("toon_highlight", 0, 3),
+    "toon_rim_width": ("toon_highlight", 3, 1),
+    "toon_rim_color": ("toon_rim", 0, 3),
+    "toon_rim_threshold": ("toon_rim", 3, 1),
+    "toon_ambient": ("toon_ambient", 0, 3),
+}
+
 # kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
 
-# A medium: coefficients per RGB channel (already multiplied by the scale), in 1/length; for a
-# grid medium per unit density (sigma(x) = density(x) * sigma). params: x Henyey-Greenstein g.
-# grid: x MEDIUM_* kind, y first voxel in the grid buffer, z first majorant cell in the majorant
-# buffer (in cells: two floats each, max then min), w majorant block edge in voxels.
-# resolution: nx, ny, nz voxels; majorant_resolution: blocks per axis.
-# to_voxel: three rows of the affine map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz].
+# A medium; lanes named in MEDIUM_FIELDS (accessors: kernels/media/medium_record.h).
 MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4), ("resolution", I4),
                  ("majorant_resolution", I4), ("to_voxel", ("<f4", (3, 4))))
+
+# name -> (struct member, first lane, lanes). sigma_a, sigma_s: RGB coefficients in 1/length (the
+# scene's scale applied), for a grid medium per unit density (sigma(x) = density(x) sigma).
+# g: Henyey-Greenstein. kind: MEDIUM_*. Grid media only: voxel_offset, the first voxel in the
+# grid buffer; majorant_offset, the first majorant block in the majorant buffer (two floats each,
+# max then min); majorant_block, a block's edge in voxels; resolution, voxels per axis;
+# majorant_resolution, blocks per axis. The member to_voxel holds the three rows of the affine
+# map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz] (kernels/media/grid.h).
+MEDIUM_FIELDS = {
+    "sigma_a": ("sigma_a", 0, 3),
+    "sigma_s": ("sigma_s", 0, 3),
+    "g": ("params", 0, 1),
+    "kind": ("grid", 0, 1),
+    "voxel_offset": ("grid", 1, 1),
+    "majorant_offset": ("grid", 2, 1),
+    "majorant_block": ("grid", 3, 1),
+    "resolution": ("resolution", 0, 3),
+    "majorant_resolution": ("majorant_resolution", 0, 3),
+}
 
 CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
 
@@ -74,7 +112,7 @@ RENDER_PARAMS = np.dtype([
     ("config", I4),        # max depth, roulette depth, seed, emitter count
     ("environment", I4),   # emitter index, image width, image height, hide from camera rays (1/0)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
-    ("volume", F4),        # grid media: x ray-marching step, y multiple scattering when marching (1/0)
+    ("volume", F4),        # grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
@@ -110,14 +148,35 @@ MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 
 
+def field(records, fields, name):
+    """The named field `name` of a record or array of records (fields: MATERIAL_FIELDS or
+    MEDIUM_FIELDS): a scalar per record, or a view of its lanes."""
+    member, first, count = fields[name]
+    lanes = records[member][..., first:first + count]
+    return lanes[..., 0] if count == 1 else lanes
+
+
+def set_field(records, fields, name, value):
+    """Write the named field `name` of a record or array of records."""
+    member, first, count = fields[name]
+    value = np.asarray(value)
+    records[member][..., first:first + count] = value[..., None] if count == 1 else value
+
+
 def pack_media(interior, exterior):
     """TriangleInfo.w: the media inside (behind the front face) and outside, each + 1 (0 = none)."""
     return (interior + 1) | ((exterior + 1) << 16)
 
 
 # Entries per energy-compensation table of a rough specular material (kernels/materials/energy.h);
-# Material.params.w holds the offset of the material's tables, -1 for none.
+# the Material field albedo_tables holds the offset of the material's tables, -1 for none.
 ALBEDO_TABLE_SIZE = 64
+
+# Ray marching's step (kernels/media/raymarch.h): at step 1 a step spans at most one voxel and
+# at most MARCH_STEP_OPTICAL_DEPTH of majorant optical depth; the refinement by optical depth stops
+# at MARCH_MAX_STEPS_PER_VOXEL steps per voxel (the host reports media that reach it).
+MARCH_STEP_OPTICAL_DEPTH = 0.5
+MARCH_MAX_STEPS_PER_VOXEL = 64
 
 
 def c_constants():
@@ -128,4 +187,6 @@ def c_constants():
                           ("VOLUME", VOLUME_METHODS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
+    lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
+    lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

@@ -14,6 +14,7 @@ from .arrays import build_scene_arrays
 from .device import build_program, choose_device
 from .energy import fill_albedo_tables
 from .features import scene_features
+from .scene import MIN_MARCH_STEP
 
 
 @dataclass
@@ -125,6 +126,23 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     return p
 
 
+def march_notes(scene):
+    """What ray marching cannot resolve in `scene`: grid media so dense that the refinement of
+    steps by optical depth stops (kernels/media/raymarch.h), as sentences for the user."""
+    limit = layout.MARCH_STEP_OPTICAL_DEPTH * layout.MARCH_MAX_STEPS_PER_VOXEL
+    notes = []
+    for medium in scene.media:
+        if medium.grid is None:
+            continue
+        depth = float(medium.grid.density.max() * np.max(medium.sigma_t)) * medium.grid.longest_voxel_step()
+        if depth > limit:
+            notes.append(f"ray marching: medium {medium.name!r} holds up to {depth:.3g} optical depths per voxel; "
+                         f"steps stop shrinking at 1/{layout.MARCH_MAX_STEPS_PER_VOXEL:g} voxel (x step), so steps "
+                         f"through its densest parts exceed the usual {layout.MARCH_STEP_OPTICAL_DEPTH:g} x step "
+                         "optical depth (more bias at its edges; use null scattering for exact results)")
+    return notes
+
+
 class RenderInterrupted(KeyboardInterrupt):
     """Ctrl-C during a render; `result` holds what was completed so far: the RenderResult of
     `render`, the Accumulation of `Renderer.accumulate`."""
@@ -139,17 +157,19 @@ class Renderer:
 
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
                  volume_method=None, step=None, raymarch_multiple_scattering=None, context=None):
-        """`volume_method` ("null" or "raymarch"), `step` (> 0, scene units) and
-        `raymarch_multiple_scattering` override the scene's render settings for grid media.
-        `context`: an existing context of `device` to share, so renderers of many scenes reuse
-        its built programs."""
-        if step is not None and not (np.isfinite(step) and step > 0):
-            raise ValueError(f"step must be a positive number, got {step!r}")
+        """`volume_method` ("null" or "raymarch"), `step` (ray marching's longest step in voxels,
+        >= scene.MIN_MARCH_STEP) and `raymarch_multiple_scattering` override the scene's render
+        settings for grid media. `context`: an existing context of `device` to share, so renderers
+        of many scenes reuse its built programs."""
+        if step is not None and not (np.isfinite(step) and step >= MIN_MARCH_STEP):
+            raise ValueError(f"step must be a number >= {MIN_MARCH_STEP} (voxels), got {step!r}")
         self.scene = scene
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
         self.context = context if context is not None else cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
         self.features = scene_features(scene, volume_method)
+        # Limits of the chosen method that the image may show, for the user (the CLI prints them).
+        self.notes = march_notes(scene) if self.features["GRID_MEDIA"] == layout.VOLUME_METHODS["raymarch"] else []
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
         self.arrays = build_scene_arrays(scene)

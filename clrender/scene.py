@@ -17,6 +17,8 @@ SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
+# Ray marching's step, in voxels: below this a march would take millions of steps per ray.
+MIN_MARCH_STEP = 1e-3
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
 
@@ -137,10 +139,11 @@ class RenderSettings:
     rr_depth: int = 5
     seed: int = 0
     # Grid media only (docs/heterogeneous-media.md): "null" (null-scattering path integral,
-    # unbiased) or "raymarch" (fixed steps of `step` scene units, biased preview).
+    # unbiased) or "raymarch" (biased preview; steps of at most `step` voxels, shorter where the
+    # medium is dense: see kernels/media/raymarch.h).
     volume_method: str = "null"
-    step: float = 0.02
-    raymarch_multiple_scattering: bool = False
+    step: float = 2.0
+    raymarch_multiple_scattering: bool = True
     hide_environment: bool = False   # camera rays that escape see black (Mitsuba's hide_emitters)
 
 
@@ -378,8 +381,8 @@ def _read_render(node):
         rr_depth=node.number("rr_depth", 5, low=1, integer=True),
         seed=node.number("seed", 0, low=0, high=2**32 - 1, integer=True),
         volume_method=node.string("volume_method", "null", choices=VOLUME_METHODS),
-        step=float(node.number("step", 0.02, low=0, low_open=True)),
-        raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", False),
+        step=float(node.number("step", 2.0, low=MIN_MARCH_STEP)),
+        raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", True),
         hide_environment=node.boolean("hide_environment", False),
     )
     node.finish()

@@ -30,8 +30,8 @@
 //   their filter, eta^2 scaling included: exactly the term the colour adds there). It is exact
 //   (no lighting noise, only the pixel coverage and the Fresnel choice), so the denoiser leaves it
 //   out (clrender/denoise.py). 0 at medium scattering points.
-// Ray marching without multiple scattering never scatters the path: its in-scattered light has
-// no vertex, and the albedo is that of the surface behind the medium.
+// Ray marching without multiple scattering ends a path at its first scattering vertex in a grid
+// medium (after its light sample): that vertex is recorded like any other.
 #ifndef CLRENDER_AOVS_H
 #define CLRENDER_AOVS_H
 
@@ -39,7 +39,9 @@
 #include "math.h"
 #include "scene.h"
 #include "lights.h"
+#include "materials/material.h"
 #include "materials/bsdf.h"
+#include "media/medium_record.h"
 
 // What one path sample records (filled at most once, by the first non-delta vertex).
 typedef struct {
@@ -58,7 +60,9 @@ AovSample aov_sample_none(void) {
     return aov;
 }
 
-#if AOVS
+// The recording functions below compile to nothing without AOVS, so trace_path calls them
+// unconditionally.
+
 // A radiance seen as a colour: scaled into [0, 1] when brighter, keeping its hue.
 float3 emission_albedo(float3 le) { return le / fmax(max_component(le), 1.0f); }
 
@@ -78,33 +82,30 @@ void aov_record(AovSample* aov, float3 albedo, float3 normal, float3 emission) {
 // vertex before it was delta, so the colour adds its emission with full weight (no MIS).
 void aov_record_surface(AovSample* aov, const Material* m, const SurfacePoint* sp, float3 throughput,
                         float eta_scale) {
-    if (aov->found) return;
+    if (!AOVS || aov->found) return;
     bool emits = sp->front_face && sp->emitter >= 0;
-    float3 colour = emits ? emission_albedo(m->emission.xyz)
-                          : (is_one_sided_back(m, sp) ? (float3)(0.0f) : m->color.xyz);
+    float3 emission = material_emission(m);
+    float3 colour = emits ? emission_albedo(emission)
+                          : (is_one_sided_back(m, sp) ? (float3)(0.0f) : material_color(m));
     aov_record(aov, aov_filter(throughput, eta_scale) * colour, sp->ns,
-               emits ? throughput * m->emission.xyz : (float3)(0.0f));
+               emits ? throughput * emission : (float3)(0.0f));
 }
-
-#if MEDIA
-#include "media/homogeneous.h"
 
 // A real scattering event in a medium.
 void aov_record_medium(AovSample* aov, __global const Medium* md, float3 throughput, float eta_scale) {
-    if (aov->found) return;
-    float3 sigma_t = medium_sigma_t(md);
-    float3 albedo = (float3)(sigma_t.x > 0.0f ? md->sigma_s.x / sigma_t.x : 0.0f,
-                             sigma_t.y > 0.0f ? md->sigma_s.y / sigma_t.y : 0.0f,
-                             sigma_t.z > 0.0f ? md->sigma_s.z / sigma_t.z : 0.0f);
+    if (!AOVS || aov->found) return;
+    float3 sigma_t = medium_sigma_t(md), sigma_s = medium_sigma_s(md);
+    float3 albedo = (float3)(sigma_t.x > 0.0f ? sigma_s.x / sigma_t.x : 0.0f,
+                             sigma_t.y > 0.0f ? sigma_s.y / sigma_t.y : 0.0f,
+                             sigma_t.z > 0.0f ? sigma_s.z / sigma_t.z : 0.0f);
     aov_record(aov, aov_filter(throughput, eta_scale) * albedo, (float3)(0.0f), (float3)(0.0f));
 }
-#endif
 
 // A ray leaving the scene; `visible`: whether the colour shows the environment there (not to
 // camera rays when it is hidden from them).
 void aov_record_escape(AovSample* aov, const Scene* scene, float3 dir, float3 throughput, float eta_scale,
                        bool visible) {
-    if (aov->found) return;
+    if (!AOVS || aov->found) return;
     float3 le = (float3)(0.0f);
 #if ENVIRONMENT != ENVIRONMENT_NONE
     if (visible) le = environment_radiance(scene, dir);
@@ -116,6 +117,7 @@ void aov_record_escape(AovSample* aov, const Scene* scene, float3 dir, float3 th
 // exact in order and far less prone to cancellation than a sum of squares); `sum` is the pixel's
 // colour sum before this sample (w: its sample count), the same floats the colour accumulates.
 // A non-finite sample counts as black in the colour, so its emission does too.
+#if AOVS
 void accumulate_aovs(AovSums* sums, const AovSample* aov, float3 value, bool finite, float4 sum) {
     sums->albedo.xyz += aov->albedo;
     sums->normal.xyz += aov->normal;

@@ -5,6 +5,8 @@
 // launches, and never a blend of two surfaces (an object id cannot be averaged).
 #ifndef CLRENDER_AUX_BUFFERS_H
 #define CLRENDER_AUX_BUFFERS_H
+#include "camera.h"
+#include "scene.h"
 
 // geometry: xyz the unit shading normal facing the camera (world space), w the planar depth
 // (distance along the camera axis: 1 / depth is affine in the image over a plane, which the

@@ -2,6 +2,7 @@
 // analytic spheres.
 #ifndef CLRENDER_BVH_H
 #define CLRENDER_BVH_H
+#include "types.h"
 
 #include "hit.h"
 #include "sphere.h"

@@ -1,6 +1,7 @@
 // Pinhole camera with a box pixel filter.
 #ifndef CLRENDER_CAMERA_H
 #define CLRENDER_CAMERA_H
+#include "types.h"
 
 typedef struct { float3 origin; float3 direction; } Ray;
 

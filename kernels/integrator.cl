@@ -4,35 +4,9 @@
 // of the full image, so a pixel's sum is also the same whichever tile holds it (distributed.py).
 // With AOVS the sample-level AOVs accumulate beside it (aovs.h).
 #include "portability.h"
-#include "types.h"
-#include "math.h"
 #include "rng.h"
-#include "sampling.h"
 #include "camera.h"
-#include "bvh.h"
 #include "scene.h"
-#include "lights.h"
-#include "materials/bsdf_sample.h"
-#include "materials/diffuse.h"
-#include "materials/microfacet.h"
-#include "materials/dielectric.h"
-#include "materials/conductor.h"
-#include "materials/energy.h"
-#include "materials/bsdf.h"
-#include "materials/toon.h"
-#if MEDIA
-#include "media/phase.h"
-#include "media/homogeneous.h"
-#endif
-#if GRID_MEDIA
-#include "media/grid.h"
-#include "media/majorant.h"
-#endif
-#if GRID_MEDIA == VOLUME_NULL
-#include "media/null_scattering.h"
-#elif GRID_MEDIA == VOLUME_RAYMARCH
-#include "media/raymarch.h"
-#endif
 #include "aovs.h"
 #include "path.h"
 #include "aux_buffers.h"

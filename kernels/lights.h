@@ -3,6 +3,11 @@
 // probability proportional to its power.
 #ifndef CLRENDER_LIGHTS_H
 #define CLRENDER_LIGHTS_H
+#include "types.h"
+#include "math.h"
+#include "rng.h"
+#include "sampling.h"
+#include "scene.h"
 
 #include "sphere.h"
 

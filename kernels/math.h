@@ -4,6 +4,7 @@
 
 #define PI_F 3.14159265358979323846f
 #define INV_PI_F 0.31830988618379067154f
+#define LN2_F 0.69314718f
 
 // For the functions the path loop calls once per vertex (surface point, light and BSDF
 // sampling, next-event estimation): as calls, their structs go through memory and the loop's
@@ -17,6 +18,13 @@
 #endif
 
 float max_component(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
+
+float min_component(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }
+
+float mean3(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
+
+// Component c (0, 1, 2) of v: RGB channels picked at run time (spectral MIS's hero channel).
+float channel(float3 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
 
 float luminance(float3 c) { return dot(c, (float3)(0.2126f, 0.7152f, 0.0722f)); }
 

@@ -4,14 +4,26 @@
 // depth 1 renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
 // Index-matched boundaries (MATERIAL_INTERFACE: interfaces and index-matched dielectrics) only
 // switch the current medium and transmit their colour (the dielectric's tint, else 1); they are
-// not path vertices.
+// not path vertices. Media are reached only through media/medium.h and media/transport.h.
+//
+// MIS weights use the pdf of the technique that did not produce the sample, measured the same
+// way: prev_pdf_w is the directional pdf of the last vertex times the transmittance pdf ratio
+// of every medium segment since (media/medium.h), so an emitter reached through a thick medium
+// gets the small weight its unidirectional pdf deserves.
 #ifndef CLRENDER_PATH_H
 #define CLRENDER_PATH_H
-
+#include "math.h"
+#include "rng.h"
+#include "sampling.h"
+#include "camera.h"
+#include "scene.h"
+#include "lights.h"
+#include "materials/material.h"
+#include "materials/bsdf.h"
+#include "materials/toon.h"
+#include "media/medium.h"
+#include "media/transport.h"
 #include "aovs.h"
-
-// A path that keeps crossing null boundaries (e.g. coincident surfaces) must still end.
-#define MAX_NULL_CROSSINGS 1024
 
 // Radiance from the environment along an escaped ray; the MIS weight uses the pdf with which
 // the previous vertex sampled this direction.
@@ -29,9 +41,9 @@ float3 escaped_radiance(const Scene* scene, float3 dir, float prev_pdf_w, bool p
 
 // Emission at a surface hit from the previous vertex prev_p (null boundaries may lie between).
 INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
-                        float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {
+                               float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {
     if (!sp->front_face || sp->emitter < 0) return (float3)(0.0f);
-    float3 le = m->emission.xyz;
+    float3 le = material_emission(m);
     if (prev_delta) return le;
     __global const Emitter* e = scene->emitters + sp->emitter;
     float light_pdf_w = emitter_selection_pmf(scene, sp->emitter) *
@@ -39,80 +51,15 @@ INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const Surf
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
-#if MEDIA
-// The medium on the far side of the surface from where the ray arrived.
-int medium_beyond(const SurfacePoint* sp) {
-    return sp->front_face ? (sp->media & 0xFFFF) - 1 : (sp->media >> 16) - 1;
-}
-
-// Transmittance from origin towards a light dist away (INFINITY for distant lights), through
-// index-matched boundaries, analytic per homogeneous segment; 0 when anything else blocks it.
-// Grid media: ratio tracking (null scattering; *pdf_ratio then receives the ratio of the
-// unidirectional to the light technique's transmittance pdfs for MIS, see
-// media/null_scattering.h) or marching; *pdf_ratio is 1 otherwise.
-float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float dist, int medium,
-                            Rng* rng, float* pdf_ratio) {
-    float3 tr = (float3)(1.0f);
-    float3 target = origin + dir * dist;
-    *pdf_ratio = 1.0f;
-#if GRID_MEDIA == VOLUME_NULL
-    bool spectral_mis = scene->params->media.y != 0;
-    RatioTracker tracker = ratio_tracker(rng);
-#endif
-    for (int crossing = 0; crossing < MAX_NULL_CROSSINGS; ++crossing) {
-        float remaining = isinf(dist) ? INFINITY : dot(target - origin, dir);
-        Hit hit;
-        bool found = intersect_scene(scene, origin, dir, remaining * (1.0f - 1e-4f), &hit);
-#if GRID_MEDIA == VOLUME_NULL
-        if (medium >= 0 && !ratio_track(scene, medium, origin, dir, found ? hit.t : remaining, &tracker, rng))
-            return (float3)(0.0f);
-        if (!found) return tr * ratio_transmittance(&tracker, spectral_mis, pdf_ratio);
-#elif GRID_MEDIA == VOLUME_RAYMARCH
-        if (medium >= 0) {
-            __global const Medium* md = scene->media + medium;
-            float t = found ? hit.t : remaining;
-            tr *= medium_is_grid(md) ? march_transmittance(scene, md, origin, dir, t, rng)
-                                     : transmittance(medium_sigma_t(md), t);
-        }
-        if (!found) return tr;
-#else
-        if (medium >= 0) tr *= transmittance(medium_sigma_t(scene->media + medium), found ? hit.t : remaining);
-        if (!found) return tr;
-#endif
-        SurfacePoint sp = surface_point(scene, &hit, dir);
-        __global const Material* boundary = scene->materials + sp.material;
-        if (boundary->kind.x != MATERIAL_INTERFACE) return (float3)(0.0f);
-        tr *= boundary->color.xyz;
-        medium = medium_beyond(&sp);
-        origin = spawn_ray_origin(&sp, dir);
-    }
-    return (float3)(0.0f);
-}
-#endif
-
-// Fraction of light arriving along a shadow ray: 0/1 visibility, or transmittance with media
-// (*pdf_ratio: see shadow_transmittance; 1 without grid media).
-float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium, Rng* rng,
-                  float* pdf_ratio) {
-    *pdf_ratio = 1.0f;
-#if MEDIA
-    return shadow_transmittance(scene, origin, dir, dist, medium, rng, pdf_ratio);
-#else
-    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    return occluded(scene, origin, dir, dist * (1.0f - 1e-4f)) ? (float3)(0.0f) : (float3)(1.0f);
-#endif
-}
-
 INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                    int medium, Rng* rng) {
+                           int medium, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float3 f = eval_bsdf(scene, m, sp, wo, ls.wi);
     if (is_black(f)) return (float3)(0.0f);
-    bool same_side = dot(ls.wi, sp->ng) > 0.0f;
     float3 origin = spawn_ray_origin(sp, ls.wi);
 #if MEDIA
-    if (!same_side) medium = medium_beyond(sp);
+    if (!(dot(ls.wi, sp->ng) > 0.0f)) medium = medium_beyond(sp);
 #endif
     float pdf_ratio;
     float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium, rng, &pdf_ratio);
@@ -120,22 +67,6 @@ INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfaceP
     float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(m, sp, wo, ls.wi) * pdf_ratio);
     return f * tr * ls.radiance * (weight / ls.pdf_w);
 }
-
-#if MEDIA
-// Next-event estimation from a scattering point inside a medium; dir: the incoming travel
-// direction. mis: whether phase sampling may also reach the light from here (not so for ray
-// marching's single-scattering estimate, which then takes the light sample with full weight).
-float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, bool mis, Rng* rng) {
-    LightSample ls = sample_light(scene, p, rng);
-    if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
-    float phase = eval_phase_hg(dot(dir, ls.wi), medium_g(scene->media + medium));
-    float pdf_ratio;
-    float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium, rng, &pdf_ratio);
-    if (is_black(tr)) return (float3)(0.0f);
-    float weight = (ls.delta || !mis) ? 1.0f : power_heuristic(ls.pdf_w, phase * pdf_ratio);
-    return tr * ls.radiance * (phase * weight / ls.pdf_w);
-}
-#endif
 
 // Survive with probability equal to the throughput without the eta^2 radiance scaling of
 // refraction, capped so that bright paths (e.g. in high-albedo media) are never kept forever
@@ -161,17 +92,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     // without the radiance scaling of refraction (see materials/dielectric.h), which roulette
     // must use, or it would kill paths for being inside glass (pbrt-v4's etaScale).
     float eta_scale = 1.0f;
-#if MEDIA
-    int medium = scene->params->media.x;
-    bool spectral_mis = scene->params->media.y != 0;
-    int null_crossings = 0;
-#else
     int medium = -1;
-#endif
-#if GRID_MEDIA == VOLUME_NULL
-    // The segments from the last vertex (here the camera) to the next: media/null_scattering.h.
-    NullChain chain;
-    chain_begin(&chain, rng);
+#if MEDIA
+    medium = scene->params->media.x;
+    int null_crossings = 0;
 #endif
     int depth = 1;
     while (depth <= max_depth) {
@@ -179,67 +103,30 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         bool found = intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit);
 #if MEDIA
         if (medium >= 0) {
-            __global const Medium* md = scene->media + medium;
-            bool lit_by_medium = false;  // next-event estimation at the scattering point done already
-#if GRID_MEDIA == VOLUME_NULL
-            // Every medium (homogeneous ones are a single majorant segment) by delta tracking.
-            MediumEvent event = null_scattering_event(scene, medium, ray, found ? hit.t : INFINITY,
-                                                      &chain, spectral_mis, rng);
-#elif GRID_MEDIA == VOLUME_RAYMARCH
-            MediumEvent event;
-            if (medium_is_grid(md)) {
-                float3 inscattered;
-                event = raymarch_event(scene, medium, ray, found ? hit.t : INFINITY, depth < max_depth,
-                                       &inscattered, rng);
-                radiance += throughput * inscattered;
-                lit_by_medium = true;
-            } else {
-                event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
-            }
-#else
-            MediumEvent event = sample_medium_event(md, found ? hit.t : INFINITY, spectral_mis, rng);
-#endif
-#if AOVS
-            if (event.scattered) aov_record_medium(aov, md, throughput, eta_scale);
-#endif
-            throughput *= event.weight;
-            if (event.scattered) {
-                if (depth == max_depth || is_black(throughput)) break;
-                float3 p = ray.origin + event.t * ray.direction;
-                if (!lit_by_medium)
-                    radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, true, rng);
-                // HG is sampled exactly: phase / pdf = 1 leaves the throughput unchanged.
-                ray.direction = sample_phase_hg(ray.direction, medium_g(md), rng_float2(rng), &prev_pdf_w);
-                ray.origin = p;
-                prev_p = p;
+            MediumSample ms = sample_medium(scene, medium, ray, found ? hit.t : INFINITY, rng);
+            if (ms.event == MEDIUM_EVENT_SCATTER) aov_record_medium(aov, scene->media + medium, throughput, eta_scale);
+            throughput *= ms.weight;
+            prev_pdf_w *= ms.pdf_ratio;
+            if (ms.event == MEDIUM_EVENT_ABSORB || is_black(throughput)) break;
+            if (ms.event == MEDIUM_EVENT_SCATTER) {
+                if (depth == max_depth) break;
+                float3 p = ray.origin + ms.t * ray.direction;
+                bool last = medium_scatters_once(scene, medium);
+                radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, !last, rng);
+                if (last) break;
+                // The phase function is sampled exactly: phase / pdf = 1 leaves the throughput.
+                ray.direction = sample_medium_phase(scene, medium, ray.direction, rng_float2(rng), &prev_pdf_w);
+                ray.origin = prev_p = p;
                 prev_delta = false;
-#if GRID_MEDIA == VOLUME_NULL
-                chain_begin(&chain, rng);
-#endif
                 if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
                 ++depth;
                 continue;
             }
-#if GRID_MEDIA
-            if (is_black(throughput)) break;  // absorbed, or no light left through the medium
-#endif
-        }
-#endif
-#if GRID_MEDIA == VOLUME_NULL
-        // The chain ends at a surface or in the distance (unless the surface is a boundary):
-        // its spectral-MIS weight, and its transmittance pdfs for the emission's MIS weight.
-        bool chain_ends = !found || scene->materials[scene->info[hit.prim].info.x].kind.x != MATERIAL_INTERFACE;
-        if (chain_ends) {
-            throughput *= chain_weight(&chain, spectral_mis);
-            prev_pdf_w *= chain_pdf_ratio(&chain, spectral_mis);
-            chain_begin(&chain, rng);
         }
 #endif
         if (!found) {
-#if AOVS
             aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
                               depth > 1 || scene->params->environment.w == 0);
-#endif
             // RenderParams.environment.w (render.hide_environment): camera rays that escape,
             // through null boundaries or not, see black; the environment still lights the scene.
             if (depth > 1 || scene->params->environment.w == 0)
@@ -249,17 +136,15 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
         Material m = scene->materials[sp.material];
 #if MEDIA
-        if (m.kind.x == MATERIAL_INTERFACE) {
-            throughput *= m.color.xyz;
+        if (material_is_interface(&m)) {
+            throughput *= material_boundary_transmittance(&m);
             medium = medium_beyond(&sp);
             ray.origin = spawn_ray_origin(&sp, ray.direction);
             if (++null_crossings > MAX_NULL_CROSSINGS) break;
             continue;
         }
 #endif
-#if AOVS
         if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
-#endif
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
         if (depth == max_depth) break;
@@ -268,7 +153,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         // Any vertex, not only the camera's: a toon surface seen in a mirror, through glass or
         // from a diffuse bounce gives its toon radiance, which already holds its lighting (it
         // counts as direct lighting, hence after the max-depth test), and the path ends.
-        if (m.kind.x == MATERIAL_TOON) {
+        if (material_kind(&m) == MATERIAL_TOON) {
             radiance += throughput * eval_toon_radiance(scene, &m, &sp, wo, medium, rng);
             break;
         }

@@ -2,6 +2,7 @@
 // *_pdf_w is per unit solid angle, *_pdf_a per unit area.
 #ifndef CLRENDER_SAMPLING_H
 #define CLRENDER_SAMPLING_H
+#include "math.h"
 
 // Cosine-weighted direction around +z (Malley's method on the unit disk).
 float3 sample_cosine_hemisphere(float2 u) {

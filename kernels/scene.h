@@ -2,6 +2,9 @@
 // surface point reconstructed from a hit.
 #ifndef CLRENDER_SCENE_H
 #define CLRENDER_SCENE_H
+#include "types.h"
+#include "math.h"
+#include "bvh.h"
 
 typedef struct {
     __constant RenderParams* params;
@@ -16,8 +19,8 @@ typedef struct {
     __global const float4* env_texels;   // environment image, row-major, top row first
     __global const float* env_cdf;       // marginal (height + 1) then conditional rows (width + 1)
     __global const float* specular_albedo;  // energy-compensation tables (materials/energy.h)
-    __global const float* grid_data;     // voxels of all grid media (Medium.grid.y: first voxel)
-    __global const float* majorant_data; // (max, min) per majorant block (Medium.grid.z: first block)
+    __global const float* grid_data;     // voxels of all grid media (medium_voxel_offset: first voxel)
+    __global const float* majorant_data; // (max, min) per majorant block (medium_majorant_offset)
 } Scene;
 
 typedef struct {

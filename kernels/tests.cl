@@ -4,33 +4,12 @@
 #include "math.h"
 #include "rng.h"
 #include "sampling.h"
-#include "camera.h"
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
-#include "materials/bsdf_sample.h"
-#include "materials/diffuse.h"
-#include "materials/microfacet.h"
-#include "materials/dielectric.h"
-#include "materials/conductor.h"
-#include "materials/energy.h"
 #include "materials/bsdf.h"
 #include "media/phase.h"
-#if GRID_MEDIA
-// The integrator's headers, as integrator.cl includes them (ray marching reaches path.h).
-#include "materials/diffuse.h"
-#include "materials/bsdf.h"
-#include "materials/toon.h"
-#include "media/homogeneous.h"
-#include "media/grid.h"
-#include "media/majorant.h"
-#if GRID_MEDIA == VOLUME_NULL
-#include "media/null_scattering.h"
-#else
-#include "media/raymarch.h"
-#endif
-#include "path.h"
-#endif
+#include "media/medium.h"
 
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
@@ -266,13 +245,14 @@ Scene media_scene(__constant RenderParams* params, __global const Medium* media,
     return scene;
 }
 
-// Density of medium points[i].w at world point points[i].xyz.
+// Density of grid medium points[i].w at world point points[i].xyz.
 KERNEL void grid_lookup(__constant RenderParams* params, __global const Medium* media,
                         __global const float* grid_data, __global const float* majorant_data,
                         __global const float4* points, __global float* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
-    out[i] = medium_density(&scene, media + (int)points[i].w, points[i].xyz);
+    __global const Medium* m = media + (int)points[i].w;
+    out[i] = grid_density(&scene, m, world_to_voxel(m, points[i].xyz));
 }
 
 // The majorant segments of ray i (at most max_segments: (t0, t1, d_max, d_min)), their count,
@@ -304,8 +284,9 @@ KERNEL void majorant_walk(__constant RenderParams* params, __global const Medium
 }
 
 // One transmittance estimate per work-item along origin + t dir, t in [0, t_max), through one
-// medium: ratio tracking (null scattering: xyz the estimate, w the tentative collisions) or
-// marching (w 0). `spectral_mis` as RenderParams.media.y (null scattering only).
+// medium (media/medium.h's medium_transmittance): xyz the estimate, w the tentative collisions
+// of ratio tracking (null scattering through a grid; else 0). `spectral_mis` as
+// RenderParams.media.y (ratio tracking only).
 KERNEL void transmittance_estimates(__constant RenderParams* params, __global const Medium* media,
                                     __global const float* grid_data, __global const float* majorant_data,
                                     int medium, float4 origin, float4 dir, float t_max, uint seed,
@@ -313,20 +294,22 @@ KERNEL void transmittance_estimates(__constant RenderParams* params, __global co
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     Rng rng = rng_for_sample((uint)i, 0u, seed);
-#if GRID_MEDIA == VOLUME_NULL
-    RatioTracker tracker = ratio_tracker(&rng);
-    float3 tr = (float3)(0.0f);
+    __global const Medium* m = media + medium;
     float pdf_ratio;
-    if (ratio_track(&scene, medium, origin.xyz, dir.xyz, t_max, &tracker, &rng))
-        tr = ratio_transmittance(&tracker, spectral_mis != 0, &pdf_ratio);
-    out[i] = (float4)(tr, (float)tracker.collisions);
-#else
-    out[i] = (float4)(march_transmittance(&scene, media + medium, origin.xyz, dir.xyz, t_max, &rng), 0.0f);
+    int collisions = 0;
+    float3 tr;
+#if GRID_MEDIA == VOLUME_NULL
+    if (medium_is_grid(m))
+        tr = ratio_tracking_transmittance(&scene, m, origin.xyz, dir.xyz, t_max, spectral_mis != 0, &rng,
+                                          &pdf_ratio, &collisions);
+    else
 #endif
+        tr = medium_transmittance(&scene, medium, origin.xyz, dir.xyz, t_max, &rng, &pdf_ratio);
+    out[i] = (float4)(tr, (float)collisions);
 }
 
 #if GRID_MEDIA == VOLUME_NULL
-// Delta tracking over one medium segment: the chain weight when the ray passes (its expectation
+// Delta tracking over one grid-medium segment: the weight when the ray passes (its expectation
 // is the transmittance per channel), 0 when it scatters or is absorbed; w the collisions.
 KERNEL void delta_pass_estimates(__constant RenderParams* params, __global const Medium* media,
                                  __global const float* grid_data, __global const float* majorant_data,
@@ -335,12 +318,13 @@ KERNEL void delta_pass_estimates(__constant RenderParams* params, __global const
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     Rng rng = rng_for_sample((uint)i, 0u, seed);
-    NullChain chain;
-    chain_begin(&chain, &rng);
-    float t_event;
-    int kind = delta_track(&scene, medium, origin.xyz, dir.xyz, t_max, &chain, &rng, &t_event);
-    float3 weight = kind == NULL_PASSED ? chain_weight(&chain, spectral_mis != 0) : (float3)(0.0f);
-    out[i] = (float4)(weight, (float)chain.collisions);
+    Ray ray;
+    ray.origin = origin.xyz;
+    ray.direction = dir.xyz;
+    int collisions;
+    MediumSample s = delta_tracking_sample(&scene, media + medium, ray, t_max, spectral_mis != 0, &rng,
+                                           &collisions);
+    out[i] = (float4)(s.event == MEDIUM_EVENT_PASS ? s.weight : (float3)(0.0f), (float)collisions);
 }
 #endif
 #endif

@@ -23,13 +23,7 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
-// kind: x MATERIAL_*, y one-sided (1: black seen from behind, materials/bsdf.h); color: albedo (diffuse), tint (dielectric: transmission, conductor:
-// reflectance), base colour (toon) or transmittance (interface); params: x ior inside, y ior outside, z roughness (dielectric
-// and conductor), w offset of the material's energy-compensation tables in Scene.specular_albedo
-// (-1: none). toon_* are read by MATERIAL_TOON only (materials/toon.h): toon_shadow: rgb shadow
-// colour, w shadow factor; toon_bands: x bands, y band softness, z highlight size, w highlight
-// softness; toon_highlight: rgb colour, w rim width; toon_rim: rgb rim colour, w rim threshold;
-// toon_ambient: rgb ambient colour, w unused (0).
+// Lanes named in clrender/layout.py (MATERIAL_FIELDS); read through materials/material.h.
 typedef struct {
     int4 kind; float4 color; float4 emission; float4 params;
     float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim; float4 toon_ambient;
@@ -41,11 +35,7 @@ typedef struct {
 // Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
 
-// A medium, RGB coefficients in 1/length (a grid medium's per unit density); params.x:
-// Henyey-Greenstein g. grid: x MEDIUM_* kind, y first voxel in the grid buffer, z first majorant
-// cell (two floats each: max, min density), w majorant block edge in voxels. resolution: nx, ny,
-// nz; majorant_resolution: blocks per axis; to_voxel: rows of the affine map world -> voxel
-// coordinates [0, nx] x [0, ny] x [0, nz] (media/grid.h).
+// Lanes named in clrender/layout.py (MEDIUM_FIELDS); read through media/medium_record.h.
 typedef struct {
     float4 sigma_a; float4 sigma_s; float4 params;
     int4 grid; int4 resolution; int4 majorant_resolution; float4 to_voxel[3];
@@ -62,7 +52,7 @@ typedef struct {
     int4 environment;  // x emitter index (-1: none), y image width, z image height,
                        // w hide the environment from camera rays (1/0)
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
-    float4 volume;     // grid media: x ray-marching step, y multiple scattering when marching (1/0)
+    float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height

@@ -59,3 +59,21 @@ def test_kernel_source_is_fully_expanded():
     source = kernel_source()
     assert "#include" not in source  # its hash, the cache key, covers every header
     assert '#line 1 "materials/diffuse.h"' in source
+
+
+def test_no_include_is_conditional():
+    # The assembler expands each file once, at its first #include: a header first included inside
+    # an #if that is false would vanish for every later includer. So headers are included
+    # unconditionally and guard their own contents with feature #ifs.
+    offenders = []
+    for path in sorted(kernel_dir().rglob("*.h")) + sorted(kernel_dir().rglob("*.cl")):
+        depth, guarded = 0, path.suffix == ".h"   # a header's outermost #ifndef is its include guard
+        for number, line in enumerate(path.read_text().splitlines(), start=1):
+            directive = line.strip()
+            if directive.startswith(("#if", "#ifdef", "#ifndef")):
+                depth += 1
+            elif directive.startswith("#endif"):
+                depth -= 1
+            elif directive.startswith("#include") and depth > (1 if guarded else 0):
+                offenders.append(f"{path.name}:{number}")
+    assert offenders == []

@@ -135,14 +135,15 @@ def test_dielectric_and_conductor_fields_reach_the_material_records():
     assert (glass.ior, glass.exterior_ior, glass.roughness) == (1.5, 1.0, 0.0)
     assert np.array_equal(glass.tint, [1, 1, 1]) and np.array_equal(mirror.tint, [1, 1, 1])
     records = build_scene_arrays(scene).materials
+    field = lambda name: layout.field(records, layout.MATERIAL_FIELDS, name)  # noqa: E731
     kinds = layout.MATERIAL_KINDS
-    assert records["kind"][:, 0].tolist() == [kinds["dielectric"], kinds["dielectric"],
-                                              kinds["conductor"], kinds["conductor"]]
-    np.testing.assert_allclose(records["params"][1, :3], [1.33, 1.5, 0.4], rtol=1e-7)
-    np.testing.assert_allclose(records["color"][2, :3], [1.0, 0.8, 0.3])
+    assert field("kind").tolist() == [kinds["dielectric"], kinds["dielectric"], kinds["conductor"], kinds["conductor"]]
+    np.testing.assert_allclose([field(name)[1] for name in ("ior", "exterior_ior", "roughness")], [1.33, 1.5, 0.4],
+                               rtol=1e-7)
+    np.testing.assert_allclose(field("color")[2], [1.0, 0.8, 0.3])
     # Rough lobes own energy tables (two sides for a dielectric); smooth ones none.
     size = layout.ALBEDO_TABLE_SIZE
-    assert records["params"][:, 3].tolist() == [-1, 0, 2 * size, -1]
+    assert field("albedo_tables").tolist() == [-1, 0, 2 * size, -1]
 
 
 def test_unused_rough_glass_needs_neither_the_feature_nor_tables(device):

@@ -93,7 +93,8 @@ def test_batch_yields_every_scene_identical_to_its_local_render(client):
     # Each worker made one device context, and rendering the scenes again (new Renderers) builds
     # no program: a kernel variant is built (or loaded) once per worker process.
     def counts():
-        return client.run(lambda: (len(distributed._contexts), len(clrender.device._programs)))
+        return client.run(lambda: (len(distributed._contexts),
+                                   sum(len(clrender.device._memory_cache(c)) for c in distributed._contexts.values())))
 
     before = counts()
     assert {contexts for contexts, _ in before.values()} == {1}

@@ -67,7 +67,7 @@ def test_npy_npz_and_vol_files_load_the_same_grid(tmp_path):
     (lambda d: d["media"][0].update(transform={"scale": [1, 0, 1]}), "media[0].transform", "singular"),
     (lambda d: d["media"][0].update(type="homogeneous"), "media[0].density", "unknown field"),
     (lambda d: d.update(render={"volume_method": "magic"}), "render.volume_method", "valid: null, raymarch"),
-    (lambda d: d.update(render={"step": 0}), "render.step", "must be > 0"),
+    (lambda d: d.update(render={"step": 0}), "render.step", "must be >= 0.001"),
     (lambda d: d.update(render={"raymarch_multiple_scattering": 1}), "render.raymarch_multiple_scattering", "true or false"),
 ])
 def test_invalid_grid_fields_are_reported_with_their_place(patch, where, message):
@@ -127,8 +127,8 @@ def test_features_follow_the_volume_method_and_combinations_stay_valid():
     assert scene_features(clrender.load_scene("scenes/smoke_cornell_box.json"))["GRID_MEDIA"] == 0
     with pytest.raises(ValueError, match="unknown volume method"):
         scene_features(scene, "magic")
-    for step in (0.0, -1.0, float("nan")):
-        with pytest.raises(ValueError, match="step must be a positive number"):
+    for step in (0.0, -1.0, 1e-4, float("nan")):
+        with pytest.raises(ValueError, match="step must be a number >= 0.001"):
             clrender.Renderer(scene, step=step)
     combinations = list(all_feature_combinations())
     assert all(c["MEDIA"] == 1 for c in combinations if c["GRID_MEDIA"])
@@ -168,16 +168,22 @@ def test_cli_chooses_the_volume_method(tmp_path):
     info = run_cli("info", str(path))
     assert info.returncode == 0, info.stderr
     assert "grid_media=null" in info.stdout and "grid 8x8x8 (noise_cloud 8x8x8)" in info.stdout
-    for extra in ([], ["--volume-method", "raymarch", "--step", "0.1", "--raymarch-multiple-scattering"]):
+    for extra in ([], ["--volume-method", "raymarch", "--step", "2", "--no-raymarch-multiple-scattering"]):
         out = tmp_path / "cloud.exr"
         result = run_cli("render", str(path), "-o", str(out), "--spp", "2", "--quiet", *extra)
         assert result.returncode == 0, result.stderr
         image = clrender.load_image(out)
         assert np.all(np.isfinite(image)) and image.min() < 0.99   # the cloud is visible
+        assert "note:" not in result.stderr
+    # A medium too dense for marching's step refinement is reported, not silently capped.
+    data["media"][0]["sigma_t"] = 1e4
+    path.write_text(json.dumps(data))
+    dense = run_cli("render", str(path), "-o", str(out), "--spp", "1", "--quiet", "--volume-method", "raymarch")
+    assert dense.returncode == 0 and "note: ray marching: medium 'cloud'" in dense.stderr, dense.stderr
     bad = run_cli("render", str(path), "-o", str(tmp_path / "x.exr"), "--volume-method", "magic")
     assert bad.returncode != 0 and "invalid choice" in bad.stderr
     bad = run_cli("render", str(path), "-o", str(tmp_path / "x.exr"), "--step", "-1")
-    assert bad.returncode != 0 and "positive" in bad.stderr
+    assert bad.returncode != 0 and "--step: must be >= 0.001" in bad.stderr
 
 
 def test_example_grid_scenes_load():

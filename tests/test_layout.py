@@ -1,8 +1,11 @@
 """Host dtypes (clrender/layout.py) and kernel structs (kernels/types.h) agree."""
+import re
+
 import numpy as np
 import pyopencl as cl
 
 from clrender import layout
+from clrender.device import kernel_dir, kernel_source
 from conftest import build_test_kernels
 
 ORDER = [  # the argument order of struct_layout in kernels/tests.cl
@@ -36,3 +39,63 @@ def test_enumerations_are_defined_once_for_host_and_kernel():
     for table, prefix in ((layout.MATERIAL_KINDS, "MATERIAL"), (layout.EMITTER_KINDS, "EMITTER")):
         for name, value in table.items():
             assert f"#define {prefix}_{name.upper()} {value}\n" in text
+
+
+# ----- packed fields: the kernel accessors read the lanes layout.py names -------------------------
+ACCESSOR_HEADERS = {"Material": ("materials/material.h", "material", layout.MATERIAL_FIELDS, layout.MATERIAL),
+                    "Medium": ("media/medium_record.h", "medium", layout.MEDIUM_FIELDS, layout.MEDIUM)}
+
+
+def accessor_program(context, struct):
+    """The accessor header and a kernel, generated from the field table, that writes every
+    accessor's lanes in table order (as floats)."""
+    header, prefix, fields, _ = ACCESSOR_HEADERS[struct]
+    pointer = "__global const Medium* r = records;" if struct == "Medium" else "Material copy = records[0]; const Material* r = &copy;"
+    body = []
+    for name, (_, _, count) in fields.items():
+        call = f"{prefix}_{name}(r)"
+        body += [f"    out[k++] = (float)({call});"] if count == 1 else [
+            f"    out[k++] = (float)({call}.{lane});" for lane in "xyz"[:count]]
+    source = kernel_source(header) + "\n".join([
+        f"__kernel void read_fields(__global const {struct}* records, __global float* out) {{",
+        f"    {pointer}", "    int k = 0;", *body, "}"])
+    return cl.Program(context, source).build()
+
+
+def test_accessors_read_the_lanes_named_in_layout(context, queue):
+    for struct, (_, _, fields, dtype) in ACCESSOR_HEADERS.items():
+        record = np.zeros(1, dtype)
+        raw = record.view(np.uint8)
+        # Every 4-byte lane gets a distinct small value (exact as float and as int).
+        for member in dtype.names:
+            base = record[member]
+            values = np.arange(base[0].size).reshape(base[0].shape) + 100 * (dtype.names.index(member) + 1)
+            record[member] = values.astype(base.dtype)
+        expected = np.concatenate([np.atleast_1d(layout.field(record, fields, name)).ravel().astype(np.float32)
+                                   for name in fields])
+        out = np.full(expected.size, np.nan, np.float32)
+        mf = cl.mem_flags
+        out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+        accessor_program(context, struct).read_fields(
+            queue, (1,), None, cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=raw), out_buffer)
+        cl.enqueue_copy(queue, out, out_buffer)
+        assert out.tolist() == expected.tolist(), struct
+
+
+def test_only_the_accessor_headers_read_packed_lanes():
+    # Lanes of Material and Medium are read by name everywhere else (the Emitter and RenderParams
+    # records are not covered here).
+    # Members only these records have, through any variable; the commoner names (kind, color,
+    # emission: other structs have them too) through the names material and medium records go by.
+    lanes = re.compile(r"(->|\.)(params|toon_shadow|toon_bands|toon_highlight|toon_rim|toon_ambient|sigma_a|"
+                       r"sigma_s|grid|resolution|majorant_resolution)\.[xyzw]|"
+                       r"\b(m|md|mat|material|medium)(->|\.)(kind|color|emission)\.[xyzw]")
+    root = kernel_dir()
+    offenders = []
+    for path in sorted(root.rglob("*.h")) + sorted(root.rglob("*.cl")):
+        relative = path.relative_to(root).as_posix()
+        if relative in ("materials/material.h", "media/medium_record.h"):
+            continue
+        offenders += [f"{relative}:{n}" for n, line in enumerate(path.read_text().splitlines(), 1)
+                      if lanes.search(line) and "scene->params" not in line]
+    assert offenders == []

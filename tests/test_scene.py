@@ -121,6 +121,8 @@ def test_features_follow_what_the_scene_contains():
     assert scene_features(cornell_box, sample_aovs=True)["AOVS"] == 1   # asked by the render, not the scene
     with_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1}]))
     assert scene_features(with_env)["ENVIRONMENT"] == 1
+    black_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1, "scale": 0}]))
+    assert scene_features(black_env)["ENVIRONMENT"] == 0   # no emitter to read
     with_sun = clrender.load_scene_dict(base_scene(lights=[{"type": "directional", "direction": [0, -1, 0],
                                                            "irradiance": 3}]))
     assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0,

@@ -783,13 +783,15 @@ def test_toon_parameters_reach_the_material_array():
                            rim={"threshold": 0.3, "width": 0.1, "color": [0.9, 0.8, 0.7]}), (0, 0, -1))
     scene = clrender.load_scene_dict(data)
     record = build_scene_arrays(scene).materials[0]
-    assert record["kind"][0] == clrender.layout.MATERIAL_KINDS["toon"]
-    np.testing.assert_allclose(record["color"][:3], [0.1, 0.2, 0.3])
-    np.testing.assert_allclose(record["toon_shadow"], [0.4, 0.5, 0.6, 0.25])
-    np.testing.assert_allclose(record["toon_bands"], [3, 0.05, 0.04, 0.02])
-    np.testing.assert_allclose(record["toon_highlight"], [0.7, 0.7, 0.7, 0.1])
-    np.testing.assert_allclose(record["toon_rim"], [0.9, 0.8, 0.7, 0.3])
-    np.testing.assert_allclose(record["toon_ambient"], [0.05, 0.15, 0.25, 0])
+    fields = {name: clrender.layout.field(record, clrender.layout.MATERIAL_FIELDS, name)
+              for name in clrender.layout.MATERIAL_FIELDS}
+    assert fields["kind"] == clrender.layout.MATERIAL_KINDS["toon"]
+    expected = {"color": [0.1, 0.2, 0.3], "toon_shadow_color": [0.4, 0.5, 0.6], "toon_shadow_factor": 0.25,
+                "toon_bands": 3, "toon_band_softness": 0.05, "toon_highlight_size": 0.04,
+                "toon_highlight_softness": 0.02, "toon_highlight_color": [0.7, 0.7, 0.7], "toon_rim_width": 0.1,
+                "toon_rim_color": [0.9, 0.8, 0.7], "toon_rim_threshold": 0.3, "toon_ambient": [0.05, 0.15, 0.25]}
+    for name, value in expected.items():
+        np.testing.assert_allclose(fields[name], value, err_msg=name)
     assert scene_features(scene)["TOON"] == 1
 
 

@@ -4,16 +4,27 @@
 // supplies the energy-compensation tables of rough lobes (materials/energy.h).
 #ifndef CLRENDER_BSDF_H
 #define CLRENDER_BSDF_H
+#include "math.h"
+#include "rng.h"
+#include "scene.h"
+#include "materials/material.h"
+#include "materials/bsdf_sample.h"
+#include "materials/diffuse.h"
+#include "materials/microfacet.h"
+#include "materials/dielectric.h"
+#include "materials/conductor.h"
+#include "materials/energy.h"
 
 #if DIELECTRIC
 // Roughness is perceptual; GGX's width is its square (Burley 2012), so that roughness 0.5 looks
 // half way between a mirror and a matte surface.
-float material_alpha(const Material* m) { return m->params.z * m->params.z; }
+float material_alpha(const Material* m) { return material_roughness(m) * material_roughness(m); }
 
 // Entering or leaving is decided by the geometric normal and the ray (sp->front_face, i.e. the
 // triangle's winding faces the ray): the relative index is inverted on the way out.
 float material_eta(const Material* m, const SurfacePoint* sp) {
-    return sp->front_face ? m->params.x / m->params.y : m->params.y / m->params.x;
+    float ior = material_ior(m), exterior = material_exterior_ior(m);
+    return sp->front_face ? ior / exterior : exterior / ior;
 }
 
 // The normal the specular models use: the shading normal, unless wo is below its tangent plane
@@ -23,16 +34,16 @@ float3 specular_normal(const SurfacePoint* sp, float3 wo) {
 }
 
 // Energy compensation of a rough lobe at this wo (materials/energy.h); 1 for smooth lobes,
-// whose material has no table (params.w < 0).
+// whose material has no table (albedo_tables < 0).
 float3 specular_energy_scale(const Scene* scene, const Material* m, const SurfacePoint* sp,
                              float cos_o) {
-    int offset = (int)m->params.w;
+    int offset = (int)material_albedo_tables(m);
     if (offset < 0) return (float3)(1.0f);
-    bool dielectric = m->kind.x == MATERIAL_DIELECTRIC;
+    bool dielectric = material_kind(m) == MATERIAL_DIELECTRIC;
     int side = dielectric && !sp->front_face ? ALBEDO_TABLE_SIZE : 0;
     float e = lookup_albedo(scene->specular_albedo + offset + side, cos_o);
     if (!(e > 0.0f)) return (float3)(1.0f);
-    return dielectric ? (float3)(1.0f / e) : 1.0f + m->color.xyz * ((1.0f - e) / e);
+    return dielectric ? (float3)(1.0f / e) : 1.0f + material_color(m) * ((1.0f - e) / e);
 }
 
 // A glossy lobe counts only where the geometric and the shading normal put wi on the same side,
@@ -40,15 +51,15 @@ float3 specular_energy_scale(const Scene* scene, const Material* m, const Surfac
 bool sides_agree(float a, float b) { return (a > 0.0f && b > 0.0f) || (a < 0.0f && b < 0.0f); }
 #endif
 
-// A one-sided material (Material.kind.y = 1; Mitsuba's BSDFs without `twosided`) seen from
+// A one-sided material (field one_sided; Mitsuba's BSDFs without `twosided`) seen from
 // behind its front face (the side the triangle winding faces) neither reflects nor transmits:
 // the path ends there and lights do not reach it.
 bool is_one_sided_back(const Material* m, const SurfacePoint* sp) {
-    return m->kind.y != 0 && !sp->front_face;
+    return material_one_sided(m) != 0 && !sp->front_face;
 }
 
 bool is_specular_material(const Material* m) {
-    return m->kind.x == MATERIAL_DIELECTRIC || m->kind.x == MATERIAL_CONDUCTOR;
+    return material_kind(m) == MATERIAL_DIELECTRIC || material_kind(m) == MATERIAL_CONDUCTOR;
 }
 
 bool material_is_delta(const Material* m) {
@@ -67,13 +78,13 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
         if (material_is_delta(m)) return (float3)(0.0f);
         float3 n = specular_normal(sp, wo);
         if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return (float3)(0.0f);
-        float3 f = m->kind.x == MATERIAL_DIELECTRIC
-            ? eval_dielectric(m->color.xyz, material_eta(m, sp), material_alpha(m), n, wo, wi)
-            : eval_conductor(m->color.xyz, material_alpha(m), n, wo, wi);
+        float3 f = material_kind(m) == MATERIAL_DIELECTRIC
+            ? eval_dielectric(material_color(m), material_eta(m, sp), material_alpha(m), n, wo, wi)
+            : eval_conductor(material_color(m), material_alpha(m), n, wo, wi);
         return f * specular_energy_scale(scene, m, sp, dot(n, wo));
     }
 #endif
-    return eval_diffuse(m->color.xyz, sp, wi);
+    return eval_diffuse(material_color(m), sp, wi);
 }
 
 INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
@@ -83,7 +94,7 @@ INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 w
         if (material_is_delta(m)) return 0.0f;
         float3 n = specular_normal(sp, wo);
         if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return 0.0f;
-        if (m->kind.x == MATERIAL_DIELECTRIC)
+        if (material_kind(m) == MATERIAL_DIELECTRIC)
             return sample_dielectric_pdf(material_eta(m, sp), material_alpha(m), n, wo, wi);
         return sample_conductor_pdf(material_alpha(m), n, wo, wi);
     }
@@ -99,19 +110,19 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
                                 float3 wo, float rnl, float2 rn) {
     float3 n = specular_normal(sp, wo);
     float alpha = material_alpha(m);
-    bool dielectric = m->kind.x == MATERIAL_DIELECTRIC;
+    bool dielectric = material_kind(m) == MATERIAL_DIELECTRIC;
     float eta = dielectric ? material_eta(m, sp) : 1.0f;
     if (material_is_delta(m)) {
-        if (!dielectric) return sample_conductor_delta(m->color.xyz, n, sp->ng, wo);
-        return sample_dielectric_delta(m->color.xyz, eta, n, sp->ng, wo, rnl);
+        if (!dielectric) return sample_conductor_delta(material_color(m), n, sp->ng, wo);
+        return sample_dielectric_delta(material_color(m), eta, n, sp->ng, wo, rnl);
     }
     BsdfSample bs = bsdf_sample_none();
     float3 wi = dielectric ? sample_dielectric(eta, alpha, n, wo, rnl, rn) : sample_conductor(alpha, n, wo, rn);
     if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return bs;  // also rejects the zero vector
     float pdf_w = dielectric ? sample_dielectric_pdf(eta, alpha, n, wo, wi) : sample_conductor_pdf(alpha, n, wo, wi);
     if (!(pdf_w > 0.0f)) return bs;
-    float3 f = dielectric ? eval_dielectric(m->color.xyz, eta, alpha, n, wo, wi)
-                          : eval_conductor(m->color.xyz, alpha, n, wo, wi);
+    float3 f = dielectric ? eval_dielectric(material_color(m), eta, alpha, n, wo, wi)
+                          : eval_conductor(material_color(m), alpha, n, wo, wi);
     bs.wi = wi;
     bs.pdf_w = pdf_w;
     bs.weight = f * specular_energy_scale(scene, m, sp, dot(n, wo)) / pdf_w;
@@ -133,7 +144,7 @@ INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const Surfa
     bs.wi = sample_diffuse(sp, rng_float2(rng));
     bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
     // For cosine sampling f * cos / pdf is the albedo itself; dividing would only add rounding.
-    bs.weight = bs.pdf_w > 0.0f ? m->color.xyz : (float3)(0.0f);
+    bs.weight = bs.pdf_w > 0.0f ? material_color(m) : (float3)(0.0f);
     return bs;
 }
 

@@ -4,6 +4,9 @@
 // side. Uses reflect() from dielectric.h.
 #ifndef CLRENDER_CONDUCTOR_H
 #define CLRENDER_CONDUCTOR_H
+#include "math.h"
+#include "materials/bsdf_sample.h"
+#include "materials/microfacet.h"
 #if DIELECTRIC
 
 // ng: the geometric normal on wo's side. An interpolated normal can mirror wo into the surface

@@ -14,6 +14,9 @@
 // of eta^2 aside so that Russian roulette does not kill paths for being inside glass.
 #ifndef CLRENDER_DIELECTRIC_H
 #define CLRENDER_DIELECTRIC_H
+#include "math.h"
+#include "materials/bsdf_sample.h"
+#include "materials/microfacet.h"
 #if DIELECTRIC
 
 // cos of the transmitted angle, from Snell's law written as cos_t^2 = (eta^2 - 1 + cos_i^2) / eta^2

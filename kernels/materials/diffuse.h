@@ -1,6 +1,9 @@
 // Lambertian reflection. eval_* return f * |cos|, sample_* draw wi, *_pdf give pdf_w.
 #ifndef CLRENDER_DIFFUSE_H
 #define CLRENDER_DIFFUSE_H
+#include "math.h"
+#include "sampling.h"
+#include "scene.h"
 
 float3 eval_diffuse(float3 albedo, const SurfacePoint* sp, float3 wi) {
     // Both normals must agree, or light leaks through the geometric surface.

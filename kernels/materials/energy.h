@@ -15,6 +15,9 @@
 #ifndef CLRENDER_ENERGY_H
 #define CLRENDER_ENERGY_H
 #include "portability.h"
+#include "materials/material.h"
+#include "materials/microfacet.h"
+#include "materials/dielectric.h"
 #if DIELECTRIC
 
 // ALBEDO_TABLE_SIZE comes from clrender/layout.py.
@@ -68,12 +71,13 @@ KERNEL void specular_albedo_table(__global const Material* materials, int materi
                                   __global float* tables) {
     int side = get_global_id(0), k = get_global_id(1);
     Material m = materials[material];
-    bool dielectric = m.kind.x == MATERIAL_DIELECTRIC;
-    int offset = (int)m.params.w;
+    bool dielectric = material_kind(&m) == MATERIAL_DIELECTRIC;
+    int offset = (int)material_albedo_tables(&m);
     if (offset < 0 || (!dielectric && side > 0)) return;
-    float eta = side == 0 ? m.params.x / m.params.y : m.params.y / m.params.x;
+    float ior = material_ior(&m), exterior = material_exterior_ior(&m);
+    float eta = side == 0 ? ior / exterior : exterior / ior;
     tables[offset + side * ALBEDO_TABLE_SIZE + k] =
-        specular_albedo(dielectric, eta, m.params.z * m.params.z, albedo_table_mu(k));
+        specular_albedo(dielectric, eta, material_roughness(&m) * material_roughness(&m), albedo_table_mu(k));
 }
 
 #endif

@@ -4,6 +4,7 @@
 // normal on wo's side. alpha is the GGX width (alpha = roughness^2 on the host side).
 #ifndef CLRENDER_MICROFACET_H
 #define CLRENDER_MICROFACET_H
+#include "math.h"
 #if DIELECTRIC
 
 // Below this width a GGX lobe is narrower than float32 can evaluate reliably (D peaks at

@@ -31,15 +31,15 @@
 // samples per pixel.
 #ifndef CLRENDER_TOON_H
 #define CLRENDER_TOON_H
+#include "math.h"
+#include "rng.h"
+#include "sampling.h"
+#include "scene.h"
+#include "lights.h"
+#include "materials/material.h"
+#include "media/transport.h"
 
 #if TOON
-
-// Fraction of light arriving along a shadow ray (transmittance through media and interface
-// boundaries, 0 where an opaque surface blocks it). Defined in path.h, which is included after
-// this header because trace_path calls eval_toon_radiance.
-// TODO(issue 11): include the media transport header that will hold it, and drop this line.
-float3 shadow_ray(const Scene* scene, float3 origin, float3 dir, float dist, int medium, Rng* rng,
-                  float* pdf_ratio);
 
 // smoothstep(0, width, x). Width 0 is the crisp step x > 0 (no division by zero), so the
 // default band edge smoothstep(0, 0.01, N.L) and a zero softness both behave.
@@ -61,14 +61,14 @@ float toon_band(float n_dot_l, int bands, float softness) {
 
 // Highlight strength: on where R.V exceeds 1 - size, reaching full strength `softness` later.
 float toon_highlight(const Material* m, float r_dot_v) {
-    float size = m->toon_bands.z;
-    return size > 0.0f ? toon_step(r_dot_v - (1.0f - size), m->toon_bands.w) : 0.0f;
+    float size = material_toon_highlight_size(m);
+    return size > 0.0f ? toon_step(r_dot_v - (1.0f - size), material_toon_highlight_softness(m)) : 0.0f;
 }
 
 // Rim: on only where the view grazes the surface, N.V < threshold, reaching full strength
 // `width` below it. Threshold 0 switches it off.
 float3 toon_rim(const Material* m, float n_dot_v) {
-    return m->toon_rim.xyz * toon_step(m->toon_rim.w - n_dot_v, m->toon_highlight.w);
+    return material_toon_rim_color(m) * toon_step(material_toon_rim_threshold(m) - n_dot_v, material_toon_rim_width(m));
 }
 
 // light_intensity + specular for one light direction wi (unit, towards the light), before the
@@ -77,11 +77,11 @@ float3 toon_rim(const Material* m, float n_dot_v) {
 // views, where it would otherwise light up a dark silhouette).
 float3 toon_light_terms(const Material* m, float3 n, float3 wo, float3 wi) {
     float n_dot_l = dot(n, wi);
-    float softness = m->toon_bands.y;
-    float intensity = toon_band(n_dot_l, (int)m->toon_bands.x, softness);
+    float softness = material_toon_band_softness(m);
+    float intensity = toon_band(n_dot_l, (int)material_toon_bands(m), softness);
     float3 r = 2.0f * n_dot_l * n - wi;  // the reflection of L about N
     float highlight = toon_highlight(m, dot(r, wo)) * toon_step(n_dot_l, softness);
-    return intensity + m->toon_highlight.xyz * highlight;
+    return intensity + material_toon_highlight_color(m) * highlight;
 }
 
 // T_j: the light's transmittance from the toon point, through interface boundaries and media
@@ -168,10 +168,10 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
                            &lighting);
     }
     // Ambient and rim are counted once, dimmed by the shadow factor as far as the light is blocked.
-    float3 blocked = m->toon_shadow.xyz * m->toon_shadow.w;
+    float3 blocked = material_toon_shadow_color(m) * material_toon_shadow_factor(m);
     float3 visibility = count > 0 ? blocked + (1.0f - blocked) * lighting.reached : (float3)(1.0f);
-    float3 once = m->toon_ambient.xyz + toon_rim(m, dot(sp->ns, wo));
-    return m->color.xyz * (lighting.lit * INV_PI_F + visibility * once);
+    float3 once = material_toon_ambient(m) + toon_rim(m, dot(sp->ns, wo));
+    return material_color(m) * (lighting.lit * INV_PI_F + visibility * once);
 }
 
 #endif  // TOON

@@ -7,10 +7,8 @@
 // outside the box. The medium's coefficients are per unit density: sigma(x) = density(x) sigma.
 #ifndef CLRENDER_GRID_H
 #define CLRENDER_GRID_H
-
-bool medium_is_grid(__global const Medium* m) { return m->grid.x == MEDIUM_GRID; }
-
-float min3(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }
+#include "scene.h"
+#include "media/medium_record.h"
 
 // World point -> voxel coordinates (the affine map of Medium.to_voxel).
 float3 world_to_voxel(__global const Medium* m, float3 p) {
@@ -26,7 +24,7 @@ float3 world_to_voxel_dir(__global const Medium* m, float3 d) {
 
 // Trilinear density at voxel coordinates v (8 voxel reads; no transcendental functions).
 float grid_density(const Scene* scene, __global const Medium* m, float3 v) {
-    int3 n = m->resolution.xyz;
+    int3 n = medium_resolution(m);
     float3 size = convert_float3(n);
     // Written so that NaN coordinates also count as outside.
     if (!(v.x >= 0.0f && v.y >= 0.0f && v.z >= 0.0f && v.x <= size.x && v.y <= size.y && v.z <= size.z))
@@ -37,7 +35,7 @@ float grid_density(const Scene* scene, __global const Medium* m, float3 v) {
     int3 i = convert_int3(base);
     int3 i0 = clamp(i, (int3)(0), n - 1);
     int3 i1 = clamp(i + 1, (int3)(0), n - 1);
-    __global const float* g = scene->grid_data + m->grid.y;
+    __global const float* g = scene->grid_data + medium_voxel_offset(m);
     int row0 = i0.y * n.x, row1 = i1.y * n.x;
     int slice0 = i0.z * n.x * n.y, slice1 = i1.z * n.x * n.y;
     float c00 = mix(g[slice0 + row0 + i0.x], g[slice0 + row0 + i1.x], f.x);
@@ -45,11 +43,6 @@ float grid_density(const Scene* scene, __global const Medium* m, float3 v) {
     float c01 = mix(g[slice1 + row0 + i0.x], g[slice1 + row0 + i1.x], f.x);
     float c11 = mix(g[slice1 + row1 + i0.x], g[slice1 + row1 + i1.x], f.x);
     return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
-}
-
-// Density of any medium at a world point: homogeneous media have density 1 everywhere.
-float medium_density(const Scene* scene, __global const Medium* m, float3 p) {
-    return medium_is_grid(m) ? grid_density(scene, m, world_to_voxel(m, p)) : 1.0f;
 }
 
 #endif

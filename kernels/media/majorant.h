@@ -1,7 +1,7 @@
 // Majorant iteration: a ray through a medium as segments [t0, t1) of bounded density.
 //
-// The idea of pbrt-v4's SampleT_maj: one generic loop serves every medium. A homogeneous medium
-// is one segment of density exactly 1 (majorant = minorant = 1). A grid medium is walked with a
+// The idea of pbrt-v4's SampleT_maj: one generic walk serves every estimator of grid media
+// (media/tracking.h, media/raymarch.h; homogeneous media need none). A grid medium is walked with a
 // 3D DDA (Amanatides and Woo 1987) over its coarse majorant grid (clrender/grids.py,
 // block_bounds): each block yields a segment with the block's maximum and minimum density, so
 // majorants are tight where the cloud is thin, and blocks of zero density are skipped without
@@ -15,6 +15,7 @@
 // Distances t are world distances along origin + t * dir (dir need not be normalised).
 #ifndef CLRENDER_MAJORANT_H
 #define CLRENDER_MAJORANT_H
+#include "media/grid.h"
 
 typedef struct {
     float t0, t1;        // the segment of the ray
@@ -28,7 +29,6 @@ typedef struct {
     int3 cell, step, res;
     float t, t_end;      // current distance; end of the ray inside the grid box
     int steps_left;      // DDA steps left: bounds the loop whatever the floating point does
-    int homogeneous;     // 1: the single segment [0, t_end) is still to come
 } MajorantIterator;
 
 MajorantIterator majorant_iterator(const Scene* scene, __global const Medium* m, float3 origin,
@@ -37,13 +37,11 @@ MajorantIterator majorant_iterator(const Scene* scene, __global const Medium* m,
     it.t = 0.0f;
     it.t_end = t_max;
     it.steps_left = 0;
-    it.homogeneous = medium_is_grid(m) ? 0 : 1;
-    if (it.homogeneous) return it;
     it.voxel_origin = world_to_voxel(m, origin);
     it.voxel_dir = world_to_voxel_dir(m, dir);
-    float block = (float)m->grid.w;
+    float block = (float)medium_majorant_block(m);
     float3 o = it.voxel_origin / block, d = it.voxel_dir / block;   // block coordinates
-    float3 box = convert_float3(m->resolution.xyz) / block;         // the grid box [0, box]
+    float3 box = convert_float3(medium_resolution(m)) / block;         // the grid box [0, box]
     // Slab test. A zero direction component gives infinite inverse: +-inf bounds when the origin
     // is strictly inside the slab (no constraint) or outside it (a miss); NaN (origin exactly on
     // the slab plane) is ignored by fmin/fmax or misses, either of which is consistent.
@@ -58,7 +56,7 @@ MajorantIterator majorant_iterator(const Scene* scene, __global const Medium* m,
     }
     it.t = t_enter;
     it.t_end = t_exit;
-    it.res = m->majorant_resolution.xyz;
+    it.res = medium_majorant_resolution(m);
     float3 p = o + t_enter * d;
     it.cell = clamp(convert_int3(floor(p)), (int3)(0), it.res - 1);
     float3 cell = convert_float3(it.cell);
@@ -78,14 +76,7 @@ MajorantIterator majorant_iterator(const Scene* scene, __global const Medium* m,
 // The next segment of positive majorant; false when the ray has left the grid (or t_max).
 bool majorant_next(const Scene* scene, __global const Medium* m, MajorantIterator* it,
                    MajorantSegment* seg) {
-    if (it->homogeneous) {
-        it->homogeneous = 0;
-        seg->t0 = 0.0f;
-        seg->t1 = it->t_end;
-        seg->d_max = seg->d_min = 1.0f;
-        return it->t_end > 0.0f;
-    }
-    __global const float* bounds = scene->majorant_data + 2 * m->grid.z;
+    __global const float* bounds = scene->majorant_data + 2 * medium_majorant_offset(m);
     while (it->steps_left > 0 && it->t < it->t_end) {
         --it->steps_left;
         float3 tn = it->t_next;
@@ -120,8 +111,7 @@ bool majorant_next(const Scene* scene, __global const Medium* m, MajorantIterato
     return false;
 }
 
-// Density at distance t along the iterator's ray: 1 in a homogeneous medium (whose iterator
-// has no voxel map: a grid lookup there would read outside every grid).
+// Density at distance t along the iterator's ray.
 float majorant_ray_density(const Scene* scene, __global const Medium* m, const MajorantIterator* it,
                            float t) {
     return medium_is_grid(m) ? grid_density(scene, m, it->voxel_origin + t * it->voxel_dir) : 1.0f;

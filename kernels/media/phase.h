@@ -8,6 +8,7 @@
 // keeps full relative precision.
 #ifndef CLRENDER_PHASE_H
 #define CLRENDER_PHASE_H
+#include "math.h"
 
 // Below this |g| the isotropic phase is used instead (within O(g) of HG), in both sampling
 // and evaluation so they stay consistent; the inverse CDF divides by g.

@@ -1,160 +1,150 @@
-// Ray marching through grid media: a biased but smooth preview (docs/heterogeneous-media.md).
+// Ray marching through grid media (GRID_MEDIA == VOLUME_RAYMARCH): a biased preview, the
+// piecewise-constant approximation of the density along each ray (docs/heterogeneous-media.md).
 //
-// A ray segment is cut into steps of fixed length (RenderParams.volume.x, in scene units; the
-// last step of each majorant segment is shortened so the steps tile the ray exactly, and empty
-// majorant blocks are skipped). Each step takes the density at one jittered point inside it
-// (the same jitter fraction for every step of a ray): the sum of density x length is an
-// unbiased, stratified estimate of the optical depth, and exp of it a slightly biased estimate
-// of transmittance; the bias and the noise shrink with the step. Within a step the medium is
-// taken as constant, so its in-scattering integral is exact for that constant medium:
-//     integral over the step of T(t) sigma_s L dt = T_j (1 - exp(-sigma_t,j len)) (sigma_s / sigma_t) L(x_j).
-// Single scattering: the sum over steps of w_j L(x_j), w_j = T_j (1 - exp(-sigma_t,j len)) albedo,
-// L(x_j) by next-event estimation whose shadow ray is marched the same way (through
-// shadow_transmittance, so it also crosses boundaries and other media). Without multiple
-// scattering (the smooth preview) every step gets its light sample. With it, every path vertex
-// marches, and a marched shadow ray per step made the cost quadratic in the step count (0.05
-// against 1.4 M samples/s for null scattering under a low sun): there ONE step gets the light
-// sample, picked by a single-item weighted reservoir with probability mean(w_j) / sum_k
-// mean(w_k) and weighted by the inverse, an unbiased estimate of the same sum.
-// Multiple scattering (RenderParams.volume.y): the path also continues from one step, picked
-// with probability q_j = mean_c T_j,c (1 - exp(-sigma_t,j,c len)) (the discrete free-flight
-// distribution of the marched medium), or passes with the rest, mean(T_end); the next-event
-// estimates are then MIS-weighted against the phase-sampled continuation.
+// A ray is cut into steps inside the non-empty majorant blocks (media/majorant.h; empty blocks
+// are skipped). The density is taken at one jittered point of each step (one jitter fraction
+// per ray: a stratified, unbiased estimate of the density integral D) and held constant over
+// the step, so within a step the medium is homogeneous and everything of media/homogeneous.h
+// applies exactly, in units of density x length instead of length:
+//   - free flight: the hero's collision depth D* ~ Exp(sigma_t,h) is drawn once and the march
+//     stops in the step where D crosses it; the collision lies inside that step where its
+//     constant density puts it (the step's optical depth places it, not a uniform point).
+//     Weights and pdf ratios are those of a homogeneous medium at depth D: spectral MIS,
+//     albedo-weighted collisions, and light sampling once per scattering vertex (path.h).
+//   - transmittance of shadow rays: exp(-sigma_t D), marched with the same steps, with Russian
+//     roulette once it is small (2x coarser shadow steps were tried: they carried most of
+//     marching's bias for 5-10% of speed, docs/performance.md).
+// The bias is Jensen's: E[exp(-sigma D)] >= exp(-sigma E[D]), of the order of the variance of D's
+// estimate, which shrinks with the step. Step length, per majorant block: `step` (RenderParams
+// .volume.x) times the smaller of one voxel (measured along the ray) and MARCH_STEP_OPTICAL_DEPTH
+// of the block's majorant optical depth, so steps are fine where the medium is dense and coarse
+// where it is thin, and the same in voxels and optical depths at any scene scale.
 #ifndef CLRENDER_RAYMARCH_H
 #define CLRENDER_RAYMARCH_H
+#include "math.h"
+#include "rng.h"
+#include "camera.h"
+#include "media/medium_sample.h"
+#include "media/medium_record.h"
+#include "media/homogeneous.h"
+#include "media/majorant.h"
+#if GRID_MEDIA == VOLUME_RAYMARCH
 
-// A runaway guard on steps per ray segment (a tiny step through a huge grid): beyond it the
-// rest of the segment is treated as empty, a bias only in absurd settings (1 / step > 65536
-// steps per segment).
-#define MARCH_MAX_STEPS 65536
-// Marching stops once every channel's transmittance is below this (bias at most this fraction).
-#define MARCH_MIN_TRANSMITTANCE 1e-5f
+// MARCH_STEP_OPTICAL_DEPTH (the majorant optical depth of a step at step 1, see the top) and
+// MARCH_MAX_STEPS_PER_VOXEL come from clrender/layout.py, which also reports the media where the
+// latter binds: the refinement by optical depth stops at that many steps per voxel (times
+// 1 / step), i.e. only where a voxel holds more than 32 optical depths of majorant and the
+// medium is opaque within a fraction of a voxel.
+// Shadow rays play Russian roulette whenever their weighted transmittance drops below this.
+#define MARCH_ROULETTE_BELOW 0.1f
+// Marching stops once every channel's transmittance is below exp(-11.5) = 1e-5.
+#define MARCH_MAX_OPTICAL_DEPTH 11.5f
 
 float march_step(const Scene* scene) { return scene->params->volume.x; }
 
-bool march_multiple_scattering(const Scene* scene) { return scene->params->volume.y != 0.0f; }
+bool march_single_scattering(const Scene* scene) { return scene->params->volume.y == 0.0f; }
 
-// Defined in path.h: next-event estimation from a point in a medium, through boundaries and media.
-float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, bool mis, Rng* rng);
+// Steps of one ray through one grid medium, pulled one at a time (like the majorant walk).
+typedef struct {
+    MajorantIterator blocks;
+    MajorantSegment seg;
+    float step;          // in voxels (and in units of MARCH_STEP_OPTICAL_DEPTH)
+    float voxel_length;  // world length of one voxel along the ray
+    float sigma_max;     // the largest channel of sigma_t per unit density
+    float jitter;        // where in each step the density is taken, as a fraction
+    int index, count;    // the next step of the current majorant segment, and its step count
+    float t, dt;         // the current step [t, t + dt)
+    float density;       // the density taken for it
+} Marcher;
 
-// Steps covering a majorant segment (the last one shortened), within the per-ray budget.
-int march_step_count(MajorantSegment seg, float step, int steps_taken) {
-    float count = ceil((seg.t1 - seg.t0) / step);
-    return (int)fmin(count, (float)(MARCH_MAX_STEPS - steps_taken));
+Marcher marcher(const Scene* scene, __global const Medium* m, float3 origin, float3 dir, float t_max,
+                float step, float jitter) {
+    Marcher mr;
+    mr.blocks = majorant_iterator(scene, m, origin, dir, t_max);
+    mr.step = step;
+    mr.voxel_length = 1.0f / length(mr.blocks.voxel_dir);
+    mr.sigma_max = max_component(medium_sigma_t(m));
+    mr.jitter = jitter;
+    mr.index = mr.count = 0;
+    mr.t = mr.dt = mr.density = 0.0f;
+    return mr;
 }
 
-// Marched transmittance of a grid medium over [0, t_max): exp(-sigma_t * integral of density),
-// the integral a stratified sum (one exp per channel per call, none per step).
-float3 march_transmittance(const Scene* scene, __global const Medium* m, float3 origin, float3 dir,
-                           float t_max, Rng* rng) {
-    float3 sigma_t = m->sigma_a.xyz + m->sigma_s.xyz;
-    float step = march_step(scene);
-    float jitter = rng_float(rng);
-    // Beyond this integral of density the transmittance is below 1e-5 in every channel.
-    float depth_limit = 11.5f / fmax(min3(sigma_t), 1e-30f);
+// Advance to the next step; false when the ray has left the medium. A majorant segment is cut
+// into equal steps no longer than the step length of its block.
+bool march_next(const Scene* scene, __global const Medium* m, Marcher* mr) {
+    while (mr->index >= mr->count) {
+        if (!majorant_next(scene, m, &mr->blocks, &mr->seg)) return false;
+        float by_depth = MARCH_STEP_OPTICAL_DEPTH / (mr->seg.d_max * mr->sigma_max);
+        float longest = mr->step * fmax(mr->voxel_length / MARCH_MAX_STEPS_PER_VOXEL,
+                                        fmin(mr->voxel_length, by_depth));
+        float span = mr->seg.t1 - mr->seg.t0;
+        mr->count = (int)fmin(ceil(span / longest), 1e9f);
+        mr->dt = span / (float)mr->count;
+        mr->index = 0;
+    }
+    mr->t = mr->seg.t0 + (float)mr->index * mr->dt;
+    mr->density = majorant_ray_density(scene, m, &mr->blocks, mr->t + mr->jitter * mr->dt);
+    ++mr->index;
+    return true;
+}
+
+// Density integral beyond which every channel with sigma_t > 0 has T < 1e-5 (0 when none has).
+float march_depth_limit(float3 sigma_t) {
+    float3 positive = select((float3)(INFINITY), sigma_t, sigma_t > 0.0f);
+    return MARCH_MAX_OPTICAL_DEPTH / min_component(positive);
+}
+
+// ----- the interface media/medium.h dispatches to -------------------------------------------
+MediumSample sample_grid_medium(const Scene* scene, __global const Medium* m, Ray ray, float t_max,
+                                Rng* rng) {
+    float3 sigma_t = medium_sigma_t(m), sigma_s = medium_sigma_s(m);
+    bool spectral_mis = media_spectral_mis(scene);
+    int hero = sample_hero(rng);
+    float target = sample_free_flight(sigma_t, hero, rng_float(rng));   // D*
+    float limit = march_depth_limit(sigma_t);
+    Marcher mr = marcher(scene, m, ray.origin, ray.direction, t_max, march_step(scene), rng_float(rng));
     float depth = 0.0f;
-    int steps = 0;
-    MajorantIterator it = majorant_iterator(scene, m, origin, dir, t_max);
-    MajorantSegment seg;
-    while (depth < depth_limit && steps < MARCH_MAX_STEPS && majorant_next(scene, m, &it, &seg)) {
-        int count = march_step_count(seg, step, steps);
-        for (int j = 0; j < count && depth < depth_limit; ++j) {
-            float t = seg.t0 + (float)j * step;
-            float len = fmin(step, seg.t1 - t);
-            depth += majorant_ray_density(scene, m, &it, t + jitter * len) * len;
+    while (depth < limit && march_next(scene, m, &mr)) {
+        float step_depth = mr.density * mr.dt;
+        if (depth + step_depth > target) {
+            MediumSample s = free_flight_sample(sigma_t, sigma_s, target, true, hero, spectral_mis);
+            s.t = mr.t + (target - depth) / mr.density;
+            return s;
         }
-        steps += count;
+        depth += step_depth;
     }
-    return transmittance(sigma_t, depth);
+    MediumSample s = free_flight_sample(sigma_t, sigma_s, depth, false, hero, spectral_mis);
+    s.t = t_max;
+    return s;
 }
 
-// March one grid-medium segment of a path ray over [0, t_max). *inscattered receives the
-// single-scattering radiance (to be multiplied by the path throughput); `lit`: the path may
-// still gain a vertex (depth < max depth), so lights are sampled and the path may scatter.
-// The returned event: scattered at a step (multiple scattering: weight albedo-like,
-// T sigma_s / sigma_t (1 - e) / q), or passed (weight T_end / mean(T_end) when the path could
-// have scattered, the deterministic T_end otherwise).
-MediumEvent raymarch_event(const Scene* scene, int medium, Ray ray, float t_max, bool lit,
-                           float3* inscattered, Rng* rng) {
-    __global const Medium* m = scene->media + medium;
-    float3 sigma_a = m->sigma_a.xyz, sigma_s = m->sigma_s.xyz, sigma_t = sigma_a + sigma_s;
-    float3 albedo = (float3)(sigma_t.x > 0.0f ? sigma_s.x / sigma_t.x : 0.0f,
-                             sigma_t.y > 0.0f ? sigma_s.y / sigma_t.y : 0.0f,
-                             sigma_t.z > 0.0f ? sigma_s.z / sigma_t.z : 0.0f);
-    bool may_scatter = lit && march_multiple_scattering(scene);
-    float step = march_step(scene);
-    float jitter = rng_float(rng);
-    float u_event = rng_float(rng);   // inverts the discrete free-flight distribution online
-    float cumulative = 0.0f;
-    float3 tr = (float3)(1.0f);
-    *inscattered = (float3)(0.0f);
-    float total_weight = 0.0f;             // reservoir: sum of mean3(step weights) so far
-    float3 chosen_weight = (float3)(0.0f);  // the chosen step's weight and position
-    float chosen_t = 0.0f;
-    MediumEvent event;
-    event.scattered = false;
-    event.t = t_max;
-    int steps = 0;
-    MajorantIterator it = majorant_iterator(scene, m, ray.origin, ray.direction, t_max);
-    MajorantSegment seg;
-    bool done = false;
-    while (!done && majorant_next(scene, m, &it, &seg)) {
-        int count = march_step_count(seg, step, steps);
-        steps += count;
-        done = steps >= MARCH_MAX_STEPS;
-        for (int j = 0; j < count; ++j) {
-            if (max_component(tr) < MARCH_MIN_TRANSMITTANCE) {
-                done = true;
-                break;
-            }
-            float t = seg.t0 + (float)j * step;
-            float len = fmin(step, seg.t1 - t);
-            float t_sample = t + jitter * len;
-            float density = majorant_ray_density(scene, m, &it, t_sample);
-            if (!(density > 0.0f)) continue;
-            float3 step_tr = exp(-density * sigma_t * len);
-            float3 interacted = tr * (1.0f - step_tr);   // probability of an event in this step
-            if (lit && !may_scatter) {
-                float3 p = ray.origin + t_sample * ray.direction;
-                *inscattered += interacted * albedo *
-                                direct_light_in_medium(scene, p, ray.direction, medium, false, rng);
-            } else if (lit) {
-                // Weighted reservoir of one step for next-event estimation (see the top).
-                float3 w = interacted * albedo;
-                float mean_w = mean3(w);
-                total_weight += mean_w;
-                if (mean_w > 0.0f && rng_float(rng) * total_weight < mean_w) {
-                    chosen_weight = w;
-                    chosen_t = t_sample;
-                }
-            }
-            if (may_scatter && !event.scattered) {
-                // The path continues from here, but the march goes on: the single scattering
-                // sum above covers the whole segment whichever event is picked.
-                float q = mean3(interacted);
-                if (u_event < cumulative + q) {
-                    event.scattered = true;
-                    event.t = t_sample;
-                    event.weight = q > 0.0f ? interacted * albedo / q : (float3)(0.0f);
-                }
-                cumulative += q;
-            }
-            tr *= step_tr;
+float3 grid_transmittance(const Scene* scene, __global const Medium* m, float3 origin, float3 dir,
+                          float t_max, Rng* rng, float* pdf_ratio) {
+    float3 sigma_t = medium_sigma_t(m);
+    float limit = march_depth_limit(sigma_t);
+    Marcher mr = marcher(scene, m, origin, dir, t_max, march_step(scene), rng_float(rng));
+    // Russian roulette, as ratio tracking's: whenever the weighted estimate of the thinnest
+    // channel drops below 0.1 (every ln 2 of optical depth beyond 2.3), the ray survives with
+    // probability 1/2 and its weight doubles: unbiased for the marched medium, and the march
+    // through a thick cloud ends after a few steps instead of at T = 1e-5.
+    float depth = 0.0f, weight = 1.0f;
+    float sigma_min = min_component(sigma_t);
+    float roulette_depth = -log(MARCH_ROULETTE_BELOW) / sigma_min;   // exp(-sigma_min depth) = 0.1
+    while (depth < limit && march_next(scene, m, &mr)) {
+        depth += mr.density * mr.dt;
+        while (depth > roulette_depth) {
+            if (rng_float(rng) >= 0.5f) return (float3)(0.0f);
+            weight *= 2.0f;
+            roulette_depth += LN2_F / sigma_min;
         }
     }
-    if (total_weight > 0.0f) {
-        float3 p = ray.origin + chosen_t * ray.direction;
-        *inscattered = chosen_weight * (total_weight / mean3(chosen_weight)) *
-                       direct_light_in_medium(scene, p, ray.direction, medium, true, rng);
-    }
-    if (event.scattered) return event;
-    if (may_scatter) {
-        float pass = mean3(tr);
-        event.weight = pass > 0.0f ? tr / pass : (float3)(0.0f);
-    } else {
-        event.weight = tr;
-    }
-    return event;
+    float3 tr = transmittance(sigma_t, depth);
+    *pdf_ratio = mean3(tr);
+    return tr * weight;
 }
 
+bool grid_scatters_once(const Scene* scene) { return march_single_scattering(scene); }
+
+#endif
 #endif

@@ -1,0 +1,34 @@
+// Named accessors of the packed Material record: the only kernel code that knows its lanes.
+// The lanes are defined once, in clrender/layout.py (MATERIAL_FIELDS, beside the dtype), where
+// their meaning is documented; tests/test_layout.py checks every accessor against that table.
+#ifndef CLRENDER_MATERIAL_H
+#define CLRENDER_MATERIAL_H
+#include "types.h"
+
+int material_kind(const Material* m) { return m->kind.x; }
+int material_one_sided(const Material* m) { return m->kind.y; }
+float3 material_color(const Material* m) { return m->color.xyz; }
+float3 material_emission(const Material* m) { return m->emission.xyz; }
+float material_ior(const Material* m) { return m->params.x; }
+float material_exterior_ior(const Material* m) { return m->params.y; }
+float material_roughness(const Material* m) { return m->params.z; }
+float material_albedo_tables(const Material* m) { return m->params.w; }
+
+float3 material_toon_shadow_color(const Material* m) { return m->toon_shadow.xyz; }
+float material_toon_shadow_factor(const Material* m) { return m->toon_shadow.w; }
+float material_toon_bands(const Material* m) { return m->toon_bands.x; }
+float material_toon_band_softness(const Material* m) { return m->toon_bands.y; }
+float material_toon_highlight_size(const Material* m) { return m->toon_bands.z; }
+float material_toon_highlight_softness(const Material* m) { return m->toon_bands.w; }
+float3 material_toon_highlight_color(const Material* m) { return m->toon_highlight.xyz; }
+float material_toon_rim_width(const Material* m) { return m->toon_highlight.w; }
+float3 material_toon_rim_color(const Material* m) { return m->toon_rim.xyz; }
+float material_toon_rim_threshold(const Material* m) { return m->toon_rim.w; }
+float3 material_toon_ambient(const Material* m) { return m->toon_ambient.xyz; }
+
+// An index-matched boundary (an interface, or a dielectric with the same index on both sides):
+// only separates media and transmits its colour, not a path vertex.
+bool material_is_interface(const Material* m) { return material_kind(m) == MATERIAL_INTERFACE; }
+float3 material_boundary_transmittance(const Material* m) { return material_color(m); }
+
+#endif
