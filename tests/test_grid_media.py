@@ -416,8 +416,7 @@ def lit_box_in_fog(medium, fog):
     data["shapes"][2]["transform"] = {"scale": 0.5, "rotate": [90, 0, 0], "translate": [-0.5, 1.8, 0]}
     for shape in data["shapes"][1:]:
         shape["exterior"] = "fog"
-    data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2,
-                           "subdivisions": 3})
+    data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2})
     return clrender.load_scene_dict(data)
 
 
