@@ -3,7 +3,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, limits
+from . import layout, limits, meshes
 from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
 from .errors import SceneError
@@ -28,7 +28,8 @@ class SceneArrays:
     env_cdf: np.ndarray
     env_index: int              # emitter index of the environment, -1 without one
     env_size: tuple             # (width, height) of the environment image, (0, 0) without one
-    first_light: int            # index of the first non-triangle emitter (lights follow triangles)
+    first_light: int            # index of the first emitter that is not an area light (lights follow them)
+    spheres: int                # analytic spheres among the primitive slots (the rest: triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
     specular_albedo: np.ndarray  # float32 energy-compensation tables, filled on the device
     table_materials: list       # indices of the materials that own tables (field albedo_tables >= 0)
@@ -54,7 +55,7 @@ SCALE_WINDOW = 10
 def scene_extent(scene):
     """The largest side of the box around the geometry, the camera, point lights and grid boxes."""
     points = [scene.camera.position[None]]
-    points += [s.mesh.vertices for s in scene.shapes]
+    points += [np.array(meshes.bounds(s.mesh)) for s in scene.shapes]
     points += [light.position[None] for light in scene.lights if light.position is not None]
     points += [np.array(m.grid.world_bounds()) for m in scene.media if m.grid is not None]
     points = np.concatenate(points)
@@ -77,37 +78,27 @@ def device_length_scale(scene):
 
 
 def build_scene_arrays(scene):
-    count = sum(len(shape.mesh.faces) for shape in scene.shapes)
+    count = sum(1 if isinstance(shape.mesh, meshes.Sphere) else len(shape.mesh.faces) for shape in scene.shapes)
     if count > limits.MAX_TRIANGLES:   # before the triangles are gathered and the BVH is built
-        raise SceneError("shapes", f"{count} triangles, more than the limit of {limits.MAX_TRIANGLES}")
+        raise SceneError("shapes", f"{count} primitives, more than the limit of {limits.MAX_TRIANGLES}")
     scale = device_length_scale(scene)
     v0, v1, v2, normals, info = _gather_triangles(scene, scale)
     keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
     _check_no_shape_vanishes(scene, info, keep)
     v0, v1, v2, normals, info = v0[keep], v1[keep], v2[keep], normals[keep], info[keep]
+    centres, radii, sphere_info = _gather_spheres(scene, scale)
 
-    bvh = build_bvh(v0, v1, v2)
-    nodes, bvh_depth = wide_bvh.collapse(bvh)
+    bvh = build_bvh(v0, v1, v2, spheres=(centres, radii))
     order = bvh.prim_order
-    v0, v1, v2, normals, info = v0[order], v1[order], v2[order], normals[order], info[order]
-
-    triangles = np.zeros(len(v0), layout.TRIANGLE)
-    # Edges are differences of the float32 corners, not rounded float64 differences: then
-    # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
-    # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
-    # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
-    v0, v1, v2 = (v.astype(np.float32) for v in (v0, v1, v2))
-    triangles["v0"][:, :3] = v0
-    triangles["e1"][:, :3] = v1 - v0
-    triangles["e2"][:, :3] = v2 - v0
-    shading = np.zeros(len(v0), layout.TRIANGLE_SHADING)
-    for k, name in enumerate(("n0", "n1", "n2")):
-        shading[name][:, :3] = normals[:, k]
+    triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii)
+    unordered_info = np.concatenate([info, sphere_info])
+    info = unordered_info[order]
+    nodes, bvh_depth = wide_bvh.collapse(bvh, is_sphere)
 
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
-    emitters, powers = _triangle_emitters(scene, v0, v1, v2, info)
+    emitters, powers = _area_emitters(scene, triangles, is_sphere, info)
     first_light = len(emitters)
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
     light_emitters = []
@@ -141,7 +132,8 @@ def build_scene_arrays(scene):
 
     camera_medium = scene.camera_medium
     if camera_medium is None:
-        camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, info)
+        camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, centres, radii,
+                                          unordered_info)
     media, grid_data, majorant_data = _medium_array(scene.media, scale)
     return SceneArrays(
         nodes=nodes, triangles=triangles, shading=shading,
@@ -149,7 +141,7 @@ def build_scene_arrays(scene):
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
-        first_light=first_light,
+        first_light=first_light, spheres=int(np.count_nonzero(is_sphere)),
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
         degenerate_triangles=degenerate, length_scale=scale,
         specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials)
@@ -172,7 +164,7 @@ def _check_no_shape_vanishes(scene, info, keep):
     total = np.bincount(info[:, 1], minlength=len(scene.shapes))
     kept = np.bincount(info[keep, 1], minlength=len(scene.shapes))
     for index in np.flatnonzero((total > 0) & (kept == 0)):
-        sizes = [float(np.ptp(s.mesh.vertices, axis=0).max()) for s in scene.shapes]
+        sizes = [float(np.max(np.subtract(*meshes.bounds(s.mesh)[::-1]))) for s in scene.shapes]
         largest = int(np.argmax(sizes))
         raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {scene.shapes[index].name!r} "
                                              f"are degenerate at the scene's scale (no area in float32; "
@@ -180,12 +172,62 @@ def _check_no_shape_vanishes(scene, info, keep):
                                              f"shapes[{largest}] {scene.shapes[largest].name!r} {sizes[largest]:.3g})")
 
 
+def primitive_slots(order, v0, v1, v2, normals, centres, radii):
+    """The kernel's triangle and shading buffers over the primitive slots of a BVH (slot k holds
+    primitive order[k]: triangle i < len(v0), else sphere i - len(v0)), and which slots hold
+    spheres. A sphere slot holds a layout.SPHERE in its first bytes and no shading normals."""
+    n_triangles = len(v0)
+    is_sphere = np.asarray(order) >= n_triangles
+    slots = np.flatnonzero(~is_sphere)
+    tri = np.asarray(order)[slots]
+    triangles = np.zeros(len(order), layout.TRIANGLE)
+    # Edges are differences of the float32 corners, not rounded float64 differences: then
+    # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
+    # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
+    # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
+    a, b, c = (np.asarray(v, np.float32)[tri] for v in (v0, v1, v2))
+    triangles["v0"][slots, :3] = a
+    triangles["e1"][slots, :3] = b - a
+    triangles["e2"][slots, :3] = c - a
+    shading = np.zeros(len(order), layout.TRIANGLE_SHADING)
+    for k, name in enumerate(("n0", "n1", "n2")):
+        shading[name][slots, :3] = np.asarray(normals)[tri, k]
+    spheres = np.zeros(len(order), layout.SPHERE)
+    index = np.asarray(order)[is_sphere] - n_triangles
+    spheres["centre_radius"][is_sphere, :3] = np.asarray(centres).reshape(-1, 3)[index]
+    spheres["centre_radius"][is_sphere, 3] = np.asarray(radii)[index]
+    if is_sphere.any():
+        size = layout.SPHERE.itemsize
+        triangles.view(np.uint8).reshape(len(order), -1)[is_sphere, :size] = \
+            spheres.view(np.uint8).reshape(len(order), size)[is_sphere]
+    return triangles, shading, is_sphere
+
+
+def _gather_spheres(scene, scale=1.0):
+    """The analytic spheres of all shapes: centres (S, 3) and signed radii (S,) (negative when
+    flipped), times `scale`, and their TriangleInfo columns (S, 4)."""
+    found = [(index, shape) for index, shape in enumerate(scene.shapes) if isinstance(shape.mesh, meshes.Sphere)]
+    centres = np.array([shape.mesh.center for _, shape in found], float).reshape(-1, 3) * scale
+    radii = np.array([-shape.mesh.radius if shape.mesh.flipped else shape.mesh.radius for _, shape in found], float) * scale
+    for (index, shape), radius in zip(found, radii):
+        # The kernel squares radii: a sphere tiny against the scene would have none in float32.
+        if not abs(radius) ** 2 >= np.finfo(np.float32).tiny:
+            raise SceneError(f"shapes[{index}]", f"sphere {shape.name!r} of radius {shape.mesh.radius:.3g} is "
+                                                 f"degenerate at the scene's scale (the scene spans "
+                                                 f"{scene_extent(scene):.3g} units)")
+    info = np.array([[shape.material, index, -1, layout.pack_media(shape.interior, shape.exterior)]
+                     for index, shape in found], np.int32).reshape(-1, 4)
+    return centres, radii, info
+
+
 def _gather_triangles(scene, scale=1.0):
-    """Concatenate all shapes: corners (times `scale`), per-vertex normals, and the TriangleInfo
+    """Concatenate all meshes: corners (times `scale`), per-vertex normals, and the TriangleInfo
     columns (material, object, emitter = -1, packed media) per triangle."""
     v0, v1, v2, normals, info = [], [], [], [], []
     for object_id, shape in enumerate(scene.shapes):
         mesh = shape.mesh
+        if isinstance(mesh, meshes.Sphere):
+            continue
         corners = mesh.vertices[mesh.faces] * scale
         v0.append(corners[:, 0])
         v1.append(corners[:, 1])
@@ -204,24 +246,27 @@ def _gather_triangles(scene, scale=1.0):
             np.concatenate(normals), np.concatenate(info).astype(np.int32))
 
 
-def _triangle_emitters(scene, v0, v1, v2, info):
-    """One emitter per triangle whose material emits; records its index in info[:, 2].
-
-    Returns the emitters and their powers (the selection weights)."""
+def _area_emitters(scene, triangles, is_sphere, info):
+    """One emitter per primitive slot whose material emits, triangles first, then spheres;
+    records its index in info[:, 2]. Returns the emitters and their powers (the selection
+    weights: pi x area x mean radiance, as one-sided Lambertian emitters)."""
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3)
-    slots = np.flatnonzero(np.any(emission[info[:, 0]] > 0, axis=1)) if len(info) else np.zeros(0, int)
+    emits = np.any(emission[info[:, 0]] > 0, axis=1) if len(info) else np.zeros(0, bool)
+    slots = np.concatenate([np.flatnonzero(emits & ~is_sphere), np.flatnonzero(emits & is_sphere)])
     info[slots, 2] = np.arange(len(slots))
-    radiance = emission[info[slots, 0]]
-    e1, e2 = v1[slots] - v0[slots], v2[slots] - v0[slots]
-    area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
     emitters = np.zeros(len(slots), layout.EMITTER)
-    emitters["kind"][:, 0] = layout.EMITTER_KINDS["triangle"]
-    emitters["radiance"][:, :3] = radiance
-    emitters["p0"][:, :3] = v0[slots]
-    emitters["p0"][:, 3] = area
-    emitters["e1"][:, :3] = e1
-    emitters["e2"][:, :3] = e2
-    return emitters, list(np.pi * area * radiance.mean(axis=1))
+    emitters["radiance"][:, :3] = emission[info[slots, 0]]
+    sphere = is_sphere[slots]
+    emitters["kind"][:, 0] = np.where(sphere, layout.EMITTER_KINDS["sphere"], layout.EMITTER_KINDS["triangle"])
+    record = triangles[slots]
+    e1, e2 = record["e1"][:, :3].astype(float), record["e2"][:, :3].astype(float)
+    area = np.where(sphere, 4 * np.pi * record["v0"][:, 3].astype(float) ** 2,
+                    0.5 * np.linalg.norm(np.cross(e1, e2), axis=1))
+    emitters["p0"] = record["v0"]   # a sphere's centre and signed radius (the slot's first bytes)
+    emitters["p0"][~sphere, 3] = area[~sphere]
+    emitters["e1"][~sphere, :3] = e1[~sphere]
+    emitters["e2"][~sphere, :3] = e2[~sphere]
+    return emitters, list(np.pi * area * emitters["radiance"][:, :3].mean(axis=1))
 
 
 def _emitter(kind, radiance, p0=(0, 0, 0)):
@@ -330,17 +375,22 @@ def _medium_array(media, scale=1.0):
     return out, grid_data, majorant_data
 
 
-def _medium_at_camera(scene, position, v0, v1, v2, info):
+def _medium_at_camera(scene, position, v0, v1, v2, centres, radii, info):
     """The medium around the camera: the first surface along the view direction tells whether
-    the camera is behind its front face (inside the interior medium) or in front of it."""
-    if len(v0) == 0:
+    the camera is behind its front face (inside the interior medium) or in front of it.
+    info: the TriangleInfo rows of the triangles, then of the spheres."""
+    if len(info) == 0:
         return scene.medium
-    direction = scene.camera.look_at - scene.camera.position
+    direction = scene.camera.look_at - position
     direction = direction / np.linalg.norm(direction)
-    _, hit = intersect_brute_force(v0, v1, v2, position[None], direction[None])
+    t, hit = intersect_brute_force(v0, v1, v2, position[None], direction[None], spheres=(centres, radii))
     if hit[0] < 0:
         return scene.medium
-    normal = np.cross(v1[hit[0]] - v0[hit[0]], v2[hit[0]] - v0[hit[0]])
+    if hit[0] >= len(v0):   # a sphere: the front normal is outwards, inwards when flipped
+        k = hit[0] - len(v0)
+        normal = (position + t[0] * direction - centres[k]) * np.sign(radii[k])
+    else:
+        normal = np.cross(v1[hit[0]] - v0[hit[0]], v2[hit[0]] - v0[hit[0]])
     packed = int(info[hit[0], 3])
     interior, exterior = (packed & 0xFFFF) - 1, (packed >> 16) - 1
     return interior if np.dot(normal, direction) > 0 else exterior

@@ -46,16 +46,23 @@ class _Children:
     count: np.ndarray  # 0 for interior children
 
 
-def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16) -> Bvh:
-    """Build a two-child BVH over triangles (v0[i], v1[i], v2[i]) with binned SAH.
+def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16, spheres=None) -> Bvh:
+    """Build a two-child BVH over triangles (v0[i], v1[i], v2[i]) with binned SAH, and over the
+    analytic spheres (centres (S, 3), radii (S,)) given as `spheres`: primitive len(v0) + j is
+    sphere j.
 
-    Leaves never hold more than ``max_leaf_size`` triangles: a node whose centroids cannot be
+    Leaves never hold more than ``max_leaf_size`` primitives, and never mix triangles and
+    spheres (the kernel tags a leaf with its primitive type). A node whose centroids cannot be
     separated by binning (all coincide) is split at its centroid median instead, and so is a node
     whose SAH split would make the tree deeper than ``MAX_DEPTH``.
     """
     if max_leaf_size < 1 or bins < 2:
         raise ValueError("need max_leaf_size >= 1 and bins >= 2")
     lo, hi = _triangle_bounds(v0, v1, v2)
+    n_triangles = lo.shape[1]
+    if spheres is not None and len(spheres[1]):
+        sphere_lo, sphere_hi = sphere_bounds(*spheres)
+        lo, hi = np.concatenate([lo, sphere_lo], axis=1), np.concatenate([hi, sphere_hi], axis=1)
     n = lo.shape[1]
     if n == 0:
         return Bvh(_empty_nodes(1), np.zeros(0, np.int32), 1)
@@ -71,7 +78,7 @@ def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16) -> Bvh:
     depth = 1
     level = 1
     while counts.size:
-        plan = _plan_level(lo, hi, counts, level, max_leaf_size, bins)
+        plan = _plan_level(lo, hi, counts, level, max_leaf_size, bins, idx >= n_triangles)
         split = ~plan.leaf
         n_split = int(np.count_nonzero(split))
 
@@ -114,12 +121,15 @@ class _LevelPlan:
     right: np.ndarray  # (n,) bool, primitive goes to the right child
 
 
-def _plan_level(lo, hi, counts, level, max_leaf_size, bins) -> _LevelPlan:
-    """Decide, for every node of a level at once, whether it is a leaf and how it splits."""
+def _plan_level(lo, hi, counts, level, max_leaf_size, bins, is_sphere) -> _LevelPlan:
+    """Decide, for every node of a level at once, whether it is a leaf and how it splits.
+    is_sphere: per active primitive; a node holding both kinds must split."""
     k = counts.size
     n = lo.shape[1]
     starts = _exclusive_cumsum(counts)
     seg = np.repeat(np.arange(k, dtype=np.int64), counts)
+    spheres = np.add.reduceat(is_sphere.astype(np.int64), starts) if n else np.zeros(k, np.int64)
+    mixed = (spheres > 0) & (spheres < counts)
 
     # Twice the box centre: the factor cancels in every use below.
     cen = lo + hi
@@ -156,9 +166,13 @@ def _plan_level(lo, hi, counts, level, max_leaf_size, bins) -> _LevelPlan:
     split_pays = (TRAVERSAL_COST * area + INTERSECTION_COST * best_cost
                   < INTERSECTION_COST * counts * area)
     # Deeper than MAX_DEPTH a node must be a leaf; the median fallback guarantees it is small.
-    leaf = (counts <= max_leaf_size) & (~(has_split & split_pays) | (level > MAX_DEPTH))
+    leaf = (counts <= max_leaf_size) & ((~(has_split & split_pays) & ~mixed) | (level > MAX_DEPTH))
+    if np.any(leaf & mixed):
+        raise ValueError(f"BVH deeper than {MAX_DEPTH} levels with triangles and spheres still mixed")
 
-    too_deep = level + _median_depth(np.maximum(n_left, counts - n_left), max_leaf_size) > MAX_DEPTH
+    # Median splits of a mixed node may have to go down to single primitives.
+    too_deep = level + _median_depth(np.maximum(n_left, counts - n_left),
+                                     np.where(mixed, 1, max_leaf_size)) > MAX_DEPTH
     median = ~leaf & (~has_split | too_deep)
     right = bin_id > best_plane[seg]
     if median.any():
@@ -332,6 +346,16 @@ def _triangle_bounds(v0, v1, v2):
     return _round_down(lo64), -_round_down(-hi64)
 
 
+def sphere_bounds(centres, radii):
+    """Boxes (3, S) float32 of spheres, rounded outwards so that they contain the spheres as the
+    kernel sees them (float32 centre and radius)."""
+    centres = np.asarray(centres, np.float32).astype(np.float64).reshape(-1, 3)
+    radii = np.abs(np.asarray(radii, np.float32).astype(np.float64)).reshape(-1, 1)
+    if not (np.isfinite(centres).all() and np.isfinite(radii).all()):
+        raise ValueError("sphere centres and radii must be finite")
+    return _round_down((centres - radii).T), -_round_down(-(centres + radii).T)
+
+
 def _round_down(x64):
     """float32 conversion rounded towards -inf.
 
@@ -413,13 +437,48 @@ def _dot(a, b):
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
-def intersect_brute_force(v0, v1, v2, origins, directions, t_max=np.inf, chunk_elems=1 << 21):
-    """Nearest hit of every ray against every triangle (reference for tests).
+def ray_sphere_distance(origins, directions, centres, radii, t_min=T_MIN):
+    """Nearest ray/sphere distance beyond t_min in float64 on broadcastable (..., 3) origins,
+    directions and centres and (...) radii; +inf where the ray misses."""
+    o, d, c = (np.asarray(x, np.float64) for x in (origins, directions, centres))
+    r = np.abs(np.asarray(radii, np.float64))
+    f = o - c
+    a = _dot(d, d)
+    b = _dot(f, d)
+    disc = b * b - a * (_dot(f, f) - r * r)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        root = np.sqrt(disc)
+        near, far = (-b - root) / a, (-b + root) / a
+    t = np.where(near > t_min, near, np.where(far > t_min, far, np.inf))
+    return np.where(disc >= 0, t, np.inf)
+
+
+def intersect_brute_force(v0, v1, v2, origins, directions, t_max=np.inf, chunk_elems=1 << 21, spheres=None):
+    """Nearest hit of every ray against every triangle, and every sphere of `spheres`
+    ((centres (S, 3), radii (S,)), numbered after the triangles as in build_bvh): the reference
+    for tests.
 
     Returns (hit_t float32 (R,), prim int32 (R,)); misses have t = inf and prim = -1. Only hits
-    with T_MIN < t < t_max count; among equal distances the lowest triangle index wins.
-    Triangles are processed in chunks so that at most ~chunk_elems ray/triangle pairs are live.
+    with T_MIN < t < t_max count; among equal distances the lowest index wins. Primitives are
+    processed in chunks so that at most ~chunk_elems ray/primitive pairs are live.
     """
+    t, prim = _intersect_triangles_brute_force(v0, v1, v2, origins, directions, t_max, chunk_elems)
+    if spheres is None or not len(spheres[1]):
+        return t, prim
+    o = np.asarray(origins, np.float64).reshape(-1, 1, 3)
+    d = np.asarray(directions, np.float64).reshape(-1, 1, 3)
+    centres, radii = (np.asarray(x, np.float64) for x in spheres)
+    sphere_t = ray_sphere_distance(o, d, centres.reshape(1, -1, 3), radii.reshape(1, -1))
+    sphere_t[sphere_t >= t_max] = np.inf
+    nearest = np.argmin(sphere_t, axis=1)
+    nearest_t = sphere_t[np.arange(len(o)), nearest]
+    closer = nearest_t < t
+    t[closer] = nearest_t[closer]
+    prim[closer] = len(np.asarray(v0).reshape(-1, 3)) + nearest[closer]
+    return t, prim
+
+
+def _intersect_triangles_brute_force(v0, v1, v2, origins, directions, t_max, chunk_elems):
     v0, v1, v2 = (np.asarray(v, np.float64).reshape(-1, 3) for v in (v0, v1, v2))
     o = np.asarray(origins, np.float64).reshape(-1, 1, 3)
     d = np.asarray(directions, np.float64).reshape(-1, 1, 3)

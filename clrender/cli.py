@@ -424,10 +424,11 @@ def _info(args):
     print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")
-    print(f"triangles:  {len(arrays.triangles)}"
-          + (f" ({arrays.degenerate_triangles} degenerate dropped)" if arrays.degenerate_triangles else ""))
+    print(f"triangles:  {len(arrays.triangles) - arrays.spheres}"
+          + (f" ({arrays.degenerate_triangles} degenerate dropped)" if arrays.degenerate_triangles else "")
+          + (f", spheres: {arrays.spheres}" if arrays.spheres else ""))
     print(f"bvh:        {len(arrays.nodes)} nodes, depth {arrays.bvh_depth}")
-    print(f"emitters:   {len(arrays.emitters)} ({len(scene.lights)} lights + emissive triangles)")
+    print(f"emitters:   {len(arrays.emitters)} ({len(scene.lights)} lights + emissive triangles and spheres)")
     for medium in scene.media:
         print(f"medium:     {medium.name}: {_describe_medium(medium)}")
     if any(m.type == "grid" for m in scene.media):

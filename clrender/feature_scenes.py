@@ -13,15 +13,16 @@ from .scene import load_scene_dict
 _METHODS = {value: name for name, value in VOLUME_METHODS.items()}
 
 
-def feature_scene(features, resolution=(8, 8), subdivisions=1):
+def feature_scene(features, resolution=(8, 8), subdivisions=None):
     """(scene, volume_method) needing exactly `features` (a dict as features.scene_features
-    returns). Every combination has a diffuse floor and box, an area light, a point and a
-    directional light; each feature adds what it compiles in:
+    returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
+    sphere), a point and a directional light; each feature adds what it compiles in:
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
     and rough glass, a rough mirror (energy tables) and a smooth one; TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
-    kinds of media. `subdivisions`: icosphere level of the spheres (0..7)."""
+    kinds of media. The spheres are analytic (they share BVH leaves with the triangles), or
+    icospheres of level `subdivisions` (0..7) when it is given."""
     materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
                  {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
     shapes = [{"name": "floor", "type": "rectangle", "material": "white",
@@ -35,9 +36,11 @@ def feature_scene(features, resolution=(8, 8), subdivisions=1):
     media = []
 
     def sphere(name, material, center, radius, **extra):
+        tessellation = {} if subdivisions is None else {"mesh": True, "subdivisions": subdivisions}
         shapes.append({"name": name, "type": "sphere", "material": material, "center": center,
-                       "radius": radius, "subdivisions": subdivisions, **extra})
+                       "radius": radius, **tessellation, **extra})
 
+    sphere("bulb", "lamp", [1.3, 0.9, -0.9], 0.15)
     if features["ENVIRONMENT"] != ENVIRONMENT_MODES["none"]:
         lights.append({"type": "environment", "radiance": [0.3, 0.4, 0.5]})
     if features["DIELECTRIC"]:

@@ -1,7 +1,7 @@
 """numpy dtypes that mirror the structs in kernels/types.h.
 
-Every struct is built from 16-byte vectors (float4/int4), so the C layout has no hidden padding
-and the numpy dtype is a plain sequence of 4-wide fields. tests/test_layout.py compiles a kernel
+Every struct is built from 16- or 32-byte vectors (float4/int4, float8/int8), so the C layout
+has no hidden padding and the numpy dtype is a plain sequence of 4- and 8-wide fields. tests/test_layout.py compiles a kernel
 that reports sizeof/offsetof of each struct and compares them with these dtypes.
 """
 import numpy as np
@@ -21,14 +21,20 @@ def _struct(*fields):
 # first primitive in the reordered triangle array; *_hi.w holds (as int bits) the primitive count.
 BVH_NODE = _struct(("left_lo", F4), ("left_hi", F4), ("right_lo", F4), ("right_hi", F4))
 
-# Four-wide BVH node: the boxes of up to four children, one child per float4 lane. child: node
-# index (count 0) or first triangle slot (count > 0); an empty lane has child -1, count 0 and
-# its box at +inf, which no ray enters.
-WIDE_BVH_NODE = _struct(("lo_x", F4), ("hi_x", F4), ("lo_y", F4), ("hi_y", F4), ("lo_z", F4), ("hi_z", F4),
-                        ("child", I4), ("count", I4))
+# Eight-wide BVH node: the boxes of up to eight children, one child per float8 lane. child: node
+# index (count 0) or the first primitive slot of a leaf of `count` triangles (count > 0) or
+# `-count` spheres (count < 0); an empty lane has child -1, count 0 and its box at +inf, which
+# no ray enters.
+F8 = ("<f4", (8,))
+I8 = ("<i4", (8,))
+WIDE_BVH_NODE = _struct(("lo_x", F8), ("hi_x", F8), ("lo_y", F8), ("hi_y", F8), ("lo_z", F8), ("hi_z", F8),
+                        ("child", I8), ("count", I8))
 
-# Triangle geometry for Moller-Trumbore: v0 and the two edges.
+# Triangle geometry for Moller-Trumbore: v0 and the two edges. The triangle buffer's slots hold
+# triangles or, in leaves tagged as spheres (negative count), a SPHERE in the slot's first bytes.
 TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
+# An analytic sphere: xyz the centre, w the radius, negative when flipped (front face inside).
+SPHERE = _struct(("centre_radius", F4))
 
 # Per-triangle attributes: shading normals at the three vertices (w unused) and integer info.
 TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
@@ -108,7 +114,7 @@ RENDER_PARAMS = np.dtype([
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("volume", F4),        # grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
-    ("lights", I4),        # x index of the first non-triangle emitter (lights follow triangles)
+    ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
 ])
 
@@ -121,6 +127,7 @@ AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("emission", F4), ("colour_m2
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,
     "Triangle": TRIANGLE,
+    "Sphere": SPHERE,
     "TriangleShading": TRIANGLE_SHADING,
     "TriangleInfo": TRIANGLE_INFO,
     "Material": MATERIAL,
@@ -134,7 +141,7 @@ STRUCTS = {
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
 MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4}
-EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3}
+EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 # Values of the GRID_MEDIA feature: how grid media are integrated (docs/heterogeneous-media.md).

@@ -1,4 +1,6 @@
-"""Triangle meshes: primitives, files loaded with trimesh, and transforms."""
+"""Shape geometry: triangle meshes (primitives, files loaded with trimesh) and analytic spheres,
+and their transforms."""
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,6 +12,31 @@ class Mesh:
     vertices: np.ndarray   # (V, 3) float64, world space
     faces: np.ndarray      # (F, 3) int64
     normals: np.ndarray    # (V, 3) float64 unit shading normals, or None for flat shading
+
+
+@dataclass
+class Sphere:
+    """An analytic sphere (kernels/sphere.h): exact surface and normals."""
+    center: np.ndarray     # (3,) float64, world space
+    radius: float          # > 0
+    flipped: bool = False  # the front face (normals, one-sided emission) is inside
+
+
+def bounds(geometry):
+    """(min, max) corners of a Mesh's vertices or a Sphere."""
+    if isinstance(geometry, Sphere):
+        return geometry.center - geometry.radius, geometry.center + geometry.radius
+    return geometry.vertices.min(axis=0), geometry.vertices.max(axis=0)
+
+
+def similarity_scale(linear, tolerance=1e-9):
+    """The uniform scale s of a 3x3 matrix that is s times a rotation (or a reflection), or None
+    when it scales unevenly or shears (it would turn a sphere into an ellipsoid)."""
+    gram = linear.T @ linear
+    scale2 = np.trace(gram) / 3
+    if not scale2 > 0 or np.abs(gram - scale2 * np.eye(3)).max() > tolerance * scale2:
+        return None
+    return float(np.sqrt(scale2))
 
 
 def transform_matrix(translate=(0, 0, 0), rotate=(0, 0, 0), scale=(1, 1, 1)):
@@ -32,8 +59,16 @@ def _rotation(axis, angle):
 
 
 def apply_transform(mesh, matrix):
-    """Transform positions by `matrix` and normals by its inverse transpose."""
+    """Transform positions by `matrix` and normals by its inverse transpose. A Sphere takes only
+    similarity transforms (ValueError otherwise); a reflection keeps its front face outside, as
+    it keeps a mesh's (the winding is reversed with it)."""
     linear = matrix[:3, :3]
+    if isinstance(mesh, Sphere):
+        scale = similarity_scale(linear)
+        if scale is None:
+            raise ValueError("scales a sphere unevenly (that makes an ellipsoid): add \"mesh\": true "
+                             "to tessellate it")
+        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped)
     vertices = mesh.vertices @ linear.T + matrix[:3, 3]
     faces = mesh.faces
     if np.linalg.det(linear) < 0:
@@ -46,6 +81,8 @@ def apply_transform(mesh, matrix):
 
 def flip(mesh):
     """Reverse the winding (and the shading normals): the other side becomes the front."""
+    if isinstance(mesh, Sphere):
+        return Sphere(mesh.center, mesh.radius, not mesh.flipped)
     return Mesh(mesh.vertices, mesh.faces[:, ::-1].copy(),
                 None if mesh.normals is None else -mesh.normals)
 
@@ -55,7 +92,7 @@ def _normalized(v):
     return v / np.where(length > 0, length, 1.0)
 
 
-def sphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
+def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
     """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets."""
     import trimesh
 
@@ -102,10 +139,16 @@ def box():
 
 
 def load_mesh_file(path: Path, smooth: bool):
-    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged) with trimesh.
+    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged). Plain OBJ files (vertices and
+    triangles only) are read here, as trimesh reads them (importing trimesh takes 0.7 s, longer
+    than rendering a small scene); everything else with trimesh.
 
     Raises ValueError with a message meant for the user when the file holds no triangles, a
     vertex that is not a finite float32 number, or a face naming a vertex that does not exist."""
+    if Path(path).suffix.lower() == ".obj":
+        mesh = read_plain_obj(path, smooth)
+        if mesh is not None:
+            return mesh
     import trimesh
 
     with np.errstate(all="ignore"):   # a malformed file is reported below, not by numpy warnings
@@ -117,12 +160,18 @@ def load_mesh_file(path: Path, smooth: bool):
     if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
         raise ValueError(f"expected 3D vertices and triangles, got vertices of shape {vertices.shape} "
                          f"and faces of shape {faces.shape}")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise ValueError(f"a face refers to a vertex that does not exist (the file has {len(vertices)})")
+    return _checked_mesh(vertices, faces, smooth)
+
+
+def _checked_mesh(vertices, faces, smooth):
+    """A Mesh of valid triangles (faces name existing vertices), with `smooth` shading normals;
+    ValueError for a vertex that is not a finite float32 point."""
     bad = ~np.all(np.isfinite(vertices) & (np.abs(vertices) <= np.finfo(np.float32).max), axis=1)
     if np.any(bad):
         index = int(np.flatnonzero(bad)[0])
         raise ValueError(f"vertex {index + 1} is not a finite float32 point: {vertices[index].tolist()}")
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        raise ValueError(f"a face refers to a vertex that does not exist (the file has {len(vertices)})")
     return Mesh(vertices, faces, vertex_normals(vertices, faces) if smooth else None)
 
 
@@ -144,3 +193,32 @@ def vertex_normals(vertices, faces):
     summed = np.stack([sum(np.bincount(faces[:, k], angles[:, k] * face_normals[:, axis], len(vertices))
                            for k in range(3)) for axis in range(3)], axis=1)
     return _normalized(summed)
+
+
+# The only lines of a plain OBJ file: `v x y z`, `f a b c` (1-based indices), comments, blanks.
+_OBJ_VERTEX = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)[ \t]*\r?$", re.M)
+_OBJ_TRIANGLE = re.compile(rb"^f[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+)[ \t]*\r?$", re.M)
+_OBJ_STATEMENT = re.compile(rb"^[ \t]*[^#\s]", re.M)
+
+
+def read_plain_obj(path, smooth):
+    """A Mesh from an OBJ file holding only vertex positions and triangles of positive indices,
+    or None for any other file (polygons, negative indices, texture coordinates, normals,
+    groups, materials, ...: trimesh reads those). The same triangles as trimesh's, and with
+    `smooth` its angle-weighted vertex normals."""
+    text = Path(path).read_bytes()
+    vertices, triangles = _OBJ_VERTEX.findall(text), _OBJ_TRIANGLE.findall(text)
+    if not triangles or len(vertices) + len(triangles) != len(_OBJ_STATEMENT.findall(text)):
+        return None
+    try:
+        vertices = np.array(vertices).astype(float)
+    except ValueError:   # not numbers: trimesh's error message
+        return None
+    faces = np.array(triangles).astype(np.int64) - 1
+    bad = np.flatnonzero(np.any(faces >= len(vertices), axis=1) | np.any(faces < 0, axis=1))
+    if len(bad):
+        match = next(m for k, m in enumerate(_OBJ_TRIANGLE.finditer(text)) if k == bad[0])
+        line = text.count(b"\n", 0, match.start()) + 1
+        raise ValueError(f"line {line}: face {match.group(0).decode().strip()!r} names a vertex "
+                         f"beyond the {len(vertices)} of the file")
+    return _checked_mesh(vertices, faces, smooth)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cie, limits
+from . import cie, limits, meshes
 from .errors import ArgumentError, SceneError
 
 
@@ -1287,7 +1287,7 @@ def check_media_nesting(scene, translation):
             continue
         for j in declared:
             container = scene.shapes[j]
-            if container.interior in (-1, scene.medium) or not _inside(shape.mesh.vertices[0], container.mesh):
+            if container.interior in (-1, scene.medium) or not _inside(_a_surface_point(shape.mesh), container.mesh):
                 continue
             raise MitsubaXmlError(
                 _origin(translation.origins, f"shapes[{i}]") or f"shapes[{i}]",
@@ -1297,9 +1297,18 @@ def check_media_nesting(scene, translation):
                 "clrender would not; give the shape interior and exterior explicitly")
 
 
+def _a_surface_point(geometry):
+    if isinstance(geometry, meshes.Sphere):
+        return geometry.center + [geometry.radius, 0.0, 0.0]
+    return geometry.vertices[0]
+
+
 def _inside(point, mesh):
-    """Whether `point` is inside a closed mesh: the parity of a ray's crossings (Moller-Trumbore
-    against every triangle; an oblique direction avoids edges of axis-aligned meshes)."""
+    """Whether `point` is inside a closed mesh or analytic sphere: for a mesh, the parity of a
+    ray's crossings (Moller-Trumbore against every triangle; an oblique direction avoids edges of
+    axis-aligned meshes)."""
+    if isinstance(mesh, meshes.Sphere):
+        return bool(np.linalg.norm(point - mesh.center) < mesh.radius)
     direction = np.array([0.5773, 0.5774, 0.5775])
     v0, v1, v2 = (mesh.vertices[mesh.faces[:, k]] for k in range(3))
     e1, e2 = v1 - v0, v2 - v0

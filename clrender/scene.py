@@ -111,7 +111,7 @@ class Material:
 class Shape:
     name: str
     material: int              # index into Scene.materials
-    mesh: meshes.Mesh
+    mesh: meshes.Mesh          # or a meshes.Sphere (analytic)
     interior: int = -1         # medium behind the front faces (index into Scene.media; -1 none)
     exterior: int = -1         # medium in front of the front faces
 
@@ -204,9 +204,8 @@ class Scene:
         """(min, max) corners of all geometry; a unit box around the origin if there is none."""
         if not self.shapes:
             return -np.ones(3), np.ones(3)
-        lo = np.min([s.mesh.vertices.min(axis=0) for s in self.shapes], axis=0)
-        hi = np.max([s.mesh.vertices.max(axis=0) for s in self.shapes], axis=0)
-        return lo, hi
+        corners = [meshes.bounds(s.mesh) for s in self.shapes]
+        return np.min([lo for lo, _ in corners], axis=0), np.max([hi for _, hi in corners], axis=0)
 
 
 # --------------------------------------------------------------------------------------------
@@ -661,7 +660,7 @@ def _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium):
             raise SceneError(where, f"grid medium {medium.name!r} is used nowhere: make it the top-level "
                                     "`medium` or a shape's `interior` (see docs/scene-format.md, Media)")
         lo, hi = medium.grid.world_bounds()
-        if not any(np.all(s.mesh.vertices.min(axis=0) <= hi) and np.all(s.mesh.vertices.max(axis=0) >= lo)
+        if not any(np.all(meshes.bounds(s.mesh)[0] <= hi) and np.all(meshes.bounds(s.mesh)[1] >= lo)
                    for s in holders):
             raise SceneError(where, f"the box of grid medium {medium.name!r} ({lo.round(4).tolist()} to "
                                     f"{hi.round(4).tolist()}) lies outside every shape whose interior it is")
@@ -676,10 +675,7 @@ def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
     if kind == "mesh":
         mesh = _read_mesh_file(node, base_dir)
     elif kind == "sphere":
-        mesh = meshes.sphere(node.vector("center", [0, 0, 0]),
-                             node.number("radius", 1.0, low=0, low_open=True),
-                             node.number("subdivisions", 4, low=0, high=7, integer=True),
-                             smooth=node.boolean("smooth", True))
+        mesh = _read_sphere(node)
     elif kind == "rectangle":
         mesh = meshes.rectangle()
     elif kind == "disk":
@@ -687,7 +683,11 @@ def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
     else:
         mesh = meshes.box()
     if "transform" in node.data:
-        mesh = meshes.apply_transform(mesh, _read_transform(node.child("transform")))
+        matrix = _read_transform(node.child("transform"))
+        try:
+            mesh = meshes.apply_transform(mesh, matrix)
+        except ValueError as e:  # a sphere scaled unevenly
+            raise SceneError(node.at("transform"), str(e)) from None
     if node.boolean("flip_normals", False):
         mesh = meshes.flip(mesh)
     name = node.string("name", f"{kind}{node.where[node.where.index('['):]}")
@@ -695,6 +695,19 @@ def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
     exterior = _medium_reference(node, "exterior", medium_names) if "exterior" in node.data else scene_medium
     node.finish()
     return Shape(name, material_names.index(material_name), mesh, interior, exterior)
+
+
+def _read_sphere(node):
+    """An analytic sphere, or with `mesh: true` an icosphere (`subdivisions`, `smooth`)."""
+    center = node.vector("center", [0, 0, 0])
+    radius = node.number("radius", 1.0, low=0, low_open=True)
+    if node.boolean("mesh", False):
+        return meshes.icosphere(center, radius, node.number("subdivisions", 4, low=0, high=7, integer=True),
+                                smooth=node.boolean("smooth", True))
+    for key in ("subdivisions", "smooth"):
+        if key in node.data:
+            raise SceneError(node.at(key), 'applies to tessellated spheres only: add "mesh": true')
+    return meshes.Sphere(center, float(radius))
 
 
 def _read_mesh_file(node, base_dir):

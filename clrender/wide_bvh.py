@@ -1,22 +1,25 @@
-"""The four-wide BVH the kernel traverses, collapsed from the binary SAH tree (bvh.py).
+"""The eight-wide BVH the kernel traverses, collapsed from the binary SAH tree (bvh.py).
 
-Each wide node holds up to four children's boxes in structure-of-arrays form (one child per
-float4 lane), so the kernel tests all four with a handful of vector instructions. A wide node
-takes a binary node's grandchildren: each interior child is replaced by its own two children,
-a leaf child stays as it is. Done level by level with numpy (a million triangles in well under
-a second).
+Each wide node holds up to eight children's boxes in structure-of-arrays form (one child per
+float8 lane), so the kernel tests all eight with a handful of vector instructions. A wide node
+starts from a binary node's two children and fills its lanes greedily: while a lane is free, the
+interior child of largest surface area (the one rays enter most often) is replaced by its own
+two children (as Embree and pbrt collapse binary trees). Leaves stay as they are. Done level by
+level with numpy (a million triangles in well under a second).
 """
 import numpy as np
 
 from . import layout
 
 
-def collapse(bvh):
+def collapse(bvh, sphere_slots=None):
     """(nodes, depth): the wide tree (dtype layout.WIDE_BVH_NODE; node 0 the root) of a binary
-    Bvh. Leaves keep their primitive ranges (the same reordered triangle slots)."""
+    Bvh. Leaves keep their primitive ranges (the same reordered primitive slots); a leaf of
+    spheres (sphere_slots: bool per slot, True for a sphere) gets its count negated, the
+    kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
     lo, hi, index, count = _binary_slots(bvh.nodes)
     interior = (count == 0) & (index >= 0)
-    slot_node, slot_side = _grandchild_slots(index, interior)
+    slot_node, slot_side = _greedy_slots(lo, hi, index, interior)
     wide_of = np.full(len(bvh.nodes), -1, np.int64)  # binary node -> wide node
     order, frontier, depth, numbered = [], np.array([0]), 0, 0
     while frontier.size:  # breadth first: a level's wide nodes are numbered together
@@ -29,24 +32,45 @@ def collapse(bvh):
         below = valid & interior[np.maximum(node, 0), side]
         frontier = index[node[below], side[below]]
     binary = np.concatenate(order)
-    return _assemble(binary, wide_of, slot_node, slot_side, lo, hi, index, count), depth
+    nodes = _assemble(binary, wide_of, slot_node, slot_side, lo, hi, index, count)
+    if sphere_slots is not None and np.any(sphere_slots):
+        leaf = nodes["count"] > 0
+        spheres = leaf & np.asarray(sphere_slots)[np.where(leaf, nodes["child"], 0)]
+        nodes["count"][spheres] *= -1
+    return nodes, depth
 
 
-def _grandchild_slots(index, interior):
-    """Per binary node, its four wide-node lanes as (binary node, side) slot references, -1 for
-    an empty lane: an interior child's two children, or a leaf (or empty) child itself."""
+# Children per wide node: the lanes of layout.WIDE_BVH_NODE.
+WIDTH = 8
+
+
+def _greedy_slots(lo, hi, index, interior, width=WIDTH):
+    """Per binary node, its wide node's `width` lanes as (binary node, side) slot references
+    (-1: an empty lane): its two children, then, while a lane is free, the interior lane of
+    largest surface area replaced by that child's two children."""
     n = len(index)
-    nodes = np.full((n, 4), -1, np.int64)
-    sides = np.zeros((n, 4), np.int64)
-    for s in (0, 1):
-        expand = interior[:, s]
-        child = index[:, s]
-        nodes[expand, 2 * s] = child[expand]
-        nodes[expand, 2 * s + 1] = child[expand]
-        sides[expand, 2 * s + 1] = 1
-        keep = ~expand
-        nodes[keep, 2 * s] = np.nonzero(keep)[0]
-        sides[keep, 2 * s] = s
+    nodes = np.full((n, width), -1, np.int64)
+    sides = np.zeros((n, width), np.int64)
+    nodes[:, :2] = np.arange(n)[:, None]
+    sides[:, 1] = 1
+    with np.errstate(invalid="ignore"):   # empty slots: inf - inf
+        extent = hi - lo
+    extent = np.where(np.isfinite(extent), extent, 0.0)
+    area = extent[..., 0] * extent[..., 1] + extent[..., 1] * extent[..., 2] + extent[..., 2] * extent[..., 0]
+    rows = np.arange(n)
+    for free in range(2, width):
+        valid = nodes[:, :free] >= 0
+        node, side = np.maximum(nodes[:, :free], 0), sides[:, :free]
+        expandable = valid & interior[node, side]
+        score = np.where(expandable, area[node, side], -1.0)
+        pick = np.argmax(score, axis=1)
+        grow = expandable[rows, pick]
+        child = index[node[rows, pick], side[rows, pick]]
+        # The picked lane takes the child's left child, the free lane its right child.
+        nodes[grow, pick[grow]] = child[grow]
+        sides[grow, pick[grow]] = 0
+        nodes[grow, free] = child[grow]
+        sides[grow, free] = 1
     return nodes, sides
 
 

@@ -1,5 +1,6 @@
-// Emitters: area triangles, the environment (constant or lat-long image), point and directional
-// lights. One emitter is picked per shading point with probability proportional to its power.
+// Emitters: area lights (emissive triangles and spheres), the environment (constant or lat-long
+// image), point and directional lights. One emitter is picked per shading point with
+// probability proportional to its power.
 #ifndef CLRENDER_LIGHTS_H
 #define CLRENDER_LIGHTS_H
 #include "types.h"
@@ -7,6 +8,8 @@
 #include "rng.h"
 #include "sampling.h"
 #include "scene.h"
+
+#include "sphere.h"
 
 typedef struct {
     float3 wi;        // unit direction towards the light
@@ -72,10 +75,82 @@ float3 environment_radiance(const Scene* scene, float3 dir) {
 float3 sample_environment_direction(const Scene* scene, float2 u) { return sample_uniform_sphere(u); }
 #endif
 
-// ----- area lights ---------------------------------------------------------------------------
+// ----- area lights: triangles ---------------------------------------------------------------
 // Solid-angle pdf of reaching a point on an emitting triangle, given the distance and cosine.
 float triangle_emitter_pdf_w(__global const Emitter* e, float dist, float cos_light) {
     return cos_light > 0.0f ? dist * dist / (cos_light * e->p0.w) : 0.0f;
+}
+
+// ----- area lights: spheres ------------------------------------------------------------------
+// Seen from outside, a sphere fills a cone of directions; it is sampled uniformly inside that
+// cone (pbrt-v4, Sphere::Sample), so the pdf is 1 / (2 pi (1 - cos theta_max)) wherever it is
+// seen. A flipped sphere (front face, and so its emission, inside) is seen from inside only: it
+// is sampled uniformly by area. From anywhere else only back faces are seen, which do not emit.
+// Below sin^2 theta_max = sin^2(1.5 degrees), 1 - cos theta_max is its Taylor term (pbrt-v4):
+// the subtraction would cancel.
+#define SMALL_CONE_SIN2 0.00068523f
+
+float sphere_cone_one_minus_cos(float sin2_max) {
+    return sin2_max < SMALL_CONE_SIN2 ? 0.5f * sin2_max : 1.0f - sqrt(fmax(0.0f, 1.0f - sin2_max));
+}
+
+// Solid-angle pdf of sampling the direction from p to q on an emitting sphere; cos_light: the
+// cosine at q between the sphere's front normal and the direction back to p.
+float sphere_emitter_pdf_w(__global const Emitter* e, float3 p, float3 q, float cos_light) {
+    float radius = e->p0.w;
+    float3 to_centre = e->p0.xyz - p;
+    float dist2_centre = dot(to_centre, to_centre);
+    if (radius < 0.0f) {
+        if (!(dist2_centre < radius * radius) || !(cos_light > 0.0f)) return 0.0f;
+        float3 d = q - p;
+        return dot(d, d) / (cos_light * 4.0f * PI_F * radius * radius);
+    }
+    float sin2_max = radius * radius / dist2_centre;
+    if (!(sin2_max < 1.0f)) return 0.0f;
+    return 1.0f / (2.0f * PI_F * sphere_cone_one_minus_cos(sin2_max));
+}
+
+// A point q on an emitting sphere seen from p, with the solid-angle pdf of its direction (0 when
+// p sees no front face). q is moved off the surface towards p by its rounding bound, so that
+// the shadow ray to it stops short of the sphere.
+float3 sample_sphere_emitter(__global const Emitter* e, float3 p, float2 u, float* pdf_w) {
+    float3 centre = e->p0.xyz;
+    float radius = e->p0.w;
+    float3 to_centre = centre - p;
+    float dist2_centre = dot(to_centre, to_centre);
+    float sin2_max = radius * radius / dist2_centre;
+    *pdf_w = 0.0f;
+    float3 n;   // unit direction from the centre to q
+    if (radius < 0.0f) {
+        if (!(sin2_max > 1.0f)) return p;
+        n = sample_uniform_sphere(u);
+    } else {
+        if (!(sin2_max < 1.0f)) return p;
+        // A direction at angle theta from the axis (uniform in the cone: 1 - cos theta = w), then
+        // the point of the sphere it meets first, at angle alpha from the axis at the centre.
+        float w = u.x * sphere_cone_one_minus_cos(sin2_max);
+        float sin2_theta = w * (2.0f - w);
+        float cos_alpha = sin2_theta * rsqrt(sin2_max) +
+                          (1.0f - w) * sqrt(fmax(0.0f, 1.0f - sin2_theta / sin2_max));
+        float sin_alpha = sqrt(fmax(0.0f, 1.0f - cos_alpha * cos_alpha));
+        float s, c;
+        sincos_2pi(u.y, &s, &c);
+        n = -to_world((float3)(sin_alpha * c, sin_alpha * s, cos_alpha), to_centre * rsqrt(dist2_centre));
+    }
+    float error;
+    float3 q = sphere_point(centre, radius, n, &error);
+    float3 front = radius < 0.0f ? -n : n;
+    float3 to_p = p - q;
+    q = offset_ray_origin(q, dot(to_p, n) > 0.0f ? n : -n, error);
+    *pdf_w = sphere_emitter_pdf_w(e, p, q, dot(front, to_p) * rsqrt(dot(to_p, to_p)));
+    return q;
+}
+
+// Solid-angle pdf of reaching q, a point on area emitter e with cosine cos_light towards p,
+// from p (the MIS weight of emission that a BSDF or phase sample hits).
+float area_emitter_pdf_w(__global const Emitter* e, float3 p, float3 q, float cos_light) {
+    if (e->kind.x == EMITTER_SPHERE) return sphere_emitter_pdf_w(e, p, q, cos_light);
+    return triangle_emitter_pdf_w(e, length(q - p), cos_light);
 }
 
 // ----- point and directional lights ----------------------------------------------------------
@@ -103,7 +178,7 @@ bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSam
 }
 
 // ----- one sample --------------------------------------------------------------------------
-LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
+INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     LightSample ls;
     ls.pdf_w = 0.0f;
     ls.delta = false;
@@ -136,6 +211,15 @@ LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
         float cos_light = -dot(ls.wi, n_light);
         ls.pdf_w = pmf * triangle_emitter_pdf_w(e, dist, cos_light);
         ls.radiance = ls.pdf_w > 0.0f ? e->radiance.xyz : (float3)(0.0f);
+    } else if (kind == EMITTER_SPHERE) {
+        float pdf_w;
+        float3 d = sample_sphere_emitter(e, p, u, &pdf_w) - p;
+        float dist = length(d);
+        if (!(pdf_w > 0.0f && dist > 0.0f)) return ls;
+        ls.wi = d / dist;
+        ls.dist = dist;
+        ls.pdf_w = pmf * pdf_w;
+        ls.radiance = e->radiance.xyz;
     }
 #if ENVIRONMENT != ENVIRONMENT_NONE
     else if (kind == EMITTER_ENVIRONMENT) {

@@ -6,6 +6,17 @@
 #define INV_PI_F 0.31830988618379067154f
 #define LN2_F 0.69314718f
 
+// For the functions the path loop calls once per vertex (surface point, light and BSDF
+// sampling, next-event estimation): as calls, their structs go through memory and the loop's
+// registers are spilled; inlined, the Cornell box took 7% less time on PoCL. Unoptimised builds
+// (-cl-opt-disable: debugging, and Oclgrind, whose LLVM lacks the noalias-scope intrinsic that
+// inlining a struct-returning function inserts) keep the calls.
+#ifdef __OPTIMIZE__
+#define INLINE __attribute__((always_inline))
+#else
+#define INLINE
+#endif
+
 float max_component(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 
 float min_component(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }

@@ -40,19 +40,19 @@ float3 escaped_radiance(const Scene* scene, float3 dir, float prev_pdf_w, bool p
 }
 
 // Emission at a surface hit from the previous vertex prev_p (null boundaries may lie between).
-float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
-                        float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {
+INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
+                               float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {
     if (!sp->front_face || sp->emitter < 0) return (float3)(0.0f);
     float3 le = material_emission(m);
     if (prev_delta) return le;
     __global const Emitter* e = scene->emitters + sp->emitter;
     float light_pdf_w = emitter_selection_pmf(scene, sp->emitter) *
-                        triangle_emitter_pdf_w(e, length(sp->p - prev_p), -dot(dir, sp->ng));
+                        area_emitter_pdf_w(e, prev_p, sp->p, -dot(dir, sp->ng));
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
-float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                    int medium, Rng* rng) {
+INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                           int medium, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float3 f = eval_bsdf(scene, m, sp, wo, ls.wi);

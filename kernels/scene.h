@@ -28,7 +28,7 @@ typedef struct {
     float3 ng;         // unit geometric normal, on the side the ray came from
     float3 ns;         // unit shading normal, on the same side as ng
     float p_error;     // bound on the rounding error of p along ng (world units)
-    bool front_face;   // ray arrived on the side the triangle winding faces
+    bool front_face;   // ray arrived on the front side (the triangle's winding, a sphere's outside)
     int material;
     int object;
     int emitter;
@@ -37,39 +37,48 @@ typedef struct {
 
 bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
     hit->t = t_max;
-    hit->triangle = -1;
+    hit->prim = -1;
     return traverse_bvh(scene->nodes, scene->triangles, origin, dir, false, hit);
 }
 
 bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
     Hit hit;
     hit.t = t_max;
-    hit.triangle = -1;
+    hit.prim = -1;
     return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit);
 }
 
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
-SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
-    __global const Triangle* tri = scene->triangles + hit->triangle;
-    __global const TriangleShading* sh = scene->shading + hit->triangle;
-    int4 info = scene->info[hit->triangle].info;
-    float b0 = 1.0f - hit->b1 - hit->b2;
+INLINE SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
+    __global const Triangle* tri = scene->triangles + hit->prim;
+    int4 info = scene->info[hit->prim].info;
     SurfacePoint sp;
-    sp.p = tri->v0.xyz + hit->b1 * tri->e1.xyz + hit->b2 * tri->e2.xyz;
-    float3 ng = normalize(cross(tri->e1.xyz, tri->e2.xyz));
-    // p is rounded relative to |v0| + |e1| + |e2| per component, and the intersector's distance
-    // to the plane of a ray starting on the triangle is rounded relative to the same sizes (its
-    // origin - v0 spans the triangle). SURFACE_ERROR_EPS times that bounds both: in
-    // tests/test_dielectric.py (rays spawned at scales 1e-3 to 1e3, up to 3e7 from the origin,
-    // down to 1e-4 from grazing) 1 FLT_EPSILON already suffices; 4 leaves a margin.
-    float3 magnitude = fabs(tri->v0.xyz) + fabs(tri->e1.xyz) + fabs(tri->e2.xyz);
-    sp.p_error = SURFACE_ERROR_EPS * dot(fabs(ng), magnitude);
+    float3 ng, ns;   // the front face's normals
+    if (hit->sphere) {
+        // Exact geometry: the point on the sphere in the direction of the hit, its normal.
+        float4 sphere = ((__global const Sphere*)tri)->centre_radius;
+        float3 n = normalize(hit->from_centre);
+        sp.p = sphere_point(sphere.xyz, sphere.w, n, &sp.p_error);
+        ng = ns = sphere.w < 0.0f ? -n : n;
+    } else {
+        __global const TriangleShading* sh = scene->shading + hit->prim;
+        float b0 = 1.0f - hit->b1 - hit->b2;
+        sp.p = tri->v0.xyz + hit->b1 * tri->e1.xyz + hit->b2 * tri->e2.xyz;
+        ng = normalize(cross(tri->e1.xyz, tri->e2.xyz));
+        // p is rounded relative to |v0| + |e1| + |e2| per component, and the intersector's
+        // distance to the plane of a ray starting on the triangle is rounded relative to the
+        // same sizes (its origin - v0 spans the triangle). SURFACE_ERROR_EPS times that bounds
+        // both: in tests/test_dielectric.py (rays spawned at scales 1e-3 to 1e3, up to 3e7 from
+        // the origin, down to 1e-4 from grazing) 1 FLT_EPSILON already suffices; 4 leaves a margin.
+        float3 magnitude = fabs(tri->v0.xyz) + fabs(tri->e1.xyz) + fabs(tri->e2.xyz);
+        sp.p_error = SURFACE_ERROR_EPS * dot(fabs(ng), magnitude);
+        ns = b0 * sh->n0.xyz + hit->b1 * sh->n1.xyz + hit->b2 * sh->n2.xyz;
+        float ns_len = length(ns);
+        ns = ns_len > 0.0f ? ns / ns_len : ng;
+    }
     sp.front_face = dot(ng, dir) < 0.0f;
     sp.ng = sp.front_face ? ng : -ng;
-    float3 ns = b0 * sh->n0.xyz + hit->b1 * sh->n1.xyz + hit->b2 * sh->n2.xyz;
-    float ns_len = length(ns);
-    ns = ns_len > 0.0f ? ns / ns_len : ng;
     sp.ns = dot(ns, sp.ng) < 0.0f ? -ns : ns;
     sp.material = info.x;
     sp.object = info.y;

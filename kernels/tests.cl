@@ -14,7 +14,7 @@
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
-KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
+KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
                           __global TriangleShading* sh, __global TriangleInfo* info,
                           __global Material* m, __global Emitter* e, __global Medium* md,
                           __global Camera* c,
@@ -26,6 +26,8 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
     out[k++] = OFFSET(node, child); out[k++] = OFFSET(node, count);
     out[k++] = sizeof(Triangle);
     out[k++] = OFFSET(tri, v0); out[k++] = OFFSET(tri, e1); out[k++] = OFFSET(tri, e2);
+    out[k++] = sizeof(Sphere);
+    out[k++] = OFFSET(sphere, centre_radius);
     out[k++] = sizeof(TriangleShading);
     out[k++] = OFFSET(sh, n0); out[k++] = OFFSET(sh, n1); out[k++] = OFFSET(sh, n2);
     out[k++] = sizeof(TriangleInfo);
@@ -53,20 +55,20 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri,
     out[k++] = OFFSET(a, colour_m2);
 }
 
-// ----- BVH: closest hit per ray ------------------------------------------------------------
+// ----- BVH: closest hit per ray (over the primitive slots: triangles and spheres) -----------
 KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const Triangle* triangles,
                        __global const float4* origins, __global const float4* directions,
-                       __global float* hit_t, __global int* hit_triangle, __global int* any_hit) {
+                       __global float* hit_t, __global int* hit_prim, __global int* any_hit) {
     int i = get_global_id(0);
     Hit hit;
     hit.t = INFINITY;
-    hit.triangle = -1;
+    hit.prim = -1;
     traverse_bvh(nodes, triangles, origins[i].xyz, directions[i].xyz, false, &hit);
     hit_t[i] = hit.t;
-    hit_triangle[i] = hit.triangle;
+    hit_prim[i] = hit.prim;
     Hit shadow;
     shadow.t = INFINITY;
-    shadow.triangle = -1;
+    shadow.prim = -1;
     any_hit[i] = traverse_bvh(nodes, triangles, origins[i].xyz, directions[i].xyz, true, &shadow);
 }
 
@@ -87,6 +89,29 @@ KERNEL void sample_directions(int routine, float g, uint seed, __global float4* 
         d = sample_phase_hg((float3)(0.0f, 0.0f, 1.0f), g, u, &pdf);
     }
     out[i] = (float4)(d, pdf);
+}
+
+// ----- area emitters: one light sample of emitter 0 (the only one) from points[i] -----------
+// out_sample: (wi, pdf_w); out_point: (the sampled point q, its distance); out_pdf: x the pdf that
+// area_emitter_pdf_w gives for reaching q from the point (the MIS weight's), y the cosine at q.
+KERNEL void sample_area_emitter(__global const Emitter* emitters, __global const float* emitter_cdf,
+                                __constant RenderParams* params, __global const float4* points,
+                                uint seed, __global float4* out_sample, __global float4* out_point,
+                                __global float2* out_pdf) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.params = params;
+    scene.emitters = emitters;
+    scene.emitter_cdf = emitter_cdf;
+    Rng rng = rng_for_sample((uint)i, 3u, seed);
+    float3 p = points[i].xyz;
+    LightSample ls = sample_light(&scene, p, &rng);
+    float3 q = p + ls.dist * ls.wi;
+    float3 n = normalize(q - emitters->p0.xyz);
+    float cos_light = -dot(ls.wi, emitters->p0.w < 0.0f ? -n : n);
+    out_sample[i] = (float4)(ls.wi, ls.pdf_w);
+    out_point[i] = (float4)(q, ls.dist);
+    out_pdf[i] = (float2)(area_emitter_pdf_w(emitters, p, q, cos_light), cos_light);
 }
 
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
@@ -184,7 +209,7 @@ KERNEL void sample_vndf_values(float alpha, __global const float4* wo, uint seed
 
 // ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
-// sign picks the side), and report both hits: (first triangle, second triangle, second t).
+// sign picks the side), and report both hits: (first slot, second slot, second t, front face).
 KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
                             __global const TriangleShading* shading,
                             __global const TriangleInfo* info, __global const float4* origins,
@@ -205,7 +230,7 @@ KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Tr
     float3 dir = normalize(leave[i].x * t + leave[i].y * b + leave[i].z * sp.ng);
     Hit next;
     bool found = intersect_scene(&scene, spawn_ray_origin(&sp, dir), dir, INFINITY, &next);
-    out[i] = (float4)((float)hit.triangle, found ? (float)next.triangle : -1.0f, next.t,
+    out[i] = (float4)((float)hit.prim, found ? (float)next.prim : -1.0f, next.t,
                       sp.front_face ? 1.0f : 0.0f);
 }
 #if GRID_MEDIA

@@ -4,15 +4,20 @@
 #ifndef CLRENDER_TYPES_H
 #define CLRENDER_TYPES_H
 
-// Four-wide BVH node: the boxes of up to four children, one child per lane. child: node index
-// (count 0) or first triangle slot (count > 0); empty lanes: child -1, count 0, box at +inf.
+// Eight-wide BVH node: the boxes of up to eight children, one child per lane. child: node index
+// (count 0) or first primitive slot of a leaf of count triangles (count > 0) or -count spheres
+// (count < 0); empty lanes: child -1, count 0, box at +inf.
 typedef struct {
-    float4 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
-    int4 child;
-    int4 count;
+    float8 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
+    int8 child;
+    int8 count;
 } WideBvhNode;
 
+// A primitive slot of the triangle buffer holds a Triangle or (a leaf with a negative count)
+// a Sphere in its first 16 bytes: centre_radius.xyz the centre, .w the radius, negative when
+// the sphere is flipped (its front face inside).
 typedef struct { float4 v0, e1, e2; } Triangle;
+typedef struct { float4 centre_radius; } Sphere;
 typedef struct { float4 n0, n1, n2; } TriangleShading;
 // info: x material, y object id, z emitter index (-1: none),
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
@@ -24,7 +29,8 @@ typedef struct {
     float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim; float4 toon_ambient;
 } Material;
 
-// kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Point: p0 = position,
+// kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Sphere: p0.xyz centre, p0.w signed
+// radius (negative: flipped, emitting inwards). Point: p0 = position,
 // radiance = intensity. Directional: p0 = unit direction towards the light, radiance = irradiance.
 // Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
@@ -48,7 +54,7 @@ typedef struct {
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
-    int4 lights;       // x index of the first non-triangle emitter (lights follow the triangles)
+    int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
 } RenderParams;
 

@@ -81,3 +81,12 @@ def z_bound(values, expected, sigmas=5.0):
     standard_error = values.std(ddof=1) / np.sqrt(values.size)
     return abs(values.mean() - expected) / standard_error if standard_error > 0 else (
         0.0 if values.mean() == expected else np.inf)
+
+
+def sphere(analytic, subdivisions=3, **fields):
+    """A sphere shape for the scene format: analytic, or an icosphere with flat facets (the
+    geometry tessellated spheres had before analytic ones existed)."""
+    shape = {"type": "sphere", **fields}
+    if not analytic:
+        shape.update(mesh=True, subdivisions=subdivisions, smooth=False)
+    return shape

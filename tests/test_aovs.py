@@ -49,7 +49,7 @@ def test_normals_are_unit_and_face_the_camera_on_a_sphere(device):
     data = {
         "camera": camera(position=(0, 0, 4), look_at=(0, 0, 0), fov=40, resolution=(24, 24)),
         "materials": [{"name": "m", "type": "diffuse"}],
-        "shapes": [{"type": "sphere", "material": "m", "radius": 1.0, "subdivisions": 5}],
+        "shapes": [{"type": "sphere", "material": "m", "radius": 1.0}],
         "lights": [{"type": "environment", "radiance": 1.0}],
     }
     scene = clrender.load_scene_dict(data)
@@ -229,6 +229,43 @@ def test_depth_and_object_id_are_the_pixel_centre_record(device):
     np.testing.assert_array_equal(result.aovs["depth"], result.aux["depth"])
     escaped = render(half_emitter_scene(), device, aovs=("depth", "object_id")).aovs
     assert np.all(np.isinf(escaped["depth"][:, :16])) and np.all(escaped["object_id"][:, :16] == -1)
+
+
+def test_aovs_at_analytic_spheres_match_the_closed_form(device):
+    # A diffuse sphere and an emissive one (analytic): the pixel-centre records (object id, depth)
+    # equal the closed-form nearest hit of each centre ray, and pixels wholly on a sphere have its
+    # albedo (the emitter's radiance scaled to a maximum of 1) and, on the emitter, exactly its
+    # radiance as emission (every sample sees the front face directly).
+    centres, radii = np.array([[0.3, -0.2, 0.0], [-1.0, 0.8, 0.5]]), np.array([1.0, 0.3])
+    data = {
+        "camera": camera(position=(0, 0, 4), look_at=(0, 0, 0), fov=50, resolution=(32, 32)),
+        "materials": [{"name": "m", "type": "diffuse", "albedo": [0.2, 0.4, 0.6]},
+                      {"name": "lamp", "type": "emissive", "radiance": [4.0, 2.0, 1.0]}],
+        "shapes": [{"type": "sphere", "material": "m", "center": centres[0].tolist(), "radius": 1.0},
+                   {"type": "sphere", "material": "lamp", "center": centres[1].tolist(), "radius": 0.3}],
+        "lights": [{"type": "point", "position": [2, 2, 3], "intensity": 5}],
+    }
+    result = render(data, device)
+    scene = clrender.load_scene_dict(data)
+    px, py = np.meshgrid(np.arange(32) + 0.5, np.arange(32) + 0.5)
+    d = scene.camera.pixel_directions(px, py)
+    oc = centres[:, None, None, :] - scene.camera.position
+    b = np.einsum("kyxi,yxi->kyx", oc, d)
+    disc = b * b - (np.sum(oc * oc, axis=-1) - radii[:, None, None] ** 2)
+    t = np.where(disc > 0, b - np.sqrt(np.maximum(disc, 0)), np.inf)
+    expected_id = np.where(np.isinf(t.min(axis=0)), -1, t.argmin(axis=0))
+    clear = np.all(np.abs(disc) > 1e-3 * radii[:, None, None] ** 2, axis=0)   # no grazing centre ray
+    assert clear.sum() > 900
+    np.testing.assert_array_equal(result.aovs["object_id"][clear], expected_id[clear])
+    hit = clear & (expected_id >= 0)
+    forward = scene.camera.basis()[0]
+    np.testing.assert_allclose(result.aovs["depth"][hit], (t.min(axis=0) * (d @ forward))[hit], rtol=1e-5)
+    ball, lamp = interior(expected_id == 0), interior(expected_id == 1)
+    assert ball.sum() > 150 and lamp.sum() > 4
+    np.testing.assert_allclose(result.aovs["albedo"][ball], np.broadcast_to([0.2, 0.4, 0.6], (ball.sum(), 3)), rtol=1e-6)
+    np.testing.assert_allclose(result.aovs["albedo"][lamp], np.broadcast_to([1.0, 0.5, 0.25], (lamp.sum(), 3)), rtol=1e-6)
+    np.testing.assert_allclose(result.aovs["emission"][lamp], np.broadcast_to([4.0, 2.0, 1.0], (lamp.sum(), 3)), rtol=1e-6)
+    assert np.all(result.aovs["emission"][ball] == 0.0)
 
 
 def test_aov_names_are_checked():

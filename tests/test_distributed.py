@@ -61,8 +61,10 @@ def test_cornell_box_is_bit_identical_for_any_strips_and_chunks(client):
         assert_identical(result, expected)
 
 
-def test_cloud_scene_is_bit_identical(client):
-    scene = small("scenes/cloud_cornell_box.json", (24, 24), max_depth=8)
+@pytest.mark.parametrize("path", ["scenes/cloud_cornell_box.json", "scenes/cornell_glass.json"],
+                         ids=["grid_cloud", "analytic_glass_spheres"])
+def test_scene_is_bit_identical(client, path):
+    scene = small(path, (24, 24), max_depth=8)
     result = distributed.render(scene, client, 3, device=TEST_DEVICE, tiles=4, samples_per_chunk=2)
     assert_identical(result, local(scene, 3))
 

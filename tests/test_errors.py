@@ -363,9 +363,12 @@ def test_transforms_are_singular_relative_to_their_own_scale():
     assert error.value.where == "shapes[0].transform"
 
 
-def test_a_shape_with_no_triangle_left_at_the_scenes_scale_is_an_error():
+@pytest.mark.parametrize("tessellated", [False, True])
+def test_a_shape_with_no_area_left_at_the_scenes_scale_is_an_error(tessellated):
+    # An analytic sphere whose radius has no square in float32, or an icosphere none of whose
+    # triangles has an area.
     data = tiny_scene()
-    data["shapes"].append({"type": "sphere", "material": "white", "radius": 1e-30})
+    data["shapes"].append({"type": "sphere", "material": "white", "radius": 1e-30, "mesh": tessellated})
     with pytest.raises(SceneError) as error:
         clrender.Renderer(clrender.load_scene_dict(data), TEST_DEVICE)
     assert error.value.where == f"shapes[{len(data['shapes']) - 1}]" and "degenerate" in str(error.value)

@@ -73,7 +73,7 @@ def test_hide_environment_blacks_out_escaped_camera_rays_only(device):
         return clrender.load_scene_dict({
             "camera": camera(resolution=(24, 24), fov=30),
             "materials": [{"name": "m", "type": "diffuse", "albedo": [0.5] * 3}],
-            "shapes": [{"type": "sphere", "material": "m", "subdivisions": 3, "smooth": False}],
+            "shapes": [{"type": "sphere", "material": "m"}],
             "lights": [{"type": "environment", "radiance": 1.0}],
             "render": {"max_depth": 8, "hide_environment": hide},
         })
@@ -95,7 +95,7 @@ def rough_mirror_ball(compensated):
         "camera": camera(resolution=(16, 16), fov=14),
         "materials": [{"name": "m", "type": "conductor", "roughness": 1.0,
                        "energy_compensation": compensated}],
-        "shapes": [{"type": "sphere", "material": "m", "subdivisions": 3}],
+        "shapes": [{"type": "sphere", "material": "m"}],
         "lights": [{"type": "environment", "radiance": 1.0}],
         "render": {"max_depth": 32, "rr_depth": 16},
     })

@@ -416,8 +416,7 @@ def lit_box_in_fog(medium, fog):
     data["shapes"][2]["transform"] = {"scale": 0.5, "rotate": [90, 0, 0], "translate": [-0.5, 1.8, 0]}
     for shape in data["shapes"][1:]:
         shape["exterior"] = "fog"
-    data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2,
-                           "subdivisions": 3})
+    data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2})
     return clrender.load_scene_dict(data)
 
 
@@ -568,8 +567,7 @@ def test_furnace_albedo_one_cloud_vanishes(device, mixed):
     if mixed:
         data["media"].append({"name": "fog", "sigma_t": [0.3, 0.5, 0.8], "albedo": 1.0, "g": -0.3})
         data["shapes"][0]["exterior"] = "fog"
-        data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2,
-                               "subdivisions": 3})
+        data["shapes"].append({"type": "sphere", "material": "boundary", "interior": "fog", "radius": 2.2})
     scene = clrender.load_scene_dict(data)
     renderer = clrender.Renderer(scene, device)
     transmitted = renderer.render(spp=8, seed=1, max_depth=1).image
@@ -681,7 +679,7 @@ def test_absorbing_fog_beside_a_grid_cloud_renders_as_without_it(device, method)
             "media": [fog, cloud],
             "materials": [BOUNDARY],
             "shapes": [{"type": "sphere", "material": "boundary", "interior": "fog", "center": [-0.9, 0, 0],
-                        "radius": 0.8, "subdivisions": 3},
+                        "radius": 0.8},
                        {"type": "box", "material": "boundary", "interior": "cloud",
                         "transform": {"scale": 0.6, "translate": [1.2, 0, 0]}}],
             "lights": [{"type": "directional", "direction": [0, -1, -0.2], "irradiance": 10.0}],

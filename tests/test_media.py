@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 import clrender
+from clrender import meshes
 from clrender.bvh import intersect_brute_force
 from clrender.features import scene_features
-from conftest import camera, z_bound
+from conftest import camera, sphere, z_bound
 
 BOUNDARY = {"name": "boundary", "type": "interface"}
 
@@ -75,7 +76,7 @@ def test_single_scattering_from_a_slab_lit_by_the_sun(device, g):
 def test_scattering_sphere_in_furnace_vanishes(device, g):
     scene = clrender.load_scene_dict(medium_scene(
         {"sigma_t": [2.0, 1.0, 0.5], "albedo": 1.0, "g": g},
-        {"type": "sphere", "radius": 1.0, "subdivisions": 3},
+        {"type": "sphere", "radius": 1.0},
         camera_args={"resolution": (16, 16), "fov": 25}, render={"max_depth": 1000, "rr_depth": 5}))
     assert scene_features(scene)["MEDIA"] == 1
     result = clrender.Renderer(scene, device).render(spp=32, seed=5)
@@ -94,30 +95,36 @@ def subpixel_rays(scene, samples_per_axis):
 
 
 def chord_lengths(scene, samples_per_axis=8, camera_inside=False):
-    """Per pixel and sub-pixel ray, the path length inside the (convex) mesh, found with the
-    brute-force intersector: entry then exit, or only the exit for a camera inside."""
-    mesh = scene.shapes[0].mesh
-    v = mesh.vertices[mesh.faces]
+    """Per pixel and sub-pixel ray, the path length inside the (convex) shape, a mesh or an
+    analytic sphere, found with the brute-force intersector: entry then exit, or only the exit
+    for a camera inside."""
+    geometry = scene.shapes[0].mesh
+    if isinstance(geometry, meshes.Sphere):
+        v = np.zeros((0, 3, 3))
+        spheres = (geometry.center[None], np.array([geometry.radius]))
+    else:
+        v, spheres = geometry.vertices[geometry.faces], None
     directions = subpixel_rays(scene, samples_per_axis)
     shape = directions.shape[:-1]
     d = directions.reshape(-1, 3)
     origins = np.broadcast_to(scene.camera.position, d.shape)
-    t_first, hit = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], origins, d)
+    t_first, hit = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], origins, d, spheres=spheres)
     if camera_inside:
         return t_first.reshape(shape)
     inside = hit >= 0
     lengths = np.zeros(len(d))
     if np.any(inside):
         start = origins[inside] + d[inside] * (t_first[inside, None] + 1e-5)
-        t_out, _ = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], start, d[inside])
+        t_out, _ = intersect_brute_force(v[:, 0], v[:, 1], v[:, 2], start, d[inside], spheres=spheres)
         lengths[inside] = t_out + 1e-5
     return lengths.reshape(shape)
 
 
-def test_pure_absorber_matches_exp_of_chord_length(device):
+@pytest.mark.parametrize("analytic", [True, False], ids=["sphere", "icosphere"])
+def test_pure_absorber_matches_exp_of_chord_length(device, analytic):
     sigma_a = np.array([0.3, 1.0, 2.5])
     scene = clrender.load_scene_dict(medium_scene(
-        {"sigma_a": sigma_a.tolist()}, {"type": "sphere", "radius": 1.0, "subdivisions": 3, "smooth": False},
+        {"sigma_a": sigma_a.tolist()}, sphere(analytic, radius=1.0),
         camera_args={"resolution": (16, 16), "fov": 28}))
     result = clrender.Renderer(scene, device).render(spp=64, seed=8)
     assert result.discarded_samples == 0
@@ -136,7 +143,7 @@ def test_pure_absorber_matches_exp_of_chord_length(device):
 def test_camera_inside_an_absorbing_medium(device):
     sigma_a = 0.7
     scene = clrender.load_scene_dict(medium_scene(
-        {"sigma_a": sigma_a}, {"type": "sphere", "radius": 2.0, "subdivisions": 3, "smooth": False},
+        {"sigma_a": sigma_a}, {"type": "sphere", "radius": 2.0},
         camera_args={"position": (0.1, 0.2, 0.0), "look_at": (0, 0, -1), "resolution": (12, 12), "fov": 40}))
     result = clrender.Renderer(scene, device).render(spp=64, seed=2)
     assert clrender.Renderer(scene, device).arrays.camera_medium == 0
@@ -157,7 +164,7 @@ def test_camera_inside_an_absorbing_medium(device):
     ({"sigma_a": [0, 0, 5], "sigma_s": [0, 1, 0]}, {"max_depth": 16}),   # channels with sigma_t = 0
 ])
 def test_hard_media_stay_finite(device, medium, render):
-    data = medium_scene(medium, {"type": "sphere", "radius": 1.0, "subdivisions": 2},
+    data = medium_scene(medium, {"type": "sphere", "radius": 1.0},
                         camera_args={"resolution": (12, 12)}, render=render,
                         lights=[{"type": "environment", "radiance": 1.0},
                                 {"type": "point", "position": [0, 3, 0], "intensity": 5.0}])
@@ -190,7 +197,7 @@ def test_glass_filled_with_a_scattering_medium_vanishes_in_a_furnace(device, rou
     # (the glass's interior), roulette must ignore the eta^2 radiance scale, and the whole
     # object must still vanish in a uniform environment.
     data = medium_scene({"sigma_t": [1.5, 0.8, 3.0], "albedo": 1.0, "g": 0.5},
-                        {"type": "sphere", "radius": 1.0, "subdivisions": 3},
+                        {"type": "sphere", "radius": 1.0},
                         camera_args={"resolution": (16, 16), "fov": 25},
                         render={"max_depth": 1000, "rr_depth": 5})
     data["materials"] = [{"name": "boundary", "type": "dielectric", "ior": 1.5, "roughness": roughness}]

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import clrender
-from clrender import cie, grids, limits, mitsuba_xml
+from clrender import cie, grids, limits, meshes, mitsuba_xml
 from clrender.mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
 
 SENSOR = """<sensor type="perspective">
@@ -397,7 +397,21 @@ def test_shapes(tmp_path):
     assert shapes[2]["center"] == [1, 2, 3] and shapes[2]["radius"] == 0.5
     assert shapes[4]["smooth"] is False and shapes[5]["smooth"] is True
     scene = clrender.load_scene(tmp_path / "scene.xml")
-    assert [len(s.mesh.faces) for s in scene.shapes] == [2, 12, 5120, 128, 80, 12]
+    sphere = scene.shapes[2].mesh   # analytic
+    assert isinstance(sphere, meshes.Sphere) and sphere.center.tolist() == [1, 2, 3] and sphere.radius == 0.5
+    assert [len(s.mesh.faces) for i, s in enumerate(scene.shapes) if i != 2] == [2, 12, 128, 80, 12]
+
+
+def test_sphere_to_world_applies_after_center_and_radius(tmp_path):
+    # Mitsuba's sphere is to_world * translate(center) * scale(radius) applied to the unit sphere.
+    body = """<shape type="sphere"><point name="center" x="1" y="0" z="0"/><float name="radius" value="0.5"/>
+    <boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale value="2"/><rotate z="1" angle="90"/><translate x="0" y="0" z="3"/></transform>
+    </shape>"""
+    sphere = clrender.load_scene(write(tmp_path, body)).shapes[0].mesh
+    assert isinstance(sphere, meshes.Sphere) and sphere.flipped
+    np.testing.assert_allclose(sphere.center, [0, 2, 3], atol=1e-12)
+    assert sphere.radius == pytest.approx(1.0)
 
 
 @pytest.mark.parametrize("body,message", [
@@ -619,6 +633,12 @@ def test_shape_without_media_inside_a_medium_is_an_error(tmp_path):
     # Outside the medium's shape it is fine.
     clrender.load_scene(write(tmp_path, body.replace('<float name="radius" value="0.3"/>',
                                                      '<point name="center" x="3" y="0" z="0"/>')))
+    # The same with the medium in a sphere (analytic) around a small cube.
+    body = """<integrator type="volpath"/>
+    <shape type="sphere"><float name="radius" value="2"/><bsdf type="null"/><medium name="interior" type="homogeneous"/></shape>
+    <shape type="cube"><transform name="to_world"><scale value="0.3"/></transform><bsdf type="diffuse"/></shape>"""
+    assert "give the shape interior and exterior explicitly" in error_of(tmp_path, body)
+    clrender.load_scene(write(tmp_path, body.replace('<scale value="0.3"/>', '<translate x="5"/>')))
 
 
 # ============================================================================================

@@ -151,3 +151,63 @@ def test_scene_file_round_trip(tmp_path):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(base_scene()))
     assert clrender.load_scene(path).path == path
+
+
+PLAIN_OBJ = "# plain: vertices and triangles only\r\nv 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 9 9 9\n\n" \
+            "v 0 1 0\nv 0.5 0.5 -1e-3\nf 1 2 3\nf 1 3 5\t\nf 2 6 3\nf 3 6 5\n   # unreferenced vertex 4\nf 5 6 1\n"
+
+
+def assert_same_mesh_as_trimesh(path, smooth):
+    """load_mesh_file gives trimesh's triangles (corner positions, in order) and, with `smooth`,
+    its vertex normals at those corners."""
+    import trimesh
+
+    from clrender import meshes
+
+    ours = meshes.load_mesh_file(path, smooth)
+    theirs = trimesh.load(str(path), force="mesh", process=False)
+    vertices, faces = np.asarray(theirs.vertices), np.asarray(theirs.faces)
+    np.testing.assert_array_equal(ours.vertices[ours.faces], vertices[faces])
+    if smooth:
+        np.testing.assert_allclose(ours.normals[ours.faces], np.asarray(theirs.vertex_normals)[faces], atol=1e-12)
+    else:
+        assert ours.normals is None
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_plain_obj_files_are_read_without_trimesh_as_trimesh_reads_them(tmp_path, smooth):
+    from clrender import meshes
+
+    path = tmp_path / "shape.obj"
+    path.write_text(PLAIN_OBJ)
+    assert meshes.read_plain_obj(path, smooth) is not None
+    assert_same_mesh_as_trimesh(path, smooth)
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\nf 1 2 4\n")
+    with pytest.raises(ValueError, match="line 6: face 'f 1 2 4' names a vertex beyond the 3"):
+        meshes.load_mesh_file(path, smooth)
+
+
+@pytest.mark.parametrize("change", [
+    ("f 1 2 3\n", "f 1 2 3 4\n"),                     # a quad
+    ("f 1 2 3\n", "f 1 2 3 4 6\n"),                   # a pentagon
+    ("f 2 6 3\n", "f -5 -1 -4\n"),                    # relative indices
+    ("f 2 6 3\n", "vt 0 0\nvn 0 0 1\nf 2/1/1 6/1/1 3/1/1\n"),
+    ("f 2 6 3\n", "vt 0 0\nf 2/1 6/1 3/1\n"),
+    ("f 2 6 3\n", "vn 0 0 1\nf 2//1 6//1 3//1\n"),
+    ("f 2 6 3\n", "o part\ng side\nusemtl red\nf 2 6 3\n"),
+    ("# plain", "mtllib a.mtl\n# plain"),
+    ("f 2 6 3\n", "s off\nf 2 6 3\n"),
+    ("v 0 0 0\n", "v 0 0 0 1\n"),                      # a w coordinate
+    ("v 0 0 0\n", "v 0 0 0 0.5 0.5 0.5\n"),            # vertex colours
+    ("f 5 6 1\n", "f 5 6 1\nl 1 2\n"),
+], ids=["quad", "pentagon", "negative", "v/vt/vn", "v/vt", "v//vn", "groups", "mtllib", "smoothing",
+        "w", "colours", "line"])
+def test_obj_files_beyond_vertices_and_triangles_are_left_to_trimesh(tmp_path, change):
+    from clrender import meshes
+
+    assert change[0] in PLAIN_OBJ
+    path = tmp_path / "shape.obj"
+    path.write_text(PLAIN_OBJ.replace(*change, 1))
+    assert meshes.read_plain_obj(path, True) is None
+    for smooth in (False, True):
+        assert_same_mesh_as_trimesh(path, smooth)

@@ -175,7 +175,7 @@ def blocked_towards(arrays, points, normals, direction, objects, margin=1e-3):
 def formula_sphere(material, to_light, irradiance=np.pi, occluder=True):
     """A flat-faceted toon sphere seen straight on, a directional light, and a black plate
     between them that shadows part of the lit side (out of the camera's view)."""
-    shapes = [{"type": "sphere", "material": "toon", "radius": 1.0, "subdivisions": 4, "smooth": False}]
+    shapes = [{"type": "sphere", "mesh": True, "material": "toon", "radius": 1.0, "subdivisions": 4, "smooth": False}]
     if occluder:
         centre = 2.2 * np.asarray(to_light) + [0.15, -0.45, 0.0]
         shapes.append({"type": "rectangle", "material": "black",
@@ -192,7 +192,7 @@ def formula_sphere(material, to_light, irradiance=np.pi, occluder=True):
 def terminator_light():
     """A direction towards the light that puts one facet facing the camera at N.L = 0.005,
     inside the smoothstep of the default terminator; the lit side faces the upper left."""
-    mesh = clrender.meshes.sphere(radius=1.0, subdivisions=4, smooth=False)
+    mesh = clrender.meshes.icosphere(radius=1.0, subdivisions=4, smooth=False)
     corners = mesh.vertices[mesh.faces]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
@@ -282,7 +282,7 @@ def test_light_blocked_everywhere_leaves_shadow_factor_times_ambient_and_rim():
     data = {
         "camera": camera(position=(0, 1.5, 5), look_at=(0, 1, 0), fov=30, resolution=(48, 48)),
         "materials": [material, {"name": "black", "type": "diffuse", "albedo": [0, 0, 0]}],
-        "shapes": [{"type": "sphere", "material": "toon", "center": [0, 1, 0], "radius": 1.0,
+        "shapes": [{"type": "sphere", "mesh": True, "material": "toon", "center": [0, 1, 0], "radius": 1.0,
                     "subdivisions": 3, "smooth": False},
                    {"type": "rectangle", "material": "black", "transform": {"scale": 20, "rotate": [-90, 0, 0]}}],
         "lights": [{"type": "directional", "direction": [0.3, 1.0, -0.2], "irradiance": 5.0}],
@@ -410,7 +410,7 @@ def lit_sphere(material, light_direction, irradiance=2.0, resolution=(48, 48), s
     return {
         "camera": camera(resolution=resolution, fov=28),
         "materials": [material],
-        "shapes": [{"type": "sphere", "material": material["name"], "radius": 1.0,
+        "shapes": [{"type": "sphere", "mesh": True, "material": material["name"], "radius": 1.0,
                     "subdivisions": 4, "smooth": smooth}],
         "lights": lights or [{"type": "directional", "direction": list(light_direction),
                               "irradiance": irradiance}],
@@ -496,8 +496,8 @@ def toon_in_a_bubble(medium=None, resolution=(32, 32)):
     data = {
         "camera": camera(position=(0, 0, 5), look_at=(0, 0, 0), fov=40, resolution=resolution),
         "materials": [material_from(BUBBLE_TOON, (0.9, 0.6, 0.3)), {"name": "boundary", "type": "interface"}],
-        "shapes": [{"type": "sphere", "material": "toon", "radius": 1.0, "subdivisions": 2, "smooth": False},
-                   {"type": "sphere", "material": "boundary", "radius": 1.6, "subdivisions": 2, "smooth": False}],
+        "shapes": [{"type": "sphere", "mesh": True, "material": "toon", "radius": 1.0, "subdivisions": 2, "smooth": False},
+                   {"type": "sphere", "mesh": True, "material": "boundary", "radius": 1.6, "subdivisions": 2, "smooth": False}],
         "lights": [{"type": "directional", "direction": [0.6, -0.5, -0.62], "irradiance": 3.0}],
     }
     if medium is not None:
@@ -639,7 +639,7 @@ def test_uniform_environment_on_a_convex_toon_object():
     data = {
         "camera": camera(fov=30),
         "materials": [toon(color=color, softness=softness, ambient=ambient)],
-        "shapes": [{"type": "sphere", "material": "toon", "radius": 1.0, "subdivisions": 3,
+        "shapes": [{"type": "sphere", "mesh": True, "material": "toon", "radius": 1.0, "subdivisions": 3,
                     "smooth": False}],
         "lights": [{"type": "environment", "radiance": le}],
         "render": {"max_depth": 4},
@@ -698,9 +698,9 @@ def toon_enclosure(max_depth):
         "materials": [toon(name="dome", color=[0.9, 0.8, 0.7], shadow_color=[1.0, 0.5, 0.25],
                            shadow_factor=0.5, ambient=[0.8, 0.8, 0.8], highlight_size=0.3),
                       {"name": "ball", "type": "diffuse", "albedo": [0.6, 0.5, 0.4]}],
-        "shapes": [{"type": "sphere", "material": "dome", "radius": 4.0, "subdivisions": 2,
+        "shapes": [{"type": "sphere", "mesh": True, "material": "dome", "radius": 4.0, "subdivisions": 2,
                     "smooth": False, "flip_normals": True},
-                   {"type": "sphere", "material": "ball", "radius": 1.0, "subdivisions": 3,
+                   {"type": "sphere", "mesh": True, "material": "ball", "radius": 1.0, "subdivisions": 3,
                     "smooth": False}],
         "lights": [{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2.0}],
         "render": {"max_depth": max_depth, "rr_depth": 100},
@@ -757,7 +757,7 @@ def test_toon_object_keeps_its_tones_in_a_mirror():
     tint = np.array([0.9, 0.8, 0.7])
     material = toon(bands=2, softness=0.0)
     sun = [{"type": "directional", "direction": [0.2, -1.0, 0.4], "irradiance": 2.0}]
-    sphere = {"type": "sphere", "material": "toon", "center": [4, 0, 4], "radius": 1.0,
+    sphere = {"type": "sphere", "mesh": True, "material": "toon", "center": [4, 0, 4], "radius": 1.0,
               "subdivisions": 3, "smooth": False}
     mirror = {"type": "rectangle", "material": "mirror", "transform": {"scale": 3}}
     seen_in_mirror = render({

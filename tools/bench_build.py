@@ -6,13 +6,13 @@ binary from clrender's disk cache, kernel from PoCL's cache). Each measured in a
 """
 import argparse
 import os
-import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+from clrender.bench import interleaved, median, run_process  # noqa: E402
 PROBE = """
 import sys, time
 sys.path.insert(0, {root!r})
@@ -36,8 +36,7 @@ print(built - start, launched - start)
 def probe(scene, device, cache):
     env = dict(os.environ, CLRENDER_CACHE_DIR=cache, POCL_CACHE_DIR=cache + "/pocl")
     code = PROBE.format(root=str(ROOT), scene=str(scene), device=device)
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    build, first_launch = map(float, out.stdout.split())
+    build, first_launch = map(float, run_process([sys.executable, "-c", code], env=env).stdout.split())
     return build, first_launch
 
 
@@ -47,14 +46,21 @@ def main():
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args()
-    cold, warm = [], []
-    for _ in range(args.runs):
-        with tempfile.TemporaryDirectory() as cache:
-            cold.append(probe(args.scene, args.device, cache))
-            warm.append(probe(args.scene, args.device, cache))
-    for label, runs in (("cold", cold), ("warm", warm)):
-        build = statistics.median(r[0] for r in runs)
-        total = statistics.median(r[1] for r in runs)
+    caches = []
+
+    def cold():   # an empty cache per round, which the warm probe of the round then finds filled
+        caches.append(tempfile.TemporaryDirectory())
+        return probe(args.scene, args.device, caches[-1].name)
+
+    def warm():
+        return probe(args.scene, args.device, caches[-1].name)
+
+    runs = interleaved({"cold": cold, "warm": warm}, rounds=args.runs, warmup=0)
+    for cache in caches:
+        cache.cleanup()
+    for label, results in runs.items():
+        build = median([r[0] for r in results])
+        total = median([r[1] for r in results])
         print(f"{label}: program build {build:.3f} s, build + first launch {total:.3f} s "
               f"(median of {args.runs})")
 

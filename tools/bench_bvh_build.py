@@ -12,7 +12,6 @@ depth, mean leaf size and the binary tree's SAH cost
 """
 import argparse
 import os
-import statistics
 import sys
 import time
 
@@ -20,6 +19,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
+from clrender.bench import interleaved, median  # noqa: E402
 from clrender.bvh import build_bvh  # noqa: E402
 from clrender.wide_bvh import collapse  # noqa: E402
 
@@ -73,21 +73,26 @@ def bench(name, n_triangles, repeats):
     verts, faces = MESHES[name](n_triangles)
     v0, v1, v2 = (verts[faces[:, k]] for k in range(3))
     n = len(faces)
-    collapse(build_bvh(v0, v1, v2))  # warm-up: page in code paths and allocator pools
-    times, wide_times = [], []
-    for _ in range(repeats):
+    built = {}
+
+    def binary():
         start = time.perf_counter()
-        bvh = build_bvh(v0, v1, v2)
-        built = time.perf_counter()
-        wide, _ = collapse(bvh)
-        times.append(built - start)
-        wide_times.append(time.perf_counter() - built)
-    median = statistics.median(times)
-    wide_median = statistics.median(wide_times)
+        built["bvh"] = build_bvh(v0, v1, v2)
+        return time.perf_counter() - start
+
+    def wide():   # the tree the binary build of the same round made
+        start = time.perf_counter()
+        built["wide"], _ = collapse(built["bvh"])
+        return time.perf_counter() - start
+
+    # Warm-up: page in code paths and allocator pools.
+    runs = interleaved({"binary": binary, "wide": wide}, rounds=repeats)
+    bvh, wide = built["bvh"], built["wide"]
+    median_binary, wide_median = median(runs["binary"]), median(runs["wide"])
     n_leaves = sum(int(np.count_nonzero(bvh.nodes[f"{s}_hi"][:, 3].view(np.int32) > 0))
                    for s in ("left", "right"))
-    total = median + wide_median
-    print(f"{name:7s} {n:>10,d} {median:9.3f} {wide_median:9.3f} {total / n * 1e6:11.3f} {len(bvh.nodes):>10,d} "
+    total = median_binary + wide_median
+    print(f"{name:7s} {n:>10,d} {median_binary:9.3f} {wide_median:9.3f} {total / n * 1e6:11.3f} {len(bvh.nodes):>10,d} "
           f"{len(wide):>10,d} {bvh.depth:6d} {n / max(n_leaves, 1):10.2f} {sah_cost(bvh):9.2f}", flush=True)
 
 

@@ -4,7 +4,6 @@ large procedural mesh, median of several renders after a warm-up.
     python tools/bench_bvh_trace.py [--triangles 1000000] [--resolution 512] [--device cpu]
 """
 import argparse
-import statistics
 import sys
 import tempfile
 import time
@@ -15,6 +14,7 @@ import trimesh  # noqa: E402
 
 import clrender  # noqa: E402
 from bench_bvh_build import displaced_grid  # noqa: E402
+from clrender.bench import interleaved, median  # noqa: E402
 
 
 def main():
@@ -38,13 +38,14 @@ def main():
         start = time.perf_counter()
         renderer = clrender.Renderer(scene, args.device)
         setup = time.perf_counter() - start
-    renderer.render(spp=1, max_depth=1)
     print(f"device: {renderer.device.name.strip()}")
     print(f"mesh: {len(renderer.arrays.triangles)} triangles, BVH {len(renderer.arrays.nodes)} nodes, "
           f"depth {renderer.arrays.bvh_depth}; scene set-up (load, build, upload, kernel) {setup:.2f} s")
-    for depth, label in ((1, "camera rays only"), (2, "camera + shadow + bounce rays")):
-        rates = [renderer.render(spp=args.spp, max_depth=depth).samples_per_second for _ in range(args.runs)]
-        print(f"max depth {depth} ({label}): {statistics.median(rates) / 1e6:.2f} M samples/s "
+    labels = {1: "camera rays only", 2: "camera + shadow + bounce rays"}
+    runs = interleaved({depth: (lambda depth=depth: renderer.render(spp=args.spp, max_depth=depth).samples_per_second)
+                        for depth in labels}, rounds=args.runs)
+    for depth, rates in runs.items():
+        print(f"max depth {depth} ({labels[depth]}): {median(rates) / 1e6:.2f} M samples/s "
               f"(median of {args.runs}; min {min(rates) / 1e6:.2f}, max {max(rates) / 1e6:.2f})")
     print("at max depth 1 each sample is one closest-hit ray: M samples/s = M rays/s")
 

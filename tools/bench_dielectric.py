@@ -17,7 +17,6 @@ scenes allow 16 vertices per path and the Cornell box 8; --max-depth sets one de
 """
 import argparse
 import os
-import statistics
 import sys
 import time
 
@@ -27,6 +26,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 import clrender  # noqa: E402
 from clrender.device import build_program  # noqa: E402
+from clrender.bench import interleaved, median  # noqa: E402
 from clrender.energy import fill_albedo_tables  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
@@ -67,7 +67,7 @@ def main():
     ]
     print(f"device: {device.name}; {args.resolution}x{args.resolution}, ~{args.seconds} s per run, "
           f"median of {args.repeats}")
-    runs = {}
+    measures = {}
     for name, scene_file, force, diffuse_sphere in configs:
         start = time.perf_counter()
         renderer = renderer_for(scene_file, args.resolution, device, force, diffuse_sphere)
@@ -77,20 +77,25 @@ def main():
         setup = time.perf_counter() - start
         warm = renderer.render(spp=2, seed=0)
         spp = max(1, round(args.seconds * warm.samples_per_second / args.resolution ** 2))
-        runs[name] = (renderer, spp, [])
+        measures[name] = _rate(renderer, spp)
         print(f"  {name}: features {renderer.features}, max depth {renderer.scene.render.max_depth}, "
               f"set-up and first launch {setup:.2f} s, {spp} spp per run")
-    for repeat in range(args.repeats):
-        for name, (renderer, spp, rates) in runs.items():
-            result = renderer.render(spp=spp, seed=repeat + 1)
-            assert result.discarded_samples == 0
-            rates.append(result.samples_per_second)
-    base = statistics.median(runs[configs[0][0]][2])
+    runs = interleaved(measures, rounds=args.repeats, warmup=0)   # warmed up above
+    base = median(runs[configs[0][0]])
     print(f"{'configuration':32s} {'Msamples/s':>11s} {'ratio':>7s}   runs (Msamples/s)")
-    for name, (_, _, rates) in runs.items():
-        median = statistics.median(rates)
-        print(f"{name:32s} {median / 1e6:11.3f} {median / base:7.3f}   "
+    for name, rates in runs.items():
+        print(f"{name:32s} {median(rates) / 1e6:11.3f} {median(rates) / base:7.3f}   "
               + " ".join(f"{r / 1e6:.3f}" for r in rates))
+
+
+def _rate(renderer, spp):
+    seeds = iter(range(1, 1 << 30))
+
+    def rate():
+        result = renderer.render(spp=spp, seed=next(seeds))
+        assert result.discarded_samples == 0
+        return result.samples_per_second
+    return rate
 
 
 if __name__ == "__main__":

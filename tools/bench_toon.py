@@ -2,21 +2,24 @@
 
     python tools/bench_toon.py [--device cpu] [--spp 16] [--runs 3] [--resolution 256]
 
-Prints the median of several timed renders after one warm-up render, and the ratio.
+Prints the median of several timed renders after one warm-up render (interleaved,
+clrender.bench), and the ratio.
 """
 import argparse
-import statistics
+import sys
+from pathlib import Path
 
-import clrender
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import clrender  # noqa: E402
+from clrender.bench import interleaved, median  # noqa: E402
 
 
-def measure(path, device, spp, runs, resolution):
+def rate_of(path, device, spp, resolution):
     scene = clrender.load_scene(path)
     scene.camera.resolution = (resolution, resolution)
     renderer = clrender.Renderer(scene, device)
-    renderer.render(spp=1, seed=0)  # warm-up: kernel build and first launch
-    rates = [renderer.render(spp=spp, seed=run).samples_per_second for run in range(runs)]
-    return statistics.median(rates)
+    seeds = iter(range(1, 1 << 30))
+    return lambda: renderer.render(spp=spp, seed=next(seeds)).samples_per_second
 
 
 def main():
@@ -26,10 +29,12 @@ def main():
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--resolution", type=int, default=256)
     args = parser.parse_args()
-    rates = {}
-    for name in ("cornell_box", "toon_cornell_box"):
-        rates[name] = measure(f"scenes/{name}.json", args.device, args.spp, args.runs, args.resolution)
-        print(f"{name:18s} {rates[name] / 1e6:8.3f} M samples/s (median of {args.runs}, "
+    root = Path(__file__).resolve().parent.parent / "scenes"
+    runs = interleaved({name: rate_of(root / f"{name}.json", args.device, args.spp, args.resolution)
+                        for name in ("cornell_box", "toon_cornell_box")}, rounds=args.runs)
+    rates = {name: median(values) for name, values in runs.items()}
+    for name, rate in rates.items():
+        print(f"{name:18s} {rate / 1e6:8.3f} M samples/s (median of {args.runs}, "
               f"{args.resolution}^2 px, {args.spp} spp)")
     print(f"toon / plain: {rates['toon_cornell_box'] / rates['cornell_box']:.2f}")
 

@@ -45,7 +45,7 @@ def furnace(spp, out, device):
         "camera": {"position": [0, 0, 7], "look_at": [0, 0, 0], "fov": 30, "resolution": [192, 64]},
         "materials": materials,
         "shapes": [{"type": "sphere", "material": m["name"], "center": [2.4 * (i - 1), 0, 0],
-                    "radius": 1.0, "subdivisions": 4} for i, m in enumerate(materials)],
+                    "radius": 1.0} for i, m in enumerate(materials)],
         "lights": [{"type": "environment", "radiance": 0.5}],
         "render": {"max_depth": 1024, "rr_depth": 8},
     })

@@ -14,6 +14,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
+from clrender.bench import interleaved  # noqa: E402
 
 SCENE = ROOT / "scenes" / "smoke_cornell_box.json"
 
@@ -35,9 +36,10 @@ def reference(scene, spp, device):
 
 
 def equal_time_render(scene, device, spectral_mis, seconds, seed):
+    """A function rendering for `seconds`, its kernel warmed up by a 1-spp render."""
     renderer = clrender.Renderer(scene, device, spectral_mis=spectral_mis)
-    renderer.render(spp=1, seed=seed + 99)  # warm-up: kernel compilation
-    return renderer.render(seed=seed, time_limit=seconds)
+    renderer.render(spp=1, seed=seed + 99)
+    return lambda: renderer.render(seed=seed, time_limit=seconds)
 
 
 def main():
@@ -52,9 +54,10 @@ def main():
     ref = reference(scene, args.reference_spp, device)
     medium = scene.media[0]
     rows = []
-    for label, mis in (("spectral MIS (hero channel + balance over RGB)", True),
-                       ("hero channel only (no spectral MIS)", False)):
-        result = equal_time_render(scene, device, mis, args.seconds, seed=7)
+    methods = {"spectral MIS (hero channel + balance over RGB)": True, "hero channel only (no spectral MIS)": False}
+    results = interleaved({label: equal_time_render(scene, device, mis, args.seconds, seed=7)
+                           for label, mis in methods.items()}, rounds=1, warmup=0)
+    for label, (result,) in results.items():
         mse = clrender.mse(result.image, ref)
         rows.append((label, result, mse))
         print(f"{label}: {result.samples} spp, {result.seconds:.1f} s, RMSE {mse ** 0.5:.5f}")

@@ -25,7 +25,6 @@ docs/volume-report.md and docs/volume-report.png.
   b's estimate and (conservatively) for its upper bound.
 """
 import argparse
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -35,6 +34,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
+from clrender.bench import interleaved, median  # noqa: E402
 
 SCENES = ("cloud_cornell_box", "cloud_low_sun")
 BATCHES = 16
@@ -108,16 +108,11 @@ def measure_speed(scene, device, ref, ref_variance, spps, repeats, methods):
         renderer.render(spp=1, seed=1)
     points = {label: [] for label in renderers}
     for spp in spps:
-        times = {label: [] for label in renderers}
-        images = {}
-        for _ in range(repeats):
-            for label, renderer in renderers.items():
-                result = renderer.render(spp=spp, seed=7 + spp)
-                times[label].append(result.seconds)
-                images[label] = result.image
+        runs = interleaved({label: lambda r=renderer, s=spp: r.render(spp=s, seed=7 + s)
+                            for label, renderer in renderers.items()}, rounds=repeats, warmup=0)
         for label in renderers:
-            mse = np.mean((images[label] - ref) ** 2) - ref_variance.mean()
-            points[label].append({"spp": spp, "seconds": statistics.median(times[label]),
+            mse = np.mean((runs[label][-1].image - ref) ** 2) - ref_variance.mean()
+            points[label].append({"spp": spp, "seconds": median([r.seconds for r in runs[label]]),
                                   "rmse": np.sqrt(max(mse, 0.0))})
             print(f"  {label}, {spp} spp: {points[label][-1]['seconds']:.2f} s, RMSE {points[label][-1]['rmse']:.5f}",
                   flush=True)

@@ -20,7 +20,7 @@ def scene(fog_sigma=None):
                    "resolution": [200, 200]},
         "materials": [{"name": "toon", "type": "toon", "color": [0.8, 0.45, 0.2]},
                       {"name": "black", "type": "diffuse", "albedo": [0, 0, 0]}],
-        "shapes": [{"type": "sphere", "material": "toon", "radius": 1.0, "subdivisions": 5},
+        "shapes": [{"type": "sphere", "material": "toon", "radius": 1.0},
                    {"type": "rectangle", "material": "black",
                     "transform": {"scale": 0.35, "rotate": [0, 90, 0], "translate": plate.tolist()}}],
         "lights": [{"type": "directional", "direction": (-to_light).tolist(), "irradiance": np.pi}],

@@ -69,7 +69,7 @@ bool material_is_delta(const Material* m) {
     return false;
 }
 
-float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                  float3 wi) {
     if (is_one_sided_back(m, sp)) return (float3)(0.0f);
 #if DIELECTRIC
@@ -87,7 +87,7 @@ float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, 
     return eval_diffuse(material_color(m), sp, wi);
 }
 
-float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
     if (is_one_sided_back(m, sp)) return 0.0f;
 #if DIELECTRIC
     if (is_specular_material(m)) {
@@ -131,7 +131,7 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
 }
 #endif
 
-BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                        Rng* rng) {
     if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC

@@ -25,9 +25,10 @@
 // surfaces next to it receive its toon radiance as indirect light; it still casts shadows.
 //
 // Which lights: point and directional lights are few and noiseless, so every one is evaluated
-// (deterministic, hard shadows). Emissive triangles get one sample per vertex, as next-event
-// estimation draws it, and the environment one sample of its own, weighted by 1 / pdf: unbiased
-// estimates of the integrals over the light, converging with the samples per pixel.
+// (deterministic, hard shadows). Area lights (emissive triangles and spheres) get one sample
+// per vertex, as next-event estimation draws it, and the environment one sample of its own,
+// weighted by 1 / pdf: unbiased estimates of the integrals over the light, converging with the
+// samples per pixel.
 #ifndef CLRENDER_TOON_H
 #define CLRENDER_TOON_H
 #include "math.h"
@@ -144,7 +145,7 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
     ToonLighting lighting;
     lighting.lit = (float3)(0.0f);
     lighting.reached = (float3)(0.0f);
-    // Point and directional lights follow the emissive triangles in the emitter array.
+    // Point and directional lights follow the area lights in the emitter array.
     int count = scene->params->config.w;
     for (int i = scene->params->lights.x; i < count; ++i) {
         LightSample ls;
@@ -155,11 +156,11 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
 #if ENVIRONMENT != ENVIRONMENT_NONE
     toon_environment(scene, m, sp, wo, medium, rng, &lighting);
 #endif
-    // Emissive triangles (they come first in the emitter array): one sample as next-event
-    // estimation draws it. Other emitters drawn here were counted above and are skipped (a
-    // triangle sample is the only kind that is not delta and lies at a finite distance). The
-    // sample was picked with probability p_j, so share 1 makes E[share * T] = sum p_j T_j over
-    // the triangles, and radiance / pdf_w (pdf_w includes p_j) estimates their irradiance.
+    // Area lights (they come first in the emitter array): one sample as next-event estimation
+    // draws it. Other emitters drawn here were counted above and are skipped (an area-light
+    // sample is the only kind that is not delta and lies at a finite distance). The sample was
+    // picked with probability p_j, so share 1 makes E[share * T] = sum p_j T_j over the area
+    // lights, and radiance / pdf_w (pdf_w includes p_j) estimates their irradiance.
     if (scene->params->lights.x > 0) {
         LightSample ls = sample_light(scene, sp->p, rng);
         if (!ls.delta && ls.dist < INFINITY && ls.pdf_w > 0.0f)

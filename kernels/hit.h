@@ -1,0 +1,13 @@
+// A ray's nearest intersection, as the primitive intersectors (bvh.h, sphere.h) record it.
+#ifndef CLRENDER_HIT_H
+#define CLRENDER_HIT_H
+
+typedef struct {
+    float t;
+    float b1, b2;   // triangles: barycentrics of v1 and v2
+    int prim;       // primitive slot (index into the reordered primitive arrays), -1 for a miss
+    bool sphere;    // the slot holds an analytic sphere (sphere.h), not a triangle
+    float3 from_centre;   // spheres: the hit point relative to the centre, from the ray
+} Hit;
+
+#endif

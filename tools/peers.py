@@ -1,0 +1,343 @@
+"""clrender against Mitsuba 3, side by side in one run: efficiency 1 / (MSE x seconds) on the
+benchmark scenes, each renderer timed whole in fresh processes, interleaved, median of N.
+
+    python tools/peers.py [--scenes cornell_box glass_sphere ...] [--runs 3] [--spp 64]
+                          [--reference-batches 8] [--cache DIR] [--variant llvm_ad_rgb]
+
+For each scene (256 x 256, max depth 64, Russian roulette from depth 5):
+  1. write it as our JSON scene and as a Mitsuba 3 scene (clrender/mitsuba_export.py);
+  2. references: each renderer renders --reference-batches independent batches of --spp
+     samples (cached under --cache, default ~/.cache/clrender/peers, keyed by the scene's
+     content); the two must agree within their noise (the convergence check, printed) before
+     anything is timed, and the reference is their mean;
+  3. one warm-up process per renderer (kernel caches of both), then --runs rounds, each running
+     both renderers once in fresh processes at --spp, seed = round: whole-process wall and CPU
+     seconds, and the MSE of the image against the reference (less the reference's own noise).
+Ratio = clrender's efficiency / Mitsuba's (> 1: clrender is better), from the median seconds
+and the mean MSE; the CPU column uses CPU seconds (less sensitive to other load on the machine).
+
+Mitsuba is an optional extra (`pip install -e '.[peers]'`). Its LLVM variants need an LLVM
+shared library: DRJIT_LIBLLVM_PATH defaults to Debian's libllvm19 when that file exists.
+"""
+import argparse
+import hashlib
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES_DIR = ROOT / "scenes"
+DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+RENDERERS = ("clrender", "mitsuba")
+
+
+# ---------------------------------------------------------------------------------------------
+# The benchmark scenes: example scenes with the benchmark's settings
+# ---------------------------------------------------------------------------------------------
+def _example(name):
+    data = json.loads((SCENES_DIR / f"{name}.json").read_text())
+    for shape in data["shapes"]:   # mesh files: absolute, the scene is written elsewhere
+        if "file" in shape:
+            shape["file"] = str((SCENES_DIR / shape["file"]).resolve())
+    return data
+
+
+def _without(data, *names):
+    data["shapes"] = [s for s in data["shapes"] if s.get("name") not in names]
+    return data
+
+
+def _smoke():
+    data = _without(_example("smoke_cornell_box"))
+    data["media"] = [{"name": "smoke", "sigma_t": 2.0, "albedo": 0.8, "g": 0.5}]
+    return data
+
+
+def _cloud():
+    data = _example("cloud_cornell_box")
+    cloud = data["media"][0]
+    cloud["density"]["resolution"] = [64, 64, 64]   # noise_cloud peaks at density 1
+    cloud.update(sigma_t=20.0, albedo=0.9)
+    # Off the floor by a hair (both the grid and its boundary box): where two surfaces coincide,
+    # which one a ray meets first is up to rounding, and the two renderers' answers differ.
+    cloud["transform"]["translate"][1] += LIFT
+    _lift(data, "cloud_bounds")
+    return data
+
+
+def _prism():
+    return _lift(_example("tir_prism"), "prism")
+
+
+# Shapes standing on the floor are lifted by this much (see _cloud).
+LIFT = 1e-3
+
+
+def _lift(data, name):
+    shape = next(s for s in data["shapes"] if s.get("name") == name)
+    translate = shape.setdefault("transform", {}).setdefault("translate", [0, 0, 0])
+    translate[1] += LIFT
+    return data
+
+
+BENCHMARKS = {
+    "cornell_box": ("Cornell box, two diffuse blocks", lambda: _example("cornell_box")),
+    "glass_sphere": ("Cornell box, smooth glass sphere", lambda: _example("cornell_glass")),
+    "tir_prism": ("Cornell box, glass prism with total internal reflection", _prism),
+    "smoke": ("Cornell box, homogeneous smoke sphere (sigma_t 2, albedo 0.8, g 0.5)", _smoke),
+    "cloud": ("Cornell box, 64^3 grid cloud (max density 20, albedo 0.9)", _cloud),
+}
+
+
+def benchmark_scene(name, spp, resolution=256, max_depth=64, rr_depth=5):
+    """The scene dict (our JSON structure) of a benchmark, with the common settings."""
+    data = BENCHMARKS[name][1]()
+    data["camera"]["resolution"] = [resolution, resolution]
+    data["render"].update(spp=spp, max_depth=max_depth, rr_depth=rr_depth, seed=0)
+    return data
+
+
+def prepare(name, data, cache):
+    """The scene's folder in the cache, named by a hash of the scene: our scene.json, and the
+    Mitsuba description mitsuba.json with its assets (rewritten every run, the exporter may
+    have changed). Returns (folder, {renderer: a hash of what it renders}), which keys the
+    references."""
+    import numpy as np
+
+    import clrender
+    from clrender import mitsuba_export
+    from clrender.arrays import build_scene_arrays
+
+    text = json.dumps(data, indent=1, sort_keys=True)
+    # Named by the content, mesh files by theirs (not by where the checkout lies).
+    named = json.loads(text)
+    for shape in named["shapes"]:
+        if "file" in shape:
+            shape["file"] = hashlib.sha256(Path(shape["file"]).read_bytes()).hexdigest()
+    digest = hashlib.sha256(json.dumps(named, sort_keys=True).encode()).hexdigest()[:12]
+    folder = Path(cache) / f"{name}-{digest}"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "scene.json").write_text(text)
+    scene = clrender.load_scene(folder / "scene.json")
+    description = json.dumps(mitsuba_export.mitsuba_description(scene, folder / "assets"), indent=1)
+    (folder / "mitsuba.json").write_text(description)
+    digest = hashlib.sha256(description.replace(str(folder.resolve()), "").encode())
+    for asset in sorted((folder / "assets").iterdir()):
+        digest.update(asset.read_bytes())
+    # Ours: the geometry, materials and media the kernel reads (the same scene file may load into
+    # other geometry, as spheres did when they became analytic), not their BVH order.
+    arrays = build_scene_arrays(scene)
+    ours = hashlib.sha256()
+    for per_slot in (arrays.triangles, arrays.shading, arrays.info, arrays.emitters):
+        rows = np.ascontiguousarray(per_slot).view(f"V{per_slot.dtype.itemsize}")
+        ours.update(np.sort(rows).tobytes())
+    for name in ("materials", "media", "grid_data"):
+        ours.update(getattr(arrays, name).tobytes())
+    return folder, {"clrender": ours.hexdigest()[:12], "mitsuba": digest.hexdigest()[:12]}
+
+
+# ---------------------------------------------------------------------------------------------
+# The timed processes: each renders, writes the image, exits
+# ---------------------------------------------------------------------------------------------
+def child_clrender(folder, spp, seed, batches, out):
+    import numpy as np
+
+    import clrender
+
+    renderer = clrender.Renderer(clrender.load_scene(folder / "scene.json"))
+    images = [renderer.render(spp=spp, seed=seed + b).image for b in range(batches)]
+    _write(out, np.stack(images))
+
+
+def child_mitsuba(folder, spp, seed, batches, out, variant):
+    import importlib.util
+
+    import mitsuba as mi
+
+    mi.set_variant(variant)
+    # By file path: importing the clrender package would add pyopencl to Mitsuba's process.
+    spec = importlib.util.spec_from_file_location("mitsuba_export", ROOT / "clrender" / "mitsuba_export.py")
+    export = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(export)
+    description = json.loads((folder / "mitsuba.json").read_text())
+    scene = mi.load_dict(export.to_mitsuba_dict(description, mi))
+    images = [mi.render(scene, spp=spp, seed=seed + b) for b in range(batches)]
+    import numpy as np
+
+    _write(out, np.stack([np.asarray(image, np.float32)[..., :3] for image in images]))
+
+
+def _write(out, images):
+    import numpy as np
+
+    np.save(out, images.astype(np.float32))
+
+
+def child_command(renderer, folder, spp, seed, out, variant, batches=1):
+    return [sys.executable, str(Path(__file__).resolve()), "--child", renderer, str(folder), str(spp),
+            str(seed), str(batches), str(out), "--variant", variant]
+
+
+def child_environment():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    if "DRJIT_LIBLLVM_PATH" not in env and Path(DEBIAN_LLVM).is_file():
+        env["DRJIT_LIBLLVM_PATH"] = DEBIAN_LLVM
+    return env
+
+
+# ---------------------------------------------------------------------------------------------
+# References and the convergence check
+# ---------------------------------------------------------------------------------------------
+def reference_batches(renderer, folder, spp, batches, variant, key):
+    """(batches, H, W, 3) images of independent seeds, cached in the scene's folder under `key`
+    (a hash of what the renderer renders). Kernel changes are not in the key: --fresh renders
+    them again."""
+    import numpy as np
+
+    from clrender.bench import run_process
+
+    path = folder / f"reference-{renderer}-{key}-{spp}spp-{batches}.npy"
+    if not path.is_file():
+        start = time.perf_counter()
+        run_process(child_command(renderer, folder, spp, 1000, path, variant, batches), env=child_environment())
+        print(f"  reference {renderer}: {batches} x {spp} spp in {time.perf_counter() - start:.0f} s", flush=True)
+    return np.load(path)
+
+
+def block_means(images, size=8):
+    """Means over size x size pixel blocks of (..., H, W, 3) images (H, W multiples of size)."""
+    *lead, h, w, c = images.shape
+    return images.reshape(*lead, h // size, size, w // size, size, c).mean(axis=(-4, -2))
+
+
+def agreement(a, b):
+    """How two sets of batch images agree: mean squared difference of their means over its
+    expectation from their noise (1: equal expectations), per pixel and per 8x8 block (where
+    noise averages out and a bias does not), and the relative difference of the image means."""
+    import numpy as np
+
+    out = {}
+    for label, (x, y) in (("pixels", (a, b)), ("blocks", (block_means(a), block_means(b)))):
+        noise = x.var(axis=0, ddof=1) / len(x) + y.var(axis=0, ddof=1) / len(y)
+        out[label] = float(np.mean((x.mean(axis=0) - y.mean(axis=0)) ** 2) / np.mean(noise))
+    out["mean"] = float(a.mean() / b.mean() - 1)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# The run
+# ---------------------------------------------------------------------------------------------
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scenes", nargs="+", choices=list(BENCHMARKS), default=list(BENCHMARKS))
+    parser.add_argument("--runs", type=int, default=3, help="timed rounds (median)")
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--reference-batches", type=int, default=8,
+                        help="batches of --spp samples per renderer for the reference")
+    parser.add_argument("--cache", type=Path, default=Path.home() / ".cache" / "clrender" / "peers")
+    parser.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant")
+    parser.add_argument("--check-only", action="store_true", help="references and convergence check, no timing")
+    parser.add_argument("--fresh", action="store_true", help="render the references again")
+    parser.add_argument("--child", nargs=6, metavar=("RENDERER", "FOLDER", "SPP", "SEED", "BATCHES", "OUT"),
+                        help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        renderer, folder, spp, seed, batches, out = args.child
+        if renderer == "clrender":
+            child_clrender(Path(folder), int(spp), int(seed), int(batches), out)
+        else:
+            child_mitsuba(Path(folder), int(spp), int(seed), int(batches), out, args.variant)
+        return
+    run(args)
+
+
+def run(args):
+    import tempfile
+
+    import numpy as np
+
+    import clrender
+    from clrender.bench import interleaved, machine_description, markdown_table, median, run_process
+
+    command = "python tools/peers.py " + " ".join(sys.argv[1:])
+    env = child_environment()
+    print(f"command: {command}")
+    print(f"machine: {machine_description()}; OpenCL: {clrender.choose_device().name.strip()} "
+          f"({clrender.choose_device().platform.version.strip()}); Mitsuba {_mitsuba_version(env)} {args.variant}")
+    folders, references, checks = {}, {}, {}
+    for name in args.scenes:
+        folders[name], keys = prepare(name, benchmark_scene(name, args.spp), args.cache)
+        print(f"{name}: {folders[name]}", flush=True)
+        if args.fresh:
+            for old in folders[name].glob("reference-*.npy"):
+                old.unlink()
+        batches = {r: reference_batches(r, folders[name], args.spp, args.reference_batches, args.variant,
+                                        keys[r]) for r in RENDERERS}
+        checks[name] = agreement(batches["clrender"], batches["mitsuba"])
+        both = np.concatenate([batches["clrender"], batches["mitsuba"]])
+        # The reference's own noise (variance of its mean) adds to every MSE against it.
+        references[name] = (both.mean(axis=0), float(np.mean(both.var(axis=0, ddof=1) / len(both))))
+        c = checks[name]
+        print(f"  convergence: difference / noise = {c['pixels']:.2f} per pixel, {c['blocks']:.2f} per 8x8 block; "
+              f"image means differ by {100 * c['mean']:+.2f} %", flush=True)
+    if args.check_only:
+        return
+    with tempfile.TemporaryDirectory() as scratch:
+        seeds = iter(range(1, 10 ** 6))
+        measures = {}
+        for name in args.scenes:
+            for renderer in RENDERERS:
+                measures[(name, renderer)] = _measure(renderer, folders[name], args.spp, seeds, scratch,
+                                                      args.variant, env, references[name])
+        results = interleaved(measures, rounds=args.runs, warmup=1)
+    rows = []
+    for name in args.scenes:
+        stats = {}
+        for renderer in RENDERERS:
+            runs = results[(name, renderer)]
+            stats[renderer] = (median([r[0] for r in runs]), median([r[1] for r in runs]),
+                               float(np.mean([r[2] for r in runs])))
+        (cw, cc, cm), (mw, mc, mm) = stats["clrender"], stats["mitsuba"]
+        rows.append([BENCHMARKS[name][0], f"{cw:.2f}", f"{mw:.2f}", f"{cm:.3g}", f"{mm:.3g}",
+                     f"{(mm * mw) / (cm * cw):.2f}", f"{(mm * mc) / (cm * cc):.2f}",
+                     f"{checks[name]['blocks']:.2f}"])
+    header = ["scene (256x256)", "clrender s", "Mitsuba s", "clrender MSE", "Mitsuba MSE", "ratio",
+              "ratio (CPU s)", "agreement"]
+    print()
+    print(f"{args.spp} spp, max depth 64, roulette from depth 5; median of {args.runs} fresh processes each, "
+          f"interleaved; MSE: mean over the runs against the mean of both {args.reference_batches} x "
+          f"{args.spp}-spp references, less their noise")
+    print(markdown_table(header, rows))
+    print(f"\n`{command}`")
+
+
+def _measure(renderer, folder, spp, seeds, scratch, variant, env, reference):
+    """A function that runs one timed process and returns (wall s, CPU s, MSE)."""
+    import numpy as np
+
+    from clrender.bench import run_process
+
+    def measure():
+        seed = next(seeds)
+        out = Path(scratch) / f"{renderer}-{seed}.npy"
+        timing = run_process(child_command(renderer, folder, spp, seed, out, variant), env=env)
+        image = np.load(out)[0]
+        mse = float(np.mean((image - reference[0]) ** 2)) - reference[1]
+        return timing.wall_seconds, timing.cpu_seconds, mse
+    return measure
+
+
+def _mitsuba_version(env):
+    from clrender.bench import run_process
+
+    try:
+        return run_process([sys.executable, "-c", "import mitsuba; print(mitsuba.__version__)"], env=env).stdout.strip()
+    except RuntimeError:
+        sys.exit("peers.py: Mitsuba 3 is not installed (pip install -e '.[peers]')")
+
+
+if __name__ == "__main__":
+    main()
