@@ -10,7 +10,8 @@ For each scene (256 x 256, max depth 64, Russian roulette from depth 5):
      samples (cached under --cache, default ~/.cache/clrender/peers, keyed by the scene's
      content); the two must agree within their noise (the convergence check, printed) before
      anything is timed, and the reference is their mean;
-  3. one warm-up process per renderer (kernel caches of both), then --runs rounds, each running
+  3. the clrender package byte-compiled (as pip installs it, and as Mitsuba's modules are), one
+     warm-up process per renderer (kernel caches of both), then --runs rounds, each running
      both renderers once in fresh processes at --spp, seed = round: whole-process wall and CPU
      seconds, and the MSE of the image against the reference (less the reference's own noise).
 Ratio = clrender's efficiency / Mitsuba's (> 1: clrender is better), from the median seconds
@@ -180,6 +181,15 @@ def child_command(renderer, folder, spp, seed, out, variant, batches=1):
             str(seed), str(batches), str(out), "--variant", variant]
 
 
+def byte_compile_clrender():
+    """Byte-compile the clrender package (__pycache__, ignored by git), as pip does at install:
+    Mitsuba's modules come compiled, while a checkout run under PYTHONDONTWRITEBYTECODE (as on
+    this project's machines) would compile ours again in every timed process (50-60 ms)."""
+    import compileall
+
+    compileall.compile_dir(ROOT / "clrender", quiet=1)
+
+
 def child_environment():
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
@@ -264,6 +274,7 @@ def run(args):
 
     command = "python tools/peers.py " + " ".join(sys.argv[1:])
     env = child_environment()
+    byte_compile_clrender()
     print(f"command: {command}")
     print(f"machine: {machine_description()}; OpenCL: {clrender.choose_device().name.strip()} "
           f"({clrender.choose_device().platform.version.strip()}); Mitsuba {_mitsuba_version(env)} {args.variant}")
