@@ -217,13 +217,16 @@ def _render(args):
     _check_scene_files(args.scene)
     cluster = "--workers" if args.workers else "--scheduler" if args.scheduler else None
     if cluster:
-        for flag, given in (("--aov", aovs), ("--denoise", args.denoise), ("--time", args.time is not None)):
-            if given:
-                raise ArgumentError(flag, f"is not supported with {cluster} yet")
+        if args.time is not None:
+            raise ArgumentError("--time", f"is not supported with {cluster}: chunks are sized in samples")
         from .distributed import require_dask
 
         require_dask(cluster)
-        return _render_distributed(args, outputs, parameters)
+        if args.denoise:
+            from .denoise import check_denoiser
+
+            check_denoiser("--denoise")
+        return _render_distributed(args, outputs, parameters, aovs)
     if args.tiles is not None:
         raise ArgumentError("--tiles", "only with --workers or --scheduler")
     if args.denoise:
@@ -316,7 +319,7 @@ def _render_local(args, scene_path, output, aovs, parameters):
     return status
 
 
-def _render_distributed(args, outputs, parameters):
+def _render_distributed(args, outputs, parameters, aovs):
     """Render the scenes on a Dask cluster; each image is written as soon as it is complete, and
     on Ctrl-C (SIGTERM, SIGHUP) the scenes in flight are written as far as they got."""
     from tqdm import tqdm
@@ -343,12 +346,14 @@ def _render_distributed(args, outputs, parameters):
 
         results = render_many(scenes, client, args.spp, args.seed, args.max_depth, args.device,
                               args.volume_method, args.step, args.raymarch_multiple_scattering,
-                              args.tiles, args.chunk_seconds, progress=progress)
+                              args.tiles, args.chunk_seconds, progress=progress, aovs=aovs,
+                              denoise=args.denoise, denoise_prefilter=args.denoise_prefilter,
+                              denoise_keep_emission=args.denoise_keep_emission)
         saving = []
         try:
             for index, result in results:
                 saving = [(index, result)]
-                save_image(result.image, outputs[index], exposure=args.exposure)
+                save_image(result.image, outputs[index], exposure=args.exposure, layers=_layers(args, aovs, result))
                 _report(outputs[index], result, where, 0, bar)
                 saving = []
             bar.close()
@@ -358,10 +363,10 @@ def _render_distributed(args, outputs, parameters):
             status = 128 + getattr(interrupted, "signal", signal.SIGINT)
             bar.close()
             for index, result in saving:   # complete, but its write was interrupted
-                save_image(result.image, outputs[index], exposure=args.exposure)
+                save_image(result.image, outputs[index], exposure=args.exposure, layers=_layers(args, aovs, result))
                 _report(outputs[index], result, where, 0)
             for index, result in partial:
-                save_image(result.image, outputs[index], exposure=args.exposure)
+                save_image(result.image, outputs[index], exposure=args.exposure, layers=_layers(args, aovs, result))
                 _report(outputs[index], result, where, status)
             return status
 

@@ -33,7 +33,8 @@ import numpy as np
 from . import limits
 from .errors import ArgumentError, ClrenderError, DeviceError, MissingDependency
 from .features import scene_features
-from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result
+from .aovs import needs_sample_aovs
+from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result, output_request
 from .scene import as_scene
 
 CHUNK_SECONDS = 3.0        # target kernel time of a chunk: seconds, so per-chunk overhead is small
@@ -53,7 +54,8 @@ class DistributedRenderError(DeviceError):
 
 def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
            step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
-           samples_per_chunk=None, progress=None):
+           samples_per_chunk=None, progress=None, aovs=(), denoise=False, denoise_prefilter=False,
+           denoise_keep_emission=False):
     """Render `scene` on the Dask cluster of `client` (a distributed.Client) and return a
     RenderResult whose image is exactly (bit for bit) that of `clrender.render(scene, spp, ...)`
     on the workers' kind of device.
@@ -64,7 +66,9 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     time from the rate of the tile's previous chunk (the first chunk of a tile takes one sample);
     `samples_per_chunk` fixes their size instead. `progress(spp_done, spp, seconds)` follows each
     chunk, with spp_done averaged over the pixels and `seconds` wall time. RenderResult.seconds
-    is wall time, so samples_per_second is the cluster's rate.
+    is wall time, so samples_per_second is the cluster's rate. `aovs` and the denoising
+    arguments are those of `Renderer.render`: the AOVs are accumulated with the colour, chunk by
+    chunk, so they are bit-identical to a local render's too.
 
     Ctrl-C cancels the chunks in flight and raises RenderInterrupted whose result holds the image
     merged so far, each pixel normalised by its own sample count."""
@@ -76,7 +80,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 
     results = render_many([scene], client, spp, seed, max_depth, device, volume_method, step,
                           raymarch_multiple_scattering, tiles, chunk_seconds, samples_per_chunk,
-                          frame_progress if progress else None)
+                          frame_progress if progress else None, aovs=aovs, denoise=denoise,
+                          denoise_prefilter=denoise_prefilter, denoise_keep_emission=denoise_keep_emission)
     try:
         for _, result in results:
             return result
@@ -90,7 +95,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 
 def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
                 step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
-                samples_per_chunk=None, progress=None, scenes_in_flight=SCENES_IN_FLIGHT):
+                samples_per_chunk=None, progress=None, scenes_in_flight=SCENES_IN_FLIGHT, aovs=(),
+                denoise=False, denoise_prefilter=False, denoise_keep_emission=False):
     """Render many scenes on the cluster and yield (index, RenderResult) as each completes.
 
     `scenes` may be any iterable (e.g. a generator loading files): it is consumed as scenes are
@@ -106,13 +112,14 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
                           chunk_seconds=chunk_seconds, samples_per_chunk=samples_per_chunk,
                           scenes_in_flight=scenes_in_flight)
     require_dask()
+    outputs = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
     options = (device, volume_method, step, raymarch_multiple_scattering, seed, max_depth)
     return _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
-                        progress, scenes_in_flight)
+                        progress, scenes_in_flight, outputs)
 
 
 def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
-                 progress, scenes_in_flight):
+                 progress, scenes_in_flight, outputs):
     """The generator of render_many, its arguments checked."""
     from distributed import as_completed
 
@@ -146,7 +153,7 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
             strips = tiles or max(TILES_PER_THREAD * max(1, sum(client.nthreads().values())),
                                   math.ceil(width * height / TILE_PIXELS))
             job = _Job(index, scene, client.scatter(scene, broadcast=True, hash=False), count,
-                       horizontal_strips(width, height, strips))
+                       horizontal_strips(width, height, strips), *outputs)
             jobs[index] = job
             for tile in range(len(job.states)):
                 submit(job, tile)
@@ -255,18 +262,20 @@ def merge_strips(scene, states):
                 for s in states]
     object_id = [s.object_id if s.object_id is not None else np.full(len(s.sums), -1, np.int32)
                  for s in states]
+    aov_sums = None if states[0].aov_sums is None else np.concatenate([s.aov_sums for s in states])
     return Accumulation((0, 0, width, height), min(s.samples for s in states),
                         np.concatenate([s.sums for s in states]), sum(s.discarded for s in states),
                         sum(s.seconds for s in states), np.concatenate(geometry),
-                        np.concatenate(object_id))
+                        np.concatenate(object_id), aov_sums)
 
 
 class _Job:
     """A scene in flight: its scattered copy and the latest Accumulation of each strip."""
 
-    def __init__(self, index, scene, scene_future, spp, strips):
+    def __init__(self, index, scene, scene_future, spp, strips, aovs=(), denoising=None):
         self.index, self.scene, self.scene_future, self.spp = index, scene, scene_future, spp
-        self.states = [Accumulation.start(strip) for strip in strips]
+        self.aovs, self.denoising = aovs, denoising
+        self.states = [Accumulation.start(strip, needs_sample_aovs(aovs)) for strip in strips]
         self.last_chunk = [(0, 0.0)] * len(strips)   # (samples, kernel seconds) of the latest chunk
         self.devices = set()
         self.started = time.perf_counter()
@@ -302,7 +311,7 @@ class _Job:
             warnings.warn(f"scene {self.index} was rendered on {len(self.devices)} kinds of device "
                           f"({'; '.join(sorted(self.devices))}): a valid image, but not bit-identical "
                           "to a render on one of them", stacklevel=3)
-        result = image_result(self.scene, merge_strips(self.scene, self.states))
+        result = image_result(self.scene, merge_strips(self.scene, self.states), self.aovs, self.denoising)
         result.seconds = time.perf_counter() - self.started
         return result
 

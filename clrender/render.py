@@ -68,6 +68,18 @@ class Accumulation:
                    aov_sums=np.zeros(n, layout.AOV_SUMS) if sample_aovs else None)
 
 
+def output_request(aovs=(), denoise=False, denoise_prefilter=False, denoise_keep_emission=False):
+    """The AOV names a render accumulates (those asked for, and the denoiser's guides) and its
+    DenoiseSettings (None without denoising); raises before any rendering if the denoiser is
+    missing."""
+    names = parse_aovs(aovs)
+    denoising = DenoiseSettings(denoise_prefilter, denoise_keep_emission) if denoise else None
+    if denoising:
+        check_denoiser()
+        names = parse_aovs(names + denoising.aovs())
+    return names, denoising
+
+
 def image_result(scene, state, aovs=(), denoising=None):
     """The RenderResult of a whole-image Accumulation: sums normalised per pixel by their sample
     count (so an interrupted render is exact for what was done), the AOVs named in `aovs`
@@ -234,11 +246,7 @@ class Renderer:
         launches completed."""
         limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
-        names = parse_aovs(aovs)
-        denoising = DenoiseSettings(denoise_prefilter, denoise_keep_emission) if denoise else None
-        if denoising:
-            check_denoiser()   # before the render, not after it
-            names = parse_aovs(names + denoising.aovs())
+        names, denoising = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
         if spp is None:
             spp = MAX_SPP if time_limit is not None else self.scene.render.spp
         width, height = self.scene.camera.resolution

@@ -97,6 +97,21 @@ def test_outlines_and_a_mesh_file_the_workers_never_see(client, tmp_path):
     assert np.array_equal(result.outline_alpha, expected.outline_alpha)
 
 
+def test_aovs_and_denoising_are_bit_identical(client):
+    """The AOV sums travel with the colour in each strip's chain: every AOV, and the image the
+    client denoises from them, are exactly the local render's."""
+    pytest.importorskip("pyoidn", reason="pyoidn is not installed: pip install -e '.[denoise]'")
+    scene = small("scenes/cornell_glass.json", (24, 20), seed=3)
+    expected = clrender.Renderer(scene, TEST_DEVICE).render(spp=3, aovs=clrender.AOV_NAMES, denoise=True)
+    result = distributed.render(scene, client, 3, device=TEST_DEVICE, tiles=3, samples_per_chunk=2,
+                                aovs=clrender.AOV_NAMES, denoise=True)
+    assert_identical(result, expected)
+    assert np.array_equal(result.noisy_image, expected.noisy_image)
+    assert sorted(result.aovs) == sorted(clrender.AOV_NAMES)
+    for name in clrender.AOV_NAMES:
+        assert np.array_equal(result.aovs[name], expected.aovs[name]), name
+
+
 def test_batch_yields_every_scene_identical_to_its_local_render(client):
     scenes = [small("scenes/cornell_box.json", (24, 16), seed=seed) for seed in (1, 2)]
     scenes.append(small("scenes/toon_cornell_box.json", (20, 20)))
@@ -234,6 +249,18 @@ def test_cli_renders_on_local_workers(tmp_path, capsys):
     image = clrender.load_image(tmp_path / "box.exr")
     assert np.array_equal(image, local(clrender.load_scene(path), 3).image)
     assert "on 2 Dask workers" in capsys.readouterr().err
+
+
+def test_cli_writes_aov_layers_from_a_running_cluster(client, tmp_path):
+    path = tmp_path / "box.json"
+    path.write_text(_scene_json("scenes/cornell_box.json", resolution=[16, 12], seed=1, spp=2))
+    assert main(["render", str(path), "-o", str(tmp_path / "box.exr"), "--aov", "albedo,depth",
+                 "--scheduler", client.scheduler.address, "--quiet", "--device", TEST_DEVICE]) == 0
+    layers = clrender.load_exr_layers(tmp_path / "box.exr")
+    expected = clrender.Renderer(clrender.load_scene(path), TEST_DEVICE).render(spp=2, aovs=("albedo", "depth"))
+    assert np.array_equal(layers[""], expected.image)
+    assert np.array_equal(layers["albedo"], expected.aovs["albedo"])
+    assert np.array_equal(layers["depth"].reshape(expected.aovs["depth"].shape), expected.aovs["depth"])
 
 
 def test_cli_renders_a_batch_on_a_running_cluster(client, tmp_path):
