@@ -82,6 +82,9 @@ def _parser():
     render.add_argument("--volume-method", choices=("null", "raymarch"),
                         help="grid media: null-scattering path integral (unbiased) or ray marching "
                              "(biased preview) (default: the scene's, else null)")
+    render.add_argument("--sampler", choices=("sobol", "independent"),
+                        help="random numbers of camera paths: Owen-scrambled Sobol or independent "
+                             "(default: the scene's, else sobol)")
     render.add_argument("--step", type=_setting("step"),
                         help="ray marching: longest step in voxels, also scaling the optical depth per step "
                              "(default: the scene's, else 2)")
@@ -173,6 +176,13 @@ def _load_scene(path, parameters):
         print(f"clrender: warning: {message}", file=sys.stderr)
     scene = mitsuba_xml.scene_from_translation(translation)
     return scene, translation.notes
+
+
+def _with_sampler(scene, sampler):
+    """`scene` with its render.sampler replaced by --sampler when given (workers read the scene's)."""
+    if sampler is not None:
+        scene.render.sampler = sampler
+    return scene
 
 
 def _image_side(text):
@@ -293,7 +303,7 @@ def _render_local(args, scene_path, output, aovs, parameters):
 
     scene, _ = _load_scene(scene_path, parameters)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
-                        raymarch_multiple_scattering=args.raymarch_multiple_scattering)
+                        raymarch_multiple_scattering=args.raymarch_multiple_scattering, sampler=args.sampler)
     for note in renderer.notes:
         print(f"clrender: note: {note}", file=sys.stderr)
     spp = args.spp or (None if args.time else scene.render.spp)
@@ -331,7 +341,7 @@ def _render_distributed(args, outputs, parameters, aovs):
     batch = len(args.scene) > 1
     # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
     # them on, so a long sequence is never in memory at once.
-    scenes = (_load_scene(path, parameters)[0] for path in args.scene)
+    scenes = (_with_sampler(_load_scene(path, parameters)[0], args.sampler) for path in args.scene)
     scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
     with dask_client(args.workers, args.scheduler) as client:

@@ -116,6 +116,7 @@ RENDER_PARAMS = np.dtype([
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
+    ("sampling", I4),      # x the sampler of camera paths (SAMPLERS)
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
@@ -146,6 +147,8 @@ ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 # Values of the GRID_MEDIA feature: how grid media are integrated (docs/heterogeneous-media.md).
 VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
+# The random numbers of camera paths (render.sampler, kernels/rng.h); RenderParams.sampling.x.
+SAMPLERS = {"independent": 0, "sobol": 1}
 
 
 def field(records, fields, name):
@@ -184,7 +187,7 @@ def c_constants():
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
-                          ("VOLUME", VOLUME_METHODS)):
+                          ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")

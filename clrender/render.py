@@ -113,11 +113,20 @@ def image_result(scene, state, aovs=(), denoising=None):
                         denoise_seconds=denoise_seconds)
 
 
+def sampler_code(scene, override=None):
+    """The RenderParams.sampling.x of the sampler named by `override`, else the scene's
+    render.sampler (ArgumentError naming `sampler` if unknown)."""
+    name = override if override is not None else scene.render.sampler
+    if not isinstance(name, str) or name not in layout.SAMPLERS:
+        raise ArgumentError("sampler", f"unknown sampler {name!r}; valid: {', '.join(layout.SAMPLERS)}")
+    return layout.SAMPLERS[name]
+
+
 def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True,
-                  step=None, raymarch_multiple_scattering=None, tile=None):
-    """The RenderParams struct of one launch. `step` and `raymarch_multiple_scattering` (ray
-    marching of grid media) default to the scene's render settings; `tile` (x, y, width, height)
-    to the whole image."""
+                  step=None, raymarch_multiple_scattering=None, tile=None, sampler=None):
+    """The RenderParams struct of one launch. `step`, `raymarch_multiple_scattering` (ray
+    marching of grid media) and `sampler` default to the scene's render settings; `tile` (x, y,
+    width, height) to the whole image."""
     camera = scene.camera
     width, height = camera.resolution
     forward, right, up = camera.basis()
@@ -139,6 +148,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["scene_sphere"] = arrays.scene_sphere
     p["lights"] = (arrays.first_light, 0, 0, 0)
     p["tile"] = (0, 0, width, height) if tile is None else tile
+    p["sampling"] = (sampler_code(scene, sampler), 0, 0, 0)
     return p
 
 
@@ -175,13 +185,14 @@ class Renderer:
 
     @device_errors()
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
-                 volume_method=None, step=None, raymarch_multiple_scattering=None, context=None):
+                 volume_method=None, step=None, raymarch_multiple_scattering=None, context=None, sampler=None):
         """`scene`: a Scene, a scene dict or a file path. `device`: an OpenCL device or a choice
         for `choose_device` (default: the device of `context` if given). `volume_method`
         ("null" or "raymarch"), `step` (ray marching's longest step in voxels, >=
         limits.MIN_MARCH_STEP) and `raymarch_multiple_scattering` override the scene's render
-        settings for grid media. `context`: an existing context of `device` to share, so renderers
-        of many scenes reuse its built programs."""
+        settings for grid media; `sampler` ("sobol" or "independent") the scene's render.sampler.
+        `context`: an existing context of `device` to share, so renderers of many scenes reuse
+        its built programs."""
         self.scene = scene = as_scene(scene)
         step = None if step is None else limits.setting("step", step)
         limits.number(pass_seconds, "pass_seconds", low=0.0, low_open=True)
@@ -197,6 +208,8 @@ class Renderer:
         self.notes = march_notes(scene) if self.features["GRID_MEDIA"] == layout.VOLUME_METHODS["raymarch"] else []
         self.step = step
         self.raymarch_multiple_scattering = raymarch_multiple_scattering
+        sampler_code(scene, sampler)   # checked before anything is built
+        self.sampler = sampler
         with errors_at_source(scene):
             limits.check_image_fits(scene.camera.resolution, self.device)
             self.arrays = build_scene_arrays(scene)
@@ -297,7 +310,7 @@ class Renderer:
                 count = min(per_pass, end - done)
                 params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
                                        seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering,
-                                       state.tile)
+                                       state.tile, self.sampler)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 start = time.perf_counter()
                 kernel(self.queue, global_size, self.local_size, params_buffer,
@@ -384,8 +397,8 @@ class Renderer:
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
-           step=None, denoise=False):
+           step=None, denoise=False, sampler=None):
     """Render `scene` (a Scene, a scene dict or a file path) and return the linear float32
-    (H, W, 3) image (denoised if `denoise`)."""
-    return Renderer(scene, device, volume_method=volume_method, step=step).render(
+    (H, W, 3) image (denoised if `denoise`); `sampler` overrides render.sampler."""
+    return Renderer(scene, device, volume_method=volume_method, step=step, sampler=sampler).render(
         spp=spp, seed=seed, max_depth=max_depth, progress=progress, denoise=denoise).image

@@ -19,6 +19,7 @@ SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
+SAMPLERS = ("sobol", "independent")   # clrender/layout.py SAMPLERS, kernels/rng.h
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
 
@@ -154,6 +155,9 @@ class RenderSettings:
     step: float = 2.0
     raymarch_multiple_scattering: bool = True
     hide_environment: bool = False   # camera rays that escape see black (Mitsuba's hide_emitters)
+    # Random numbers of camera paths: "sobol" (padded Owen-scrambled Sobol, stratified per
+    # pixel) or "independent" (hashed i.i.d. numbers); kernels/rng.h.
+    sampler: str = "sobol"
 
 
 @dataclass
@@ -480,6 +484,7 @@ def _read_render(node):
         step=float(node.setting("step", 2.0)),
         raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", True),
         hide_environment=node.boolean("hide_environment", False),
+        sampler=node.string("sampler", "sobol", choices=SAMPLERS),
     )
     node.finish()
     return settings

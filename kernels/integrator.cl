@@ -46,7 +46,7 @@ KERNEL void render_pass(__constant RenderParams* params,
     int discarded = 0;
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
-        Rng rng = rng_for_sample((uint)pixel, (uint)s, (uint)params->config.z);
+        Rng rng = rng_for_path((uint)pixel, (uint)s, (uint)params->config.z, params->sampling.x);
         Ray ray = camera_ray(&params->camera, x, y, width, height, rng_float2(&rng));
         AovSample aov = aov_sample_none();
         float3 radiance = trace_path(&scene, ray, &rng, &aov);

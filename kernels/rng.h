@@ -1,10 +1,20 @@
-// Counter-based random numbers: every number is a hash of (pixel, sample index, seed, draw
+// Counter-based random numbers: every number depends only on (pixel, sample index, seed, draw
 // counter), so images do not depend on the device, work-group size or how samples are split
-// into launches.
+// into launches or tiles. Two generators share the Rng type:
+// - independent (rng_for_sample): each number is a hash of the four, i.i.d. across samples,
+//   pixels and draws. Test kernels use it with one sample per work-item.
+// - sobol (rng_for_path with SAMPLER_SOBOL): padded, Owen-scrambled Sobol points after Burley,
+//   "Practical Hash-based Owen Scrambling" (JCGT 2020). The counter is a dimension: each draw
+//   (rng_float or rng_float2) takes the next one. A pixel's samples in dimension d are the 2D
+//   Sobol (0,2)-sequence (dimensions 0 and 1), each coordinate Owen-scrambled and the sample
+//   index shuffled by a nested uniform scramble, all seeded by hash(pixel, d, seed); the
+//   scrambles of different dimensions are independent, so a path's numbers are as independent as
+//   with hashing while the samples of one pixel stratify every 2D draw.
 #ifndef CLRENDER_RNG_H
 #define CLRENDER_RNG_H
 
-typedef struct { uint key; uint counter; } Rng;
+// SAMPLER_INDEPENDENT, SAMPLER_SOBOL: clrender/layout.py SAMPLERS.
+typedef struct { uint key; uint counter; uint index; int sampler; } Rng;
 
 // "lowbias32" integer hash (C. Wellons, 2018): full avalanche with two multiplies.
 uint hash_u32(uint x) {
@@ -16,21 +26,104 @@ uint hash_u32(uint x) {
     return x;
 }
 
+// The independent generator's stream of one sample.
 Rng rng_for_sample(uint pixel, uint sample, uint seed) {
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(sample ^ hash_u32(seed ^ 0x5bd1e995u)));
     rng.counter = 0u;
+    rng.index = sample;
+    rng.sampler = SAMPLER_INDEPENDENT;
     return rng;
+}
+
+// The numbers of camera path `sample` of `pixel` from `sampler` (RenderParams.sampling.x, SAMPLER_*).
+Rng rng_for_path(uint pixel, uint sample, uint seed, int sampler) {
+    if (sampler != SAMPLER_SOBOL) return rng_for_sample(pixel, sample, seed);
+    Rng rng;
+    rng.key = hash_u32(pixel ^ hash_u32(seed ^ 0x2c1b3c6du));   // not the sample: scrambles are per pixel
+    rng.counter = 0u;
+    rng.index = sample;
+    rng.sampler = SAMPLER_SOBOL;
+    return rng;
+}
+
+// OpenCL C 1.2 has no bit-reversal builtin: swap halves, then quarters, ... (5 steps).
+uint reverse_bits(uint x) {
+    x = (x << 16) | (x >> 16);
+    x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
+    x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
+    x = ((x & 0x33333333u) << 2) | ((x >> 2) & 0x33333333u);
+    x = ((x & 0x55555555u) << 1) | ((x >> 1) & 0x55555555u);
+    return x;
+}
+
+// A random permutation of the bits of x where bit j depends on bits 0..j only, i.e. an Owen
+// scramble of the reversed number: the Laine-Karras hash with N. Vegdahl's constants, as
+// pbrt-v4's FastOwenScrambler uses.
+uint laine_karras_permutation(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+// Nested uniform (Owen) scramble of x read as the binary fraction 0.b31 b30 ... b0.
+uint nested_uniform_scramble(uint x, uint seed) {
+    return reverse_bits(laine_karras_permutation(reverse_bits(x), seed));
+}
+
+// Sobol dimension 1 with its bits reversed (bit r = fraction digit r + 1): the generator matrix
+// is Pascal's triangle mod 2, so digit r is the XOR of the index bits k with r a bit-subset of k
+// (Lucas), a superset-sum over the five bits of r in five steps instead of a 32-step loop.
+uint sobol_dimension1_reversed(uint index) {
+    uint x = index;
+    x ^= (x >> 1) & 0x55555555u;
+    x ^= (x >> 2) & 0x33333333u;
+    x ^= (x >> 4) & 0x0f0f0f0fu;
+    x ^= (x >> 8) & 0x00ff00ffu;
+    x ^= (x >> 16) & 0x0000ffffu;
+    return x;
+}
+
+float uint_to_unit_float(uint bits) { return (float)(bits >> 8) * 0x1.0p-24f; }
+
+// Sobol dimension 0 is reverse_bits(index), so its Owen scramble is one reversal; likewise
+// dimension 1 from its reversed form.
+uint owen_sobol0(uint index, uint seed) { return reverse_bits(laine_karras_permutation(index, seed)); }
+uint owen_sobol1(uint index, uint seed) {
+    return reverse_bits(laine_karras_permutation(sobol_dimension1_reversed(index), seed));
+}
+
+// The shuffled Sobol index of the current dimension and the seeds of its two coordinates.
+uint sobol_dimension_seed(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
+uint sobol_shuffled_index(const Rng* rng, uint dim_seed) {
+    return nested_uniform_scramble(rng->index, hash_u32(dim_seed ^ 0x68e31da4u));
 }
 
 // Uniform in [0, 1): 24 random mantissa bits, so 1.0f is never returned.
 float rng_float(Rng* rng) {
-    uint bits = hash_u32(rng->key + rng->counter * 0x9e3779b9u);
+    uint bits;
+    if (rng->sampler == SAMPLER_SOBOL) {
+        uint dim_seed = sobol_dimension_seed(rng);
+        bits = owen_sobol0(sobol_shuffled_index(rng, dim_seed), hash_u32(dim_seed ^ 0xb5297a4du));
+    } else {
+        bits = hash_u32(rng->key + rng->counter * 0x9e3779b9u);
+    }
     rng->counter += 1u;
-    return (float)(bits >> 8) * 0x1.0p-24f;
+    return uint_to_unit_float(bits);
 }
 
+// Sobol: one dimension, both coordinates of its (0,2)-sequence. Independent: two draws.
 float2 rng_float2(Rng* rng) {
+    if (rng->sampler == SAMPLER_SOBOL) {
+        uint dim_seed = sobol_dimension_seed(rng);
+        uint index = sobol_shuffled_index(rng, dim_seed);
+        rng->counter += 1u;
+        return (float2)(uint_to_unit_float(owen_sobol0(index, hash_u32(dim_seed ^ 0xb5297a4du))),
+                        uint_to_unit_float(owen_sobol1(index, hash_u32(dim_seed ^ 0x1b56c4e9u))));
+    }
     float a = rng_float(rng);
     return (float2)(a, rng_float(rng));
 }

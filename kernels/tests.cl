@@ -50,6 +50,7 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
+    out[k++] = OFFSET(p, sampling);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
     out[k++] = OFFSET(a, colour_m2);
@@ -70,6 +71,26 @@ KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const Triangl
     shadow.t = INFINITY;
     shadow.prim = -1;
     any_hit[i] = traverse_bvh(nodes, triangles, origins[i].xyz, directions[i].xyz, true, &shadow);
+}
+
+// ----- camera-path samplers (rng.h): `dims` draws of sample i of pixel j --------------------
+// out[(j * samples + i) * dims + d]: rng_float2 (xy) and, from a fresh stream, rng_float (z).
+KERNEL void path_samples(int sampler, uint seed, int samples, int dims, __global float4* out) {
+    int i = get_global_id(0), j = get_global_id(1);
+    Rng pairs = rng_for_path((uint)j, (uint)i, seed, sampler);
+    Rng singles = rng_for_path((uint)j, (uint)i, seed, sampler);
+    for (int d = 0; d < dims; ++d) {
+        float2 u = rng_float2(&pairs);
+        out[(j * samples + i) * dims + d] = (float4)(u, rng_float(&singles), 0.0f);
+    }
+}
+
+// The scrambled Sobol bits of (index, seed): Owen-scrambled dimensions 0 and 1, the nested
+// uniform scramble of the index, against a reference with the generator matrices.
+KERNEL void owen_sobol_bits(__global const uint* index, __global const uint* seed, __global uint4* out) {
+    int i = get_global_id(0);
+    out[i] = (uint4)(owen_sobol0(index[i], seed[i]), owen_sobol1(index[i], seed[i]),
+                     nested_uniform_scramble(index[i], seed[i]), reverse_bits(index[i]));
 }
 
 // ----- sampling routines: directions and their pdfs, for chi-square tests -------------------

@@ -56,6 +56,7 @@ typedef struct {
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
+    int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h)
 } RenderParams;
 
 // Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose

@@ -104,7 +104,8 @@ def _hash_u32(x):
 
 def camera_rays(scene, seed, sample=0):
     """Origin and unit directions (H, W, 3) of the rays the kernel traces for one sample: the
-    jitter is the sample's first two random numbers (kernels/rng.h, camera_ray in camera.h)."""
+    jitter is the sample's first two random numbers (kernels/rng.h, camera_ray in camera.h) of
+    the independent sampler, which the renders compared with these rays use."""
     width, height = scene.camera.resolution
     pixel = np.arange(width * height, dtype=np.uint32)
     key = _hash_u32(pixel ^ _hash_u32(np.uint32(sample) ^ _hash_u32(np.uint32(seed) ^ np.uint32(0x5BD1E995))))
@@ -231,7 +232,7 @@ def test_pixels_equal_the_formula(parameters):
     to_light = terminator_light()
     data = formula_sphere(material_from(parameters, color), to_light)
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=1, seed=11)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=1, seed=11)
     assert result.discarded_samples == 0
     arrays = build_scene_arrays(scene)
     origin, directions = camera_rays(scene, seed=11)
@@ -288,7 +289,7 @@ def test_light_blocked_everywhere_leaves_shadow_factor_times_ambient_and_rim():
         "lights": [{"type": "directional", "direction": [0.3, 1.0, -0.2], "irradiance": 5.0}],
     }
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=1, seed=5)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=1, seed=5)
     origin, directions = camera_rays(scene, seed=5)
     hits = Hits(build_scene_arrays(scene), origin, directions)
     sphere = (hits.object == 0) & (hits.edge > 1e-4)
@@ -307,7 +308,7 @@ def test_without_lights_a_toon_object_shows_ambient_and_rim():
     data = formula_sphere(material_from({}, color), terminator_light(), occluder=False)
     data["lights"] = []
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=1, seed=2)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=1, seed=2)
     origin, directions = camera_rays(scene, seed=2)
     hits = Hits(build_scene_arrays(scene), origin, directions)
     sphere = (hits.object == 0) & (hits.edge > 1e-4)
@@ -349,7 +350,7 @@ def test_point_light_strength_is_intensity_over_pi_distance_squared():
     material = material_from(dict(highlight_size=0.3), color)
     data = toon_floor(material, [{"type": "point", "position": position.tolist(), "intensity": np.pi * height ** 2}])
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=1, seed=4)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=1, seed=4)
     hits, view = floor_points(scene, seed=4)
     floor = (hits.object == 0) & (hits.edge > 1e-4)
     to_light = position - hits.point
@@ -379,7 +380,7 @@ def test_several_lights_add_their_terms_and_share_the_shadow_factor():
               {"type": "directional", "direction": sun2.tolist(), "irradiance": e2.tolist()}]
     data = toon_floor(material, lights, plate=((-0.8, 0.0), 0.6))
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=1, seed=1)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=1, seed=1)
     arrays = build_scene_arrays(scene)
     hits, view = floor_points(scene, seed=1)
     blocked1, certain1 = blocked_towards(arrays, hits.point, hits.normal, -sun1, objects=[1])
@@ -525,7 +526,7 @@ def test_fog_darkens_the_lit_side_by_its_transmittance():
     sigma, spp, seed = 0.45, 16, 6
     data = toon_in_a_bubble({"sigma_a": sigma, "sigma_s": 0.0})
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=spp, seed=seed)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=spp, seed=seed)
     assert result.discarded_samples == 0
     arrays = build_scene_arrays(scene)
     to_light = -np.array([0.6, -0.5, -0.62]) / np.linalg.norm([0.6, -0.5, -0.62])
@@ -587,7 +588,7 @@ def test_fog_between_the_light_and_a_toon_floor_scales_its_terms_exactly():
         "lights": [{"type": "directional", "direction": (-to_light).tolist(), "irradiance": np.pi}],
     }
     scene = clrender.load_scene_dict(data)
-    result = clrender.Renderer(scene).render(spp=1, seed=8)
+    result = clrender.Renderer(scene, sampler="independent").render(spp=1, seed=8)
     assert result.discarded_samples == 0
     hits, view = floor_points(scene, seed=8)
     floor = (hits.object == 0) & (hits.edge > 1e-4)

@@ -3,6 +3,7 @@ benchmark scenes, each renderer timed whole in fresh processes, interleaved, med
 
     python tools/peers.py [--scenes cornell_box glass_sphere ...] [--runs 3] [--spp 64]
                           [--reference-batches 8] [--cache DIR] [--variant llvm_ad_rgb]
+                          [--sampler sobol|independent] [--mitsuba-samplers independent ldsampler ...]
 
 For each scene (256 x 256, max depth 64, Russian roulette from depth 5):
   1. write it as our JSON scene and as a Mitsuba 3 scene (clrender/mitsuba_export.py);
@@ -16,6 +17,9 @@ For each scene (256 x 256, max depth 64, Russian roulette from depth 5):
      seconds, and the MSE of the image against the reference (less the reference's own noise).
 Ratio = clrender's efficiency / Mitsuba's (> 1: clrender is better), from the median seconds
 and the mean MSE; the CPU column uses CPU seconds (less sensitive to other load on the machine).
+The timed runs use clrender's --sampler (default: the scene's, sobol) and each of Mitsuba's
+--mitsuba-samplers (default independent; a column group each); references always use both
+renderers' independent samplers (unbiased whatever the sampler; cached across samplers).
 
 Mitsuba is an optional extra (`pip install -e '.[peers]'`). Its LLVM variants need an LLVM
 shared library: DRJIT_LIBLLVM_PATH defaults to Debian's libllvm19 when that file exists.
@@ -142,17 +146,17 @@ def prepare(name, data, cache):
 # ---------------------------------------------------------------------------------------------
 # The timed processes: each renders, writes the image, exits
 # ---------------------------------------------------------------------------------------------
-def child_clrender(folder, spp, seed, batches, out):
+def child_clrender(folder, spp, seed, batches, out, sampler):
     import numpy as np
 
     import clrender
 
-    renderer = clrender.Renderer(clrender.load_scene(folder / "scene.json"))
+    renderer = clrender.Renderer(clrender.load_scene(folder / "scene.json"), sampler=sampler)
     images = [renderer.render(spp=spp, seed=seed + b).image for b in range(batches)]
     _write(out, np.stack(images))
 
 
-def child_mitsuba(folder, spp, seed, batches, out, variant):
+def child_mitsuba(folder, spp, seed, batches, out, variant, sampler):
     import importlib.util
 
     import mitsuba as mi
@@ -163,6 +167,7 @@ def child_mitsuba(folder, spp, seed, batches, out, variant):
     export = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(export)
     description = json.loads((folder / "mitsuba.json").read_text())
+    description["sensor"]["sampler"]["type"] = sampler
     scene = mi.load_dict(export.to_mitsuba_dict(description, mi))
     images = [mi.render(scene, spp=spp, seed=seed + b) for b in range(batches)]
     import numpy as np
@@ -176,9 +181,10 @@ def _write(out, images):
     np.save(out, images.astype(np.float32))
 
 
-def child_command(renderer, folder, spp, seed, out, variant, batches=1):
+def child_command(renderer, folder, spp, seed, out, variant, batches=1, sampler="independent"):
+    """The process rendering `batches` images; `sampler`: the renderer's name for its sampler."""
     return [sys.executable, str(Path(__file__).resolve()), "--child", renderer, str(folder), str(spp),
-            str(seed), str(batches), str(out), "--variant", variant]
+            str(seed), str(batches), str(out), "--variant", variant, "--child-sampler", sampler]
 
 
 def byte_compile_clrender():
@@ -251,15 +257,21 @@ def main():
     parser.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant")
     parser.add_argument("--check-only", action="store_true", help="references and convergence check, no timing")
     parser.add_argument("--fresh", action="store_true", help="render the references again")
+    parser.add_argument("--sampler", choices=("sobol", "independent"), default="sobol",
+                        help="clrender's sampler in the timed runs")
+    parser.add_argument("--mitsuba-samplers", nargs="+", default=["independent"],
+                        choices=("independent", "stratified", "multijitter", "orthogonal", "ldsampler"),
+                        help="Mitsuba's samplers in the timed runs, a column group each")
+    parser.add_argument("--child-sampler", help=argparse.SUPPRESS)
     parser.add_argument("--child", nargs=6, metavar=("RENDERER", "FOLDER", "SPP", "SEED", "BATCHES", "OUT"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         renderer, folder, spp, seed, batches, out = args.child
         if renderer == "clrender":
-            child_clrender(Path(folder), int(spp), int(seed), int(batches), out)
+            child_clrender(Path(folder), int(spp), int(seed), int(batches), out, args.child_sampler)
         else:
-            child_mitsuba(Path(folder), int(spp), int(seed), int(batches), out, args.variant)
+            child_mitsuba(Path(folder), int(spp), int(seed), int(batches), out, args.variant, args.child_sampler)
         return
     run(args)
 
@@ -298,34 +310,39 @@ def run(args):
         return
     with tempfile.TemporaryDirectory() as scratch:
         seeds = iter(range(1, 10 ** 6))
+        runners = [("clrender", args.sampler)] + [("mitsuba", m) for m in args.mitsuba_samplers]
         measures = {}
         for name in args.scenes:
-            for renderer in RENDERERS:
-                measures[(name, renderer)] = _measure(renderer, folders[name], args.spp, seeds, scratch,
-                                                      args.variant, env, references[name])
+            for runner in runners:
+                measures[(name, runner)] = _measure(*runner, folders[name], args.spp, seeds, scratch,
+                                                    args.variant, env, references[name])
         results = interleaved(measures, rounds=args.runs, warmup=1)
     rows = []
     for name in args.scenes:
         stats = {}
-        for renderer in RENDERERS:
-            runs = results[(name, renderer)]
-            stats[renderer] = (median([r[0] for r in runs]), median([r[1] for r in runs]),
-                               float(np.mean([r[2] for r in runs])))
-        (cw, cc, cm), (mw, mc, mm) = stats["clrender"], stats["mitsuba"]
-        rows.append([BENCHMARKS[name][0], f"{cw:.2f}", f"{mw:.2f}", f"{cm:.3g}", f"{mm:.3g}",
-                     f"{(mm * mw) / (cm * cw):.2f}", f"{(mm * mc) / (cm * cc):.2f}",
-                     f"{checks[name]['blocks']:.2f}"])
-    header = ["scene (256x256)", "clrender s", "Mitsuba s", "clrender MSE", "Mitsuba MSE", "ratio",
-              "ratio (CPU s)", "agreement"]
+        for runner in runners:
+            runs = results[(name, runner)]
+            stats[runner] = (median([r[0] for r in runs]), median([r[1] for r in runs]),
+                             float(np.mean([r[2] for r in runs])))
+        cw, cc, cm = stats[runners[0]]
+        row = [BENCHMARKS[name][0], f"{cw:.2f}", f"{cm:.3g}"]
+        for runner in runners[1:]:
+            mw, mc, mm = stats[runner]
+            row += [f"{mw:.2f}", f"{mm:.3g}", f"{(mm * mw) / (cm * cw):.2f}", f"{(mm * mc) / (cm * cc):.2f}"]
+        rows.append(row + [f"{checks[name]['blocks']:.2f}"])
+    header = ["scene (256x256)", "clrender s", "clrender MSE"]
+    for _, sampler in runners[1:]:
+        header += [f"Mitsuba {sampler} s", f"Mitsuba {sampler} MSE", f"ratio vs {sampler}", "ratio (CPU s)"]
+    header.append("agreement")
     print()
     print(f"{args.spp} spp, max depth 64, roulette from depth 5; median of {args.runs} fresh processes each, "
           f"interleaved; MSE: mean over the runs against the mean of both {args.reference_batches} x "
-          f"{args.spp}-spp references, less their noise")
+          f"{args.spp}-spp references, less their noise; clrender sampler {args.sampler}")
     print(markdown_table(header, rows))
     print(f"\n`{command}`")
 
 
-def _measure(renderer, folder, spp, seeds, scratch, variant, env, reference):
+def _measure(renderer, sampler, folder, spp, seeds, scratch, variant, env, reference):
     """A function that runs one timed process and returns (wall s, CPU s, MSE)."""
     import numpy as np
 
@@ -334,7 +351,7 @@ def _measure(renderer, folder, spp, seeds, scratch, variant, env, reference):
     def measure():
         seed = next(seeds)
         out = Path(scratch) / f"{renderer}-{seed}.npy"
-        timing = run_process(child_command(renderer, folder, spp, seed, out, variant), env=env)
+        timing = run_process(child_command(renderer, folder, spp, seed, out, variant, sampler=sampler), env=env)
         image = np.load(out)[0]
         mse = float(np.mean((image - reference[0]) ** 2)) - reference[1]
         return timing.wall_seconds, timing.cpu_seconds, mse
