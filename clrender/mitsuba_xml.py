@@ -664,9 +664,9 @@ def read_sensor(plugin, reader):
     if len(films) > 1 or len(samplers) > 1 or len(media) > 1:
         raise plugin.error("a sensor takes at most one film, one sampler and one medium")
     width, height = read_film(films[0] if films else None, reader)
-    spp, seed = read_sampler(samplers[0] if samplers else None, reader)
+    spp, seed, sampler = read_sampler(samplers[0] if samplers else None, reader)
     render = reader.out.scene["render"]
-    render.update(spp=spp, seed=seed)
+    render.update(spp=spp, seed=seed, sampler=sampler)
     matrix = plugin.transform("to_world")
     matrix = np.eye(4) if matrix is None else matrix
     if not _is_rigid(matrix):
@@ -766,10 +766,11 @@ def read_film(plugin, reader):
 
 
 def read_sampler(plugin, reader):
-    """(spp, seed). Samplers differ in how they stratify, not in what they estimate; the sample
-    count is rounded as Mitsuba's samplers round it."""
+    """(spp, seed, our render.sampler). Samplers differ in how they stratify, not in what they
+    estimate: Mitsuba's `independent` (its default) stays independent, its stratified ones
+    become our Sobol sampler; the sample count is rounded as Mitsuba's samplers round it."""
     if plugin is None:
-        return 4, 0
+        return 4, 0, "independent"
     if plugin.type not in SAMPLERS:
         raise plugin.error(f"unsupported sampler '{plugin.type}' (supported: {', '.join(SAMPLERS)})")
     count = plugin.integer("sample_count", 4)
@@ -787,7 +788,7 @@ def read_sampler(plugin, reader):
         while any(root % d == 0 for d in range(2, int(np.sqrt(root)) + 1)) or root < 2:
             root += 1
         count = root * root
-    return count, seed % 2**32
+    return count, seed % 2**32, "independent" if plugin.type == "independent" else "sobol"
 
 
 # --------------------------------------------------------------------------------------------

@@ -179,7 +179,7 @@ def test_errors_found_at_upload_point_at_the_xml_element(tmp_path, context):
 ])
 def test_integrators(tmp_path, integrator, expected):
     scene, _ = translate(tmp_path, integrator)
-    assert {k: v for k, v in scene["render"].items() if k not in ("spp", "seed")} == expected
+    assert {k: v for k, v in scene["render"].items() if k not in ("spp", "seed", "sampler")} == expected
 
 
 @pytest.mark.parametrize("integrator,message", [
@@ -272,17 +272,18 @@ def test_sensor_warnings(tmp_path):
     assert warned == []
 
 
-@pytest.mark.parametrize("sampler,spp,seed", [
-    ("", 4, 0),
-    ('<sampler type="independent"><integer name="sample_count" value="10"/><integer name="seed" value="7"/></sampler>', 10, 7),
-    ('<sampler type="stratified"><integer name="sample_count" value="10"/></sampler>', 16, 0),
-    ('<sampler type="multijitter"><integer name="sample_count" value="9"/></sampler>', 9, 0),
-    ('<sampler type="ldsampler"><integer name="sample_count" value="10"/></sampler>', 16, 0),
-    ('<sampler type="orthogonal"><integer name="sample_count" value="10"/></sampler>', 25, 0),
+@pytest.mark.parametrize("sampler,spp,seed,kind", [
+    ("", 4, 0, "independent"),
+    ('<sampler type="independent"><integer name="sample_count" value="10"/><integer name="seed" value="7"/></sampler>', 10, 7,
+     "independent"),
+    ('<sampler type="stratified"><integer name="sample_count" value="10"/></sampler>', 16, 0, "sobol"),
+    ('<sampler type="multijitter"><integer name="sample_count" value="9"/></sampler>', 9, 0, "sobol"),
+    ('<sampler type="ldsampler"><integer name="sample_count" value="10"/></sampler>', 16, 0, "sobol"),
+    ('<sampler type="orthogonal"><integer name="sample_count" value="10"/></sampler>', 25, 0, "sobol"),
 ])
-def test_samplers(tmp_path, sampler, spp, seed):
+def test_samplers(tmp_path, sampler, spp, seed, kind):
     render = translate(tmp_path, "", sensor=sensor(sampler=sampler))[0]["render"]
-    assert (render["spp"], render["seed"]) == (spp, seed)
+    assert (render["spp"], render["seed"], render["sampler"]) == (spp, seed, kind)
 
 
 # ============================================================================================
