@@ -14,7 +14,9 @@
 #define CLRENDER_RNG_H
 
 // SAMPLER_INDEPENDENT, SAMPLER_SOBOL: clrender/layout.py SAMPLERS.
-typedef struct { uint key; uint counter; uint index; int sampler; } Rng;
+// index_reversed: the sample index with its bits reversed, the form the index scramble needs
+// (reversed once per path, not once per draw).
+typedef struct { uint key; uint counter; uint index_reversed; int sampler; } Rng;
 
 // "lowbias32" integer hash (C. Wellons, 2018): full avalanche with two multiplies.
 uint hash_u32(uint x) {
@@ -26,12 +28,22 @@ uint hash_u32(uint x) {
     return x;
 }
 
+// OpenCL C 1.2 has no bit-reversal builtin: swap halves, then quarters, ... (5 steps).
+uint reverse_bits(uint x) {
+    x = (x << 16) | (x >> 16);
+    x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
+    x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
+    x = ((x & 0x33333333u) << 2) | ((x >> 2) & 0x33333333u);
+    x = ((x & 0x55555555u) << 1) | ((x >> 1) & 0x55555555u);
+    return x;
+}
+
 // The independent generator's stream of one sample.
 Rng rng_for_sample(uint pixel, uint sample, uint seed) {
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(sample ^ hash_u32(seed ^ 0x5bd1e995u)));
     rng.counter = 0u;
-    rng.index = sample;
+    rng.index_reversed = 0u;   // unused by the independent generator
     rng.sampler = SAMPLER_INDEPENDENT;
     return rng;
 }
@@ -42,19 +54,9 @@ Rng rng_for_path(uint pixel, uint sample, uint seed, int sampler) {
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(seed ^ 0x2c1b3c6du));   // not the sample: scrambles are per pixel
     rng.counter = 0u;
-    rng.index = sample;
+    rng.index_reversed = reverse_bits(sample);
     rng.sampler = SAMPLER_SOBOL;
     return rng;
-}
-
-// OpenCL C 1.2 has no bit-reversal builtin: swap halves, then quarters, ... (5 steps).
-uint reverse_bits(uint x) {
-    x = (x << 16) | (x >> 16);
-    x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
-    x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
-    x = ((x & 0x33333333u) << 2) | ((x >> 2) & 0x33333333u);
-    x = ((x & 0x55555555u) << 1) | ((x >> 1) & 0x55555555u);
-    return x;
 }
 
 // A random permutation of the bits of x where bit j depends on bits 0..j only, i.e. an Owen
@@ -99,7 +101,8 @@ uint owen_sobol1(uint index, uint seed) {
 // The shuffled Sobol index of the current dimension and the seeds of its two coordinates.
 uint sobol_dimension_seed(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
 uint sobol_shuffled_index(const Rng* rng, uint dim_seed) {
-    return nested_uniform_scramble(rng->index, hash_u32(dim_seed ^ 0x68e31da4u));
+    // nested_uniform_scramble(index, seed), the first reversal done once in rng_for_path.
+    return reverse_bits(laine_karras_permutation(rng->index_reversed, hash_u32(dim_seed ^ 0x68e31da4u)));
 }
 
 // Uniform in [0, 1): 24 random mantissa bits, so 1.0f is never returned.
