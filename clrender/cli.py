@@ -178,13 +178,6 @@ def _load_scene(path, parameters):
     return scene, translation.notes
 
 
-def _with_sampler(scene, sampler):
-    """`scene` with its render.sampler replaced by --sampler when given (workers read the scene's)."""
-    if sampler is not None:
-        scene.render.sampler = sampler
-    return scene
-
-
 def _image_side(text):
     from . import limits
 
@@ -341,7 +334,7 @@ def _render_distributed(args, outputs, parameters, aovs):
     batch = len(args.scene) > 1
     # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
     # them on, so a long sequence is never in memory at once.
-    scenes = (_with_sampler(_load_scene(path, parameters)[0], args.sampler) for path in args.scene)
+    scenes = (_load_scene(path, parameters)[0] for path in args.scene)
     scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
     with dask_client(args.workers, args.scheduler) as client:
@@ -358,7 +351,7 @@ def _render_distributed(args, outputs, parameters, aovs):
                               args.volume_method, args.step, args.raymarch_multiple_scattering,
                               args.tiles, args.chunk_seconds, progress=progress, aovs=aovs,
                               denoise=args.denoise, denoise_prefilter=args.denoise_prefilter,
-                              denoise_keep_emission=args.denoise_keep_emission)
+                              denoise_keep_emission=args.denoise_keep_emission, sampler=args.sampler)
         saving = []
         try:
             for index, result in results:

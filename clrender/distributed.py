@@ -34,7 +34,7 @@ from . import limits
 from .errors import ArgumentError, ClrenderError, DeviceError, MissingDependency
 from .features import scene_features
 from .aovs import needs_sample_aovs
-from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result, output_request
+from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result, output_request, sampler_code
 from .scene import as_scene
 
 CHUNK_SECONDS = 3.0        # target kernel time of a chunk: seconds, so per-chunk overhead is small
@@ -55,7 +55,7 @@ class DistributedRenderError(DeviceError):
 def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
            step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
            samples_per_chunk=None, progress=None, aovs=(), denoise=False, denoise_prefilter=False,
-           denoise_keep_emission=False):
+           denoise_keep_emission=False, sampler=None):
     """Render `scene` on the Dask cluster of `client` (a distributed.Client) and return a
     RenderResult whose image is exactly (bit for bit) that of `clrender.render(scene, spp, ...)`
     on the workers' kind of device.
@@ -68,7 +68,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     chunk, with spp_done averaged over the pixels and `seconds` wall time. RenderResult.seconds
     is wall time, so samples_per_second is the cluster's rate. `aovs` and the denoising
     arguments are those of `Renderer.render`: the AOVs are accumulated with the colour, chunk by
-    chunk, so they are bit-identical to a local render's too.
+    chunk, so they are bit-identical to a local render's too. `sampler` overrides the scene's
+    render.sampler, as in `Renderer`.
 
     Ctrl-C cancels the chunks in flight and raises RenderInterrupted whose result holds the image
     merged so far, each pixel normalised by its own sample count."""
@@ -81,7 +82,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     results = render_many([scene], client, spp, seed, max_depth, device, volume_method, step,
                           raymarch_multiple_scattering, tiles, chunk_seconds, samples_per_chunk,
                           frame_progress if progress else None, aovs=aovs, denoise=denoise,
-                          denoise_prefilter=denoise_prefilter, denoise_keep_emission=denoise_keep_emission)
+                          denoise_prefilter=denoise_prefilter, denoise_keep_emission=denoise_keep_emission,
+                          sampler=sampler)
     try:
         for _, result in results:
             return result
@@ -96,7 +98,7 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
                 step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
                 samples_per_chunk=None, progress=None, scenes_in_flight=SCENES_IN_FLIGHT, aovs=(),
-                denoise=False, denoise_prefilter=False, denoise_keep_emission=False):
+                denoise=False, denoise_prefilter=False, denoise_keep_emission=False, sampler=None):
     """Render many scenes on the cluster and yield (index, RenderResult) as each completes.
 
     `scenes` may be any iterable (e.g. a generator loading files): it is consumed as scenes are
@@ -113,7 +115,7 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
                           scenes_in_flight=scenes_in_flight)
     require_dask()
     outputs = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
-    options = (device, volume_method, step, raymarch_multiple_scattering, seed, max_depth)
+    options = (device, volume_method, step, raymarch_multiple_scattering, sampler, seed, max_depth)
     return _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
                         progress, scenes_in_flight, outputs)
 
@@ -148,6 +150,7 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
                 return
             scene = as_scene(scene)
             scene_features(scene, volume_method)   # checks the method here, not on every worker
+            sampler_code(scene, options[4])        # and the sampler
             count = limits.setting("spp", scene.render.spp if spp is None else spp)
             width, height = scene.camera.resolution
             strips = tiles or max(TILES_PER_THREAD * max(1, sum(client.nthreads().values())),
@@ -356,8 +359,8 @@ def _render_chunk(scene, scene_key, options, state, samples):
     (Accumulation, device description)."""
     try:
         with _device_lock:   # one chunk at a time on the device, however many threads
-            renderer = _worker_renderer(scene, scene_key, *options[:4])
-            result = renderer.accumulate(state, samples, *options[4:])
+            renderer = _worker_renderer(scene, scene_key, *options[:5])
+            result = renderer.accumulate(state, samples, *options[5:])
     except ClrenderError as e:   # the same error as a local render's, placed on its worker
         raise e.with_message(f"{_chunk_place(state, samples)}: {e.message}") from None
     except Exception as e:
@@ -373,18 +376,19 @@ def _chunk_place(state, samples):
             f"{state.samples + samples - 1}")
 
 
-def _worker_renderer(scene, scene_key, device, volume_method, step, raymarch_multiple_scattering):
+def _worker_renderer(scene, scene_key, device, volume_method, step, raymarch_multiple_scattering, sampler):
     """This process's Renderer of the scattered scene `scene_key`, built on first use."""
     from .device import choose_device
     from .render import Renderer
 
-    key = (scene_key, device, volume_method, step, raymarch_multiple_scattering)
+    key = (scene_key, device, volume_method, step, raymarch_multiple_scattering, sampler)
     renderer = _renderers.pop(key, None)
     if renderer is None:
         cl_device = choose_device(device)
         context = _contexts.get(cl_device.int_ptr)
         renderer = Renderer(scene, cl_device, volume_method=volume_method, step=step,
-                            raymarch_multiple_scattering=raymarch_multiple_scattering, context=context)
+                            raymarch_multiple_scattering=raymarch_multiple_scattering, context=context,
+                            sampler=sampler)
         _contexts[cl_device.int_ptr] = renderer.context
     _renderers[key] = renderer
     while len(_renderers) > RENDERERS_KEPT:

@@ -112,6 +112,16 @@ def test_aovs_and_denoising_are_bit_identical(client):
         assert np.array_equal(result.aovs[name], expected.aovs[name]), name
 
 
+def test_the_sampler_is_chosen_as_in_a_local_render(client):
+    scene = small("scenes/cornell_box.json", (16, 12), seed=2)
+    independent = clrender.Renderer(scene, TEST_DEVICE, sampler="independent").render(spp=2)
+    result = distributed.render(scene, client, 2, device=TEST_DEVICE, tiles=2, sampler="independent")
+    assert_identical(result, independent)
+    assert not np.array_equal(result.image, local(scene, 2).image)   # the scene's sampler: sobol
+    with pytest.raises(clrender.ArgumentError, match="^sampler: unknown sampler 'halton'"):
+        distributed.render(scene, client, 2, device=TEST_DEVICE, sampler="halton")
+
+
 def test_batch_yields_every_scene_identical_to_its_local_render(client):
     scenes = [small("scenes/cornell_box.json", (24, 16), seed=seed) for seed in (1, 2)]
     scenes.append(small("scenes/toon_cornell_box.json", (20, 20)))
