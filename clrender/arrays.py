@@ -164,7 +164,7 @@ def _check_no_shape_vanishes(scene, info, keep):
     total = np.bincount(info[:, 1], minlength=len(scene.shapes))
     kept = np.bincount(info[keep, 1], minlength=len(scene.shapes))
     for index in np.flatnonzero((total > 0) & (kept == 0)):
-        sizes = [float(np.max(np.subtract(*meshes.bounds(s.mesh)[::-1]))) for s in scene.shapes]
+        sizes = [float(np.max(hi - lo)) for lo, hi in (meshes.bounds(s.mesh) for s in scene.shapes)]
         largest = int(np.argmax(sizes))
         raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {scene.shapes[index].name!r} "
                                              f"are degenerate at the scene's scale (no area in float32; "
