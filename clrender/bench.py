@@ -8,7 +8,7 @@ then drops the rounds a burst of load spoilt.
 
     runs = interleaved({"a": lambda: render_a().samples_per_second,
                         "b": lambda: render_b().samples_per_second}, rounds=5)
-    print(median(runs["a"]) / median(runs["b"]))
+    print(median(runs["a"]) / median(runs["b"]), median(round_ratios(runs["a"], runs["b"])))
 """
 import os
 import statistics
@@ -17,22 +17,40 @@ import time
 from dataclasses import dataclass
 
 
-def interleaved(measures, rounds, warmup=1):
+def interleaved(measures, rounds, warmup=1, after_round=None):
     """Call every function of `measures` (name -> function of no arguments) `warmup` times
     (results dropped: kernel builds, caches), then `rounds` rounds calling each once, in order.
-    Returns name -> list of the `rounds` results (whatever the functions return)."""
+    Returns name -> list of the `rounds` results (whatever the functions return).
+    `after_round(number, results)`, if given, is called after each timed round with its number
+    (from 1) and name -> that round's result: progress lines of long benchmarks."""
     for _ in range(warmup):
         for measure in measures.values():
             measure()
     results = {name: [] for name in measures}
-    for _ in range(rounds):
+    for number in range(1, rounds + 1):
         for name, measure in measures.items():
             results[name].append(measure())
+        if after_round:
+            after_round(number, {name: values[-1] for name, values in results.items()})
     return results
 
 
 def median(values):
     return statistics.median(values)
+
+
+def round_ratios(numerators, denominators):
+    """The ratio of two configurations' results in each round of `interleaved`. Both results of a
+    round ran under the same load, so their ratio cancels most of it: the median of these holds
+    better than the ratio of the medians when the load drifts from round to round."""
+    return [a / b for a, b in zip(numerators, denominators, strict=True)]
+
+
+def timed(function):
+    """(wall seconds, result) of one call of `function` (no arguments)."""
+    start = time.perf_counter()
+    result = function()
+    return time.perf_counter() - start, result
 
 
 def spread(values):
@@ -51,9 +69,7 @@ def run_process(argv, env=None, cwd=None):
     """Run `argv` in a fresh process to its end and time it whole. Raises RuntimeError (with the
     process's error output) if it fails."""
     before = os.times()
-    start = time.perf_counter()
-    done = subprocess.run(argv, env=env, cwd=cwd, capture_output=True, text=True)
-    wall = time.perf_counter() - start
+    wall, done = timed(lambda: subprocess.run(argv, env=env, cwd=cwd, capture_output=True, text=True))
     after = os.times()
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(map(str, argv))} failed ({done.returncode}):\n{done.stderr[-4000:]}")

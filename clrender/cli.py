@@ -4,7 +4,8 @@ Exit codes (docs/errors.md): 0 success, 2 bad arguments, 3 bad scene, 4 device p
 I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a render in progress
 saves its partial image first), 1 only for a bug in clrender (with its traceback).
 Several scenes render as a batch; --workers/--scheduler render on a Dask cluster (distributed.py).
-Imports are deferred so that a signal during start-up is handled like any other.
+Imports are deferred so that a signal during start-up is handled like any other; numpy and
+pyopencl are imported first with signals held (see _signals_held).
 """
 import argparse
 import contextlib
@@ -21,6 +22,9 @@ from .errors import ArgumentError, ClrenderError, Interrupted
 def main(argv=None):
     try:
         with _plain_warnings(), _interrupt_on_termination():
+            with _signals_held():
+                import numpy  # noqa: F401
+                import pyopencl  # noqa: F401
             args = _parser().parse_args(argv)
             return args.run(args)
     except ClrenderError as e:
@@ -47,6 +51,23 @@ def _interrupt_on_termination():
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """SIGINT, SIGTERM and SIGHUP wait until the block ends, then arrive as usual. For the imports
+    of C extensions: an interrupt inside one can come out as another error with a traceback (numpy
+    reports a Ctrl-C during its import as an ImportError). Threads started in the block (numpy's
+    OpenBLAS workers) keep the signals blocked, so they still reach the main thread."""
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @contextlib.contextmanager

@@ -54,11 +54,12 @@ float3 environment_radiance(const Scene* scene, float3 dir) {
 float3 sample_environment_direction(const Scene* scene, float2 u) {
     int w = scene->params->environment.y, h = scene->params->environment.z;
     __global const float* marginal = scene->env_cdf;
-    int j = sample_discrete_cdf(marginal, h, u.x);
-    float v = ((float)j + (u.x - marginal[j]) / fmax(marginal[j + 1] - marginal[j], 1e-30f)) / (float)h;
+    float in_row, in_column;
+    int j = sample_discrete_cdf_reuse(marginal, h, u.x, &in_row);
+    float v = ((float)j + in_row) / (float)h;
     __global const float* conditional = scene->env_cdf + (h + 1) + j * (w + 1);
-    int i = sample_discrete_cdf(conditional, w, u.y);
-    float uu = ((float)i + (u.y - conditional[i]) / fmax(conditional[i + 1] - conditional[i], 1e-30f)) / (float)w;
+    int i = sample_discrete_cdf_reuse(conditional, w, u.y, &in_column);
+    float uu = ((float)i + in_column) / (float)w;
     float theta = clamp(v, 0.0f, 1.0f) * PI_F;
     float sin_phi, cos_phi;
     sincos_2pi(uu - 0.5f, &sin_phi, &cos_phi);
@@ -186,10 +187,14 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     ls.radiance = (float3)(0.0f);
     ls.wi = (float3)(0.0f, 0.0f, 1.0f);
     int count = scene->params->config.w;
-    float u_select = rng_float(rng);
+    // One 2D draw picks the emitter (u.x) and, rescaled, places the sample on it: the points of
+    // a stratified draw stay stratified over the whole light rather than over the share of them
+    // that an independent pick sends to each emitter, and the draw saves a dimension.
     float2 u = rng_float2(rng);
     if (count == 0) return ls;
-    int index = sample_discrete_cdf(scene->emitter_cdf, count, u_select);
+    float u_on_emitter;
+    int index = sample_discrete_cdf_reuse(scene->emitter_cdf, count, u.x, &u_on_emitter);
+    u.x = u_on_emitter;
     float pmf = emitter_selection_pmf(scene, index);
     __global const Emitter* e = scene->emitters + index;
     int kind = e->kind.x;

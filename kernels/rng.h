@@ -98,19 +98,29 @@ uint owen_sobol1(uint index, uint seed) {
     return reverse_bits(laine_karras_permutation(sobol_dimension1_reversed(index), seed));
 }
 
-// The shuffled Sobol index of the current dimension and the seeds of its two coordinates.
-uint sobol_dimension_seed(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
-uint sobol_shuffled_index(const Rng* rng, uint dim_seed) {
-    // nested_uniform_scramble(index, seed), the first reversal done once in rng_for_path.
-    return reverse_bits(laine_karras_permutation(rng->index_reversed, hash_u32(dim_seed ^ 0x68e31da4u)));
+// The current dimension's seeds: one hash of (pixel, seed, dimension), then the index shuffle's
+// seed and the two coordinates' scramble seeds as its products with distinct odd constants
+// (bijections of the hash, so each is as uniform as the hash; a hash apiece cost about 5 % of
+// the Cornell box's kernel time and sat on the path's critical dependency chain).
+typedef struct { uint index; uint x; uint y; } SobolSeeds;
+SobolSeeds sobol_dimension_seeds(const Rng* rng) {
+    uint h = hash_u32(rng->key + rng->counter * 0x9e3779b9u);
+    SobolSeeds seeds = {h, h * 0x2c1b3c6du, h * 0x297a2d39u};
+    return seeds;
+}
+
+// The sample index of the current dimension, shuffled by a nested uniform scramble (its first
+// reversal done once in rng_for_path).
+uint sobol_shuffled_index(const Rng* rng, uint seed) {
+    return reverse_bits(laine_karras_permutation(rng->index_reversed, seed));
 }
 
 // Uniform in [0, 1): 24 random mantissa bits, so 1.0f is never returned.
 float rng_float(Rng* rng) {
     uint bits;
     if (rng->sampler == SAMPLER_SOBOL) {
-        uint dim_seed = sobol_dimension_seed(rng);
-        bits = owen_sobol0(sobol_shuffled_index(rng, dim_seed), hash_u32(dim_seed ^ 0xb5297a4du));
+        SobolSeeds seeds = sobol_dimension_seeds(rng);
+        bits = owen_sobol0(sobol_shuffled_index(rng, seeds.index), seeds.x);
     } else {
         bits = hash_u32(rng->key + rng->counter * 0x9e3779b9u);
     }
@@ -121,11 +131,11 @@ float rng_float(Rng* rng) {
 // Sobol: one dimension, both coordinates of its (0,2)-sequence. Independent: two draws.
 float2 rng_float2(Rng* rng) {
     if (rng->sampler == SAMPLER_SOBOL) {
-        uint dim_seed = sobol_dimension_seed(rng);
-        uint index = sobol_shuffled_index(rng, dim_seed);
+        SobolSeeds seeds = sobol_dimension_seeds(rng);
+        uint index = sobol_shuffled_index(rng, seeds.index);
         rng->counter += 1u;
-        return (float2)(uint_to_unit_float(owen_sobol0(index, hash_u32(dim_seed ^ 0xb5297a4du))),
-                        uint_to_unit_float(owen_sobol1(index, hash_u32(dim_seed ^ 0x1b56c4e9u))));
+        return (float2)(uint_to_unit_float(owen_sobol0(index, seeds.x)),
+                        uint_to_unit_float(owen_sobol1(index, seeds.y)));
     }
     float a = rng_float(rng);
     return (float2)(a, rng_float(rng));

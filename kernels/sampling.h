@@ -40,6 +40,18 @@ int sample_discrete_cdf(__global const float* cdf, int n, float u) {
     return lo;
 }
 
+// The same choice, and *rescaled: u rescaled to [0, 1) within the chosen interval, a fresh
+// uniform number for the chosen item (sample reuse), so one 2D stratified draw both picks and
+// places a sample. It keeps log2(p * 2^24) of u's 24 bits for an item of probability p: an item
+// chosen less than once in 10^5 gets its numbers on a grid of under 170 steps (as in Mitsuba's
+// sample reuse); such items are tiny emitters among very many.
+int sample_discrete_cdf_reuse(__global const float* cdf, int n, float u, float* rescaled) {
+    int i = sample_discrete_cdf(cdf, n, u);
+    // clamped: rounding can reach 1, and so can a u beyond a cdf[n] rounded below 1
+    *rescaled = clamp((u - cdf[i]) / fmax(cdf[i + 1] - cdf[i], 1e-30f), 0.0f, 0x1.fffffep-1f);
+    return i;
+}
+
 float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
     // both zero only where neither strategy could have produced the sample

@@ -66,6 +66,24 @@ def test_kernel_hits_equal_brute_force(context, queue, count, seed):
         assert hit.mean() > 0.2  # the test rays do hit things
 
 
+@pytest.mark.parametrize("offset,scale", [(1e4, 1e-3), (-2e5, 1.0), (3e3, 1e4)])
+def test_kernel_hits_equal_brute_force_far_from_the_origin(context, queue, offset, scale):
+    """Far from the world origin, and at small and large scales, the slab test's rounding margins
+    (kernels/bvh.h) keep every box a ray crosses: rays start among the triangles, where the
+    distances to boxes are small against the coordinates."""
+    rng = np.random.default_rng(11)
+    v0, v1, v2 = (offset + scale * corner for corner in triangle_soup(rng, 1500))
+    v0, v1, v2 = (corner.astype(np.float32).astype(np.float64) for corner in (v0, v1, v2))
+    origins, directions = random_rays(rng, 3000)
+    origins = (offset + scale * origins / 2).astype(np.float32).astype(np.float64)
+    t, triangle, any_hit = trace_on_device(context, queue, v0, v1, v2, origins, directions)
+    ref_t, ref_triangle = intersect_brute_force(v0, v1, v2, origins, directions)
+    hit = ref_triangle >= 0
+    assert hit.mean() > 0.3
+    assert np.array_equal(triangle >= 0, hit) and np.array_equal(any_hit, hit)
+    np.testing.assert_allclose(t[hit], ref_t[hit], rtol=1e-3)
+
+
 def test_axis_parallel_rays_find_their_hits(context, queue):
     """Rays with zero (and negative zero) direction components: an infinite inverse direction
     must not make the slab test lose boxes."""

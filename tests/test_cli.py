@@ -23,7 +23,7 @@ def run(*args, **kwargs):
 
 def test_render_cornell_box_to_png_and_exr(tmp_path):
     png, exr = tmp_path / "cb.png", tmp_path / "cb.exr"
-    result = run("render", "scenes/cornell_box.json", "-o", str(png), "--spp", "2", "--device", "cpu")
+    result = run("render", "scenes/cornell_box.json", "-o", str(png), "--spp", "2", "--device", TEST_DEVICE)
     assert result.returncode == 0, result.stderr
     assert "M samples/s" in result.stderr
     assert run("render", "scenes/cornell_box.json", "-o", str(exr), "--spp", "2", "--quiet").returncode == 0

@@ -7,40 +7,46 @@ every variant alike. Prints median samples/s and the medians of the per-round ra
         [--spp 8] [--resolution 96]
 
 Each measurement is a subprocess (the baseline needs its own `import clrender`) that builds or
-loads its kernel, warms up with one launch and reports the median rate of three renders.
+loads its kernel, warms up with one render and reports the median rate of three (this checkout's
+clrender/bench.py, loaded by its path so that the baseline's package stays the one imported).
 """
 import argparse
 import json
 import os
-import statistics
-import subprocess
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+from clrender.bench import interleaved, median, round_ratios, run_process  # noqa: E402
+
 DEFAULT_SCENES = ["scenes/cornell_box.json", "scenes/cornell_glass.json", "scenes/smoke_cornell_box.json"]
 
 WORKER = """
-import json, statistics, sys
+import importlib.util, json, sys
 import clrender
-scene_path, spp, resolution, aovs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4] == "on"
+bench_path, scene_path, spp, resolution, aovs = sys.argv[1:6]
+spec = importlib.util.spec_from_file_location("bench", bench_path)
+bench = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bench)
 scene = clrender.load_scene(scene_path)
 width, height = scene.camera.resolution
+resolution, spp = int(resolution), int(spp)
 scene.camera.resolution = (resolution, max(1, round(resolution * height / width)))
 renderer = clrender.Renderer(scene)
-options = {"aovs": ("albedo", "normal", "variance")} if aovs else {}
-renderer.render(spp=1, **options)
-rates = [renderer.render(spp=spp, samples_per_pass=spp, **options).samples_per_second for _ in range(3)]
-print(json.dumps(statistics.median(rates)))
+options = {"aovs": ("albedo", "normal", "variance")} if aovs == "on" else {}
+rate = lambda: renderer.render(spp=spp, samples_per_pass=spp, **options).samples_per_second
+runs = bench.interleaved({"rate": rate}, rounds=3)
+print(json.dumps(bench.median(runs["rate"])))
 """
 
 
 def measure(checkout, scene, spp, resolution, aovs):
+    """A function running one worker process in `checkout`, returning its samples/s."""
     env = dict(os.environ, PYTHONPATH=str(checkout))
-    out = subprocess.run([sys.executable, "-c", WORKER, str(ROOT / scene), str(spp), str(resolution),
-                          "on" if aovs else "off"], env=env, cwd=checkout, capture_output=True, text=True,
-                         check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    argv = [sys.executable, "-c", WORKER, str(ROOT / "clrender" / "bench.py"), str(ROOT / scene), str(spp),
+            str(resolution), "on" if aovs else "off"]
+    return lambda: json.loads(run_process(argv, env=env, cwd=checkout).stdout.strip().splitlines()[-1])
 
 
 def main():
@@ -59,15 +65,12 @@ def main():
     header += f" {'on/off':>7s}" + (f" {'off/base':>9s}" if args.baseline else "")
     print(header)
     for scene in args.scenes:
-        rates = {name: [] for name, _, _ in variants}
-        for _ in range(args.rounds):
-            for name, checkout, aovs in variants:
-                rates[name].append(measure(checkout, scene, args.spp, args.resolution, aovs))
-        ratio = statistics.median(on / off for on, off in zip(rates["on"], rates["off"]))
-        line = f"{Path(scene).stem:28s} " + " ".join(f"{statistics.median(r) / 1e6:9.3f}" for r in rates.values())
-        line += f" {ratio:7.3f}"
+        rates = interleaved({name: measure(checkout, scene, args.spp, args.resolution, aovs)
+                             for name, checkout, aovs in variants}, rounds=args.rounds, warmup=0)
+        line = f"{Path(scene).stem:28s} " + " ".join(f"{median(r) / 1e6:9.3f}" for r in rates.values())
+        line += f" {median(round_ratios(rates['on'], rates['off'])):7.3f}"
         if args.baseline:
-            line += f" {statistics.median(o / b for o, b in zip(rates['off'], rates['baseline'])):9.3f}"
+            line += f" {median(round_ratios(rates['off'], rates['baseline'])):9.3f}"
         print(line, flush=True)
 
 

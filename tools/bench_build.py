@@ -14,22 +14,20 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from clrender.bench import interleaved, median, run_process  # noqa: E402
 PROBE = """
-import sys, time
+import sys
 sys.path.insert(0, {root!r})
 import pyopencl as cl
 import clrender
+from clrender.bench import timed
 from clrender.device import build_program
 from clrender.features import scene_features
 scene = clrender.load_scene({scene!r})
 context = cl.Context([clrender.choose_device({device!r})])
 queue = cl.CommandQueue(context)
-start = time.perf_counter()
-program = build_program(context, scene_features(scene))
-built = time.perf_counter()
-renderer = clrender.Renderer(scene, context.devices[0])
-renderer.render(spp=1, max_depth=1)  # first launch: PoCL compiles the kernel for the device here
-launched = time.perf_counter()
-print(built - start, launched - start)
+build, _ = timed(lambda: build_program(context, scene_features(scene)))
+# The first launch: PoCL compiles the kernel for the device here.
+launch, _ = timed(lambda: clrender.Renderer(scene, context.devices[0]).render(spp=1, max_depth=1))
+print(build, build + launch)
 """
 
 

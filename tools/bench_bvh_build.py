@@ -13,13 +13,12 @@ depth, mean leaf size and the binary tree's SAH cost
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from clrender.bench import interleaved, median  # noqa: E402
+from clrender.bench import interleaved, median, timed  # noqa: E402
 from clrender.bvh import build_bvh  # noqa: E402
 from clrender.wide_bvh import collapse  # noqa: E402
 
@@ -76,14 +75,12 @@ def bench(name, n_triangles, repeats):
     built = {}
 
     def binary():
-        start = time.perf_counter()
-        built["bvh"] = build_bvh(v0, v1, v2)
-        return time.perf_counter() - start
+        seconds, built["bvh"] = timed(lambda: build_bvh(v0, v1, v2))
+        return seconds
 
     def wide():   # the tree the binary build of the same round made
-        start = time.perf_counter()
-        built["wide"], _ = collapse(built["bvh"])
-        return time.perf_counter() - start
+        seconds, (built["wide"], _) = timed(lambda: collapse(built["bvh"]))
+        return seconds
 
     # Warm-up: page in code paths and allocator pools.
     runs = interleaved({"binary": binary, "wide": wide}, rounds=repeats)

@@ -6,7 +6,6 @@ large procedural mesh, median of several renders after a warm-up.
 import argparse
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -14,7 +13,7 @@ import trimesh  # noqa: E402
 
 import clrender  # noqa: E402
 from bench_bvh_build import displaced_grid  # noqa: E402
-from clrender.bench import interleaved, median  # noqa: E402
+from clrender.bench import interleaved, median, timed  # noqa: E402
 
 
 def main():
@@ -35,9 +34,7 @@ def main():
             "shapes": [{"type": "mesh", "file": "grid.ply", "material": "m"}],
             "lights": [{"type": "environment", "radiance": 1.0}],
         }, base_dir=folder)
-        start = time.perf_counter()
-        renderer = clrender.Renderer(scene, args.device)
-        setup = time.perf_counter() - start
+        setup, renderer = timed(lambda: clrender.Renderer(scene, args.device))
     print(f"device: {renderer.device.name.strip()}")
     print(f"mesh: {len(renderer.arrays.triangles)} triangles, BVH {len(renderer.arrays.nodes)} nodes, "
           f"depth {renderer.arrays.bvh_depth}; scene set-up (load, build, upload, kernel) {setup:.2f} s")

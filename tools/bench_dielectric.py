@@ -18,7 +18,6 @@ scenes allow 16 vertices per path and the Cornell box 8; --max-depth sets one de
 import argparse
 import os
 import sys
-import time
 
 import pyopencl as cl
 
@@ -26,13 +25,13 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 import clrender  # noqa: E402
 from clrender.device import build_program  # noqa: E402
-from clrender.bench import interleaved, median  # noqa: E402
+from clrender.bench import interleaved, median, timed  # noqa: E402
 from clrender.energy import fill_albedo_tables  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 
 
-def renderer_for(scene_file, resolution, device, force=None, diffuse_sphere=False):
+def renderer_for(scene_file, resolution, device, force=None, diffuse_sphere=False, max_depth=None):
     scene = clrender.load_scene(os.path.join(ROOT, "scenes", scene_file))
     scene.camera.resolution = (resolution, resolution)
     if diffuse_sphere:
@@ -46,6 +45,8 @@ def renderer_for(scene_file, resolution, device, force=None, diffuse_sphere=Fals
         program = build_program(renderer.context, renderer.features)
         renderer.kernel = cl.Kernel(program, "render_pass")
         fill_albedo_tables(renderer.queue, program, renderer.arrays)
+    if max_depth:
+        renderer.scene.render.max_depth = max_depth
     return renderer
 
 
@@ -69,17 +70,14 @@ def main():
           f"median of {args.repeats}")
     measures = {}
     for name, scene_file, force, diffuse_sphere in configs:
-        start = time.perf_counter()
-        renderer = renderer_for(scene_file, args.resolution, device, force, diffuse_sphere)
-        if args.max_depth:
-            renderer.scene.render.max_depth = args.max_depth
-        warm = renderer.render(spp=2, seed=0)
-        setup = time.perf_counter() - start
+        setup, renderer = timed(lambda: renderer_for(scene_file, args.resolution, device, force, diffuse_sphere,
+                                                     args.max_depth))
+        first_launch, _ = timed(lambda: renderer.render(spp=2, seed=0))
         warm = renderer.render(spp=2, seed=0)
         spp = max(1, round(args.seconds * warm.samples_per_second / args.resolution ** 2))
         measures[name] = _rate(renderer, spp)
         print(f"  {name}: features {renderer.features}, max depth {renderer.scene.render.max_depth}, "
-              f"set-up and first launch {setup:.2f} s, {spp} spp per run")
+              f"set-up and first launch {setup + first_launch:.2f} s, {spp} spp per run")
     runs = interleaved(measures, rounds=args.repeats, warmup=0)   # warmed up above
     base = median(runs[configs[0][0]])
     print(f"{'configuration':32s} {'Msamples/s':>11s} {'ratio':>7s}   runs (Msamples/s)")

@@ -23,15 +23,14 @@ import argparse
 import logging
 import math
 import os
-import statistics
 import sys
-import time
 from pathlib import Path
 
 os.environ["POCL_MAX_PTHREAD_COUNT"] = "1"   # before PoCL starts, here and in the workers
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import clrender  # noqa: E402
 from clrender import distributed  # noqa: E402
+from clrender.bench import interleaved, median, round_ratios, timed  # noqa: E402
 
 
 def dask_setup(worker):
@@ -54,11 +53,11 @@ def cpu_seconds():
     return total
 
 
-def timed(function):
-    """(wall seconds, CPU seconds of every process involved, result)."""
-    start, cpu = time.perf_counter(), cpu_seconds()
-    result = function()
-    return time.perf_counter() - start, cpu_seconds() - cpu, result
+def timed_with_cpu(function):
+    """{"seconds": wall seconds, "cpu": CPU seconds of every process involved}, result."""
+    cpu = cpu_seconds()
+    seconds, result = timed(function)
+    return {"seconds": seconds, "cpu": cpu_seconds() - cpu}, result
 
 
 def main():
@@ -88,40 +87,51 @@ def main():
     tiny = clrender.load_scene(args.scene)
     tiny.camera.resolution = (16, 16)
     reference = renderer.render(spp=spp).image
-    runs = {"local": [], "1 worker": [], "2 workers": [], "one chunk": [], "many chunks": []}
-    cpu = {"local": [], "1 worker": [], "2 workers": []}
-    for run in range(args.runs):
-        seconds, cpu_time, _ = timed(lambda: renderer.render(spp=spp))
-        runs["local"].append(seconds)
-        cpu["local"].append(cpu_time)
-        # One cluster at a time, so the CPU time counts only the processes at work.
-        for workers, name in ((1, "1 worker"), (2, "2 workers")):
+
+    def local():
+        return timed_with_cpu(lambda: renderer.render(spp=spp))[0]
+
+    def on_cluster(workers):
+        """A function timing the render on a fresh cluster of `workers` (one cluster at a time, so
+        the CPU time counts only the processes at work); with 1 worker also the chunk overhead's
+        two renders ("one chunk", "many chunks": wall seconds)."""
+        def measure():
             with cluster(workers) as local_cluster, Client(local_cluster) as client:
                 # Warm-up: kernel loads and PoCL compiles per worker process.
                 distributed.render(scene, client, 2, device=args.device, samples_per_chunk=1)
                 distributed.render(tiny, client, 2, device=args.device, tiles=1, samples_per_chunk=1)
-                seconds, cpu_time, result = timed(lambda: distributed.render(scene, client, spp, device=args.device))
+                times, result = timed_with_cpu(lambda: distributed.render(scene, client, spp, device=args.device))
                 assert (result.image == reference).all(), "distributed image differs from the local one"
-                runs[name].append(seconds)
-                cpu[name].append(cpu_time)
                 if workers == 1:
                     for chunks, per_chunk in (("one chunk", args.chunks), ("many chunks", 1)):
-                        runs[chunks].append(timed(lambda: distributed.render(
-                            tiny, client, args.chunks, device=args.device, tiles=1, samples_per_chunk=per_chunk))[0])
-        print(f"run {run + 1}: " + ", ".join(f"{k} {v[-1]:.2f} s" for k, v in runs.items())
+                        times[chunks] = timed(lambda: distributed.render(
+                            tiny, client, args.chunks, device=args.device, tiles=1, samples_per_chunk=per_chunk))[0]
+                return times
+        return measure
+
+    wall = []   # per run: name -> wall seconds, the chunk renders of "1 worker" under their own names
+
+    def progress(number, results):
+        wall.append({name: r["seconds"] for name, r in results.items()})
+        wall[-1].update((chunks, results["1 worker"][chunks]) for chunks in ("one chunk", "many chunks"))
+        print(f"run {number}: " + ", ".join(f"{k} {v:.2f} s" for k, v in wall[-1].items())
               + f"; load average {os.getloadavg()[0]:.1f}", flush=True)
-    median = {name: statistics.median(values) for name, values in runs.items()}
-    efficiencies = [a / (2 * b) for a, b in zip(runs["1 worker"], runs["2 workers"])]
+
+    results = interleaved({"local": local, "1 worker": on_cluster(1), "2 workers": on_cluster(2)},
+                          rounds=args.runs, warmup=0, after_round=progress)
+    runs = {name: [seconds[name] for seconds in wall] for name in wall[0]}
+    medians = {name: median(values) for name, values in runs.items()}
+    efficiencies = [ratio / 2 for ratio in round_ratios(runs["1 worker"], runs["2 workers"])]
     overheads = [(many - one) / (args.chunks - 1) for one, many in zip(runs["one chunk"], runs["many chunks"])]
-    print("median seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in median.items()))
-    print(f"speed-up of 2 workers over 1: {median['1 worker'] / median['2 workers']:.2f}; "
-          f"efficiency {statistics.median(efficiencies):.2f} (runs: {', '.join(f'{e:.2f}' for e in efficiencies)})")
-    print(f"1 worker against the local render: {median['1 worker'] / median['local']:.3f}x the time")
-    cpu_median = {name: statistics.median(values) for name, values in cpu.items()}
+    print("median seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in medians.items()))
+    print(f"speed-up of 2 workers over 1: {medians['1 worker'] / medians['2 workers']:.2f}; "
+          f"efficiency {median(efficiencies):.2f} (runs: {', '.join(f'{e:.2f}' for e in efficiencies)})")
+    print(f"1 worker against the local render: {medians['1 worker'] / medians['local']:.3f}x the time")
+    cpu_median = {name: median([r["cpu"] for r in values]) for name, values in results.items()}
     print("median CPU seconds: " + ", ".join(f"{k} {v:.2f}" for k, v in cpu_median.items())
           + f"; 1 worker {cpu_median['1 worker'] / cpu_median['local']:.3f}x and 2 workers "
           f"{cpu_median['2 workers'] / cpu_median['local']:.3f}x the local render's")
-    print(f"overhead per chunk: {statistics.median(overheads) * 1000:.1f} ms "
+    print(f"overhead per chunk: {median(overheads) * 1000:.1f} ms "
           f"(runs: {', '.join(f'{o * 1000:.1f}' for o in overheads)} ms)")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 

@@ -7,13 +7,13 @@ every repetition, so their ratio holds on a shared machine) and the ratio of the
 """
 import argparse
 import json
-import statistics
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
+from clrender.bench import interleaved, median  # noqa: E402
 
 
 def scene(resolution):
@@ -37,14 +37,10 @@ def main():
     renderers = {method: clrender.Renderer(s, device, volume_method=method) for method in ("null", "raymarch")}
     for renderer in renderers.values():
         renderer.render(spp=1, seed=99)   # warm-up: builds the kernel
-    seconds = {method: [] for method in renderers}
-    means = {}
-    for _ in range(args.repeats):
-        for method, renderer in renderers.items():
-            result = renderer.render(spp=args.spp, seed=1)
-            seconds[method].append(result.seconds)
-            means[method] = result.image.mean(axis=(0, 1))
-    null, march = (statistics.median(seconds[m]) for m in ("null", "raymarch"))
+    runs = interleaved({method: lambda r=renderer: r.render(spp=args.spp, seed=1)
+                        for method, renderer in renderers.items()}, rounds=args.repeats, warmup=0)
+    null, march = (median([result.seconds for result in runs[m]]) for m in ("null", "raymarch"))
+    means = {method: results[-1].image.mean(axis=(0, 1)) for method, results in runs.items()}
     print(f"{args.resolution}x{args.resolution}, {args.spp} spp on {device.name.strip()}")
     print(f"null scattering: {null:.2f} s; ray marching (step {s.render.step:g} voxels, multiple scattering): "
           f"{march:.2f} s = {march / null:.2f}x; image mean marching / null: "

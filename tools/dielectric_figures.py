@@ -11,7 +11,6 @@ difference of the mean image from the unmoved scene (independent seeds, so it in
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
 
@@ -19,6 +18,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 import clrender  # noqa: E402
 from clrender import meshes  # noqa: E402
+from clrender.bench import timed  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 SCENES = ["cornell_glass", "rough_glass", "tir_prism", "ior_sweep"]
@@ -28,12 +28,11 @@ def render_scene(name, spp, scale, out, device):
     scene = clrender.load_scene(os.path.join(ROOT, "scenes", f"{name}.json"))
     width, height = scene.camera.resolution
     scene.camera.resolution = (max(1, round(width * scale)), max(1, round(height * scale)))
-    start = time.perf_counter()
-    result = clrender.Renderer(scene, device).render(spp=spp, seed=1)
+    seconds, result = timed(lambda: clrender.Renderer(scene, device).render(spp=spp, seed=1))
     clrender.save_image(result.image, os.path.join(out, f"{name}.png"))
     clrender.save_image(result.image, os.path.join(out, f"{name}.exr"))
     print(f"{name}: {scene.camera.resolution[0]}x{scene.camera.resolution[1]}, {spp} spp, "
-          f"{time.perf_counter() - start:.1f} s, {result.samples_per_second / 1e6:.2f} M samples/s, "
+          f"{seconds:.1f} s, {result.samples_per_second / 1e6:.2f} M samples/s, "
           f"discarded {result.discarded_samples}")
 
 

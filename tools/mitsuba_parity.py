@@ -8,7 +8,6 @@ renders per renderer (Mitsuba: scalar_rgb).
 import argparse
 import sys
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
@@ -19,16 +18,18 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
 import clrender  # noqa: E402
 import mitsuba_scenes  # noqa: E402
+from clrender.bench import timed  # noqa: E402
 
 
 def render(path, spp, renders, device, **parameters):
     import mitsuba as mi
 
     parameters = {"spp": str(spp), **{k: str(v) for k, v in parameters.items()}}
-    start = time.perf_counter()
-    theirs = mi.load_file(str(path), **parameters)
-    mitsuba = np.array([np.array(mi.render(theirs, spp=spp, seed=seed)) for seed in range(renders)])
-    mitsuba_seconds = time.perf_counter() - start
+    def render_mitsuba():
+        theirs = mi.load_file(str(path), **parameters)
+        return np.array([np.array(mi.render(theirs, spp=spp, seed=seed)) for seed in range(renders)])
+
+    mitsuba_seconds, mitsuba = timed(render_mitsuba)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         scene = clrender.load_scene(path, parameters=parameters)

@@ -29,7 +29,6 @@ import hashlib
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -217,9 +216,9 @@ def reference_batches(renderer, folder, spp, batches, variant, key):
 
     path = folder / f"reference-{renderer}-{key}-{spp}spp-{batches}.npy"
     if not path.is_file():
-        start = time.perf_counter()
-        run_process(child_command(renderer, folder, spp, 1000, path, variant, batches), env=child_environment())
-        print(f"  reference {renderer}: {batches} x {spp} spp in {time.perf_counter() - start:.0f} s", flush=True)
+        command = child_command(renderer, folder, spp, 1000, path, variant, batches)
+        timing = run_process(command, env=child_environment())
+        print(f"  reference {renderer}: {batches} x {spp} spp in {timing.wall_seconds:.0f} s", flush=True)
     return np.load(path)
 
 

@@ -29,6 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
+from clrender.bench import timed  # noqa: E402
 from clrender.image import tonemap  # noqa: E402
 
 # name -> reference spp; scenes/NAME.json
@@ -58,11 +59,10 @@ def reference(name, scene, spp, device):
     for path in committed + [cache / f"{name}_{w}x{h}_{spp}spp.exr"]:
         if path.exists():
             return path, clrender.load_image(path)
-    start = time.perf_counter()
-    image = clrender.Renderer(scene, device).render(spp=spp, seed=REFERENCE_SEED).image
-    clrender.save_image(image, path)
-    print(f"{name}: reference {spp} spp in {time.perf_counter() - start:.0f} s -> {path}", flush=True)
-    return path, image
+    seconds, result = timed(lambda: clrender.Renderer(scene, device).render(spp=spp, seed=REFERENCE_SEED))
+    clrender.save_image(result.image, path)
+    print(f"{name}: reference {spp} spp in {seconds:.0f} s -> {path}", flush=True)
+    return path, result.image
 
 
 def write_test_reference(device):
@@ -147,12 +147,9 @@ def measure(scene, device, ref, spps, region):
         raw = plain.render(spp=spp, seed=SEED)
         aov = with_aovs.render(spp=spp, seed=SEED, aovs=("albedo", "normal", "emission", "variance"))
         assert np.array_equal(raw.image, aov.image)   # the AOVs never change the colour
-        start = time.perf_counter()
-        denoised = clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"])
-        denoise_seconds = time.perf_counter() - start
-        start = time.perf_counter()
-        prefiltered = clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"], prefilter=True)
-        prefilter_seconds = time.perf_counter() - start
+        denoise_seconds, denoised = timed(lambda: clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"]))
+        prefilter_seconds, prefiltered = timed(
+            lambda: clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"], prefilter=True))
         kept = clrender.denoise(aov.image, aov.aovs["albedo"], aov.aovs["normal"], emission=aov.aovs["emission"])
         rows.append({
             "spp": spp, "raw_seconds": raw.seconds, "aov_seconds": aov.seconds,

@@ -8,13 +8,12 @@ docs/references/; delete it to recompute. Writes docs/media-report.md.
 """
 import argparse
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
-from clrender.bench import interleaved  # noqa: E402
+from clrender.bench import interleaved, timed  # noqa: E402
 
 SCENE = ROOT / "scenes" / "smoke_cornell_box.json"
 
@@ -28,10 +27,9 @@ def load(resolution):
 def reference(scene, spp, device):
     path = ROOT / "docs" / "references" / f"smoke_cornell_box_{scene.camera.resolution[0]}px_{spp}spp.exr"
     if not path.exists():
-        start = time.perf_counter()
-        image = clrender.Renderer(scene, device).render(spp=spp, seed=1234).image
-        clrender.save_image(image, path)
-        print(f"reference: {spp} spp in {time.perf_counter() - start:.0f} s -> {path}")
+        seconds, result = timed(lambda: clrender.Renderer(scene, device).render(spp=spp, seed=1234))
+        clrender.save_image(result.image, path)
+        print(f"reference: {spp} spp in {seconds:.0f} s -> {path}")
     return clrender.load_image(path)
 
 

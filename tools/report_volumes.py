@@ -26,7 +26,6 @@ docs/volume-report.md and docs/volume-report.png.
 """
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +33,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 import clrender  # noqa: E402
-from clrender.bench import interleaved, median  # noqa: E402
+from clrender.bench import interleaved, median, timed  # noqa: E402
 
 SCENES = ("cloud_cornell_box", "cloud_low_sun")
 BATCHES = 16
@@ -64,11 +63,11 @@ def reference(name, scene, spp, device):
     stem = ROOT / "docs" / "references" / f"{name}_{width}x{height}_{spp}spp_null"
     mean_path, variance_path = stem.with_name(stem.name + ".exr"), stem.with_name(stem.name + "_variance.exr")
     if not (mean_path.exists() and variance_path.exists()):
-        start = time.perf_counter()
-        mean, variance, _ = batched(clrender.Renderer(scene, device, volume_method="null"), spp, seed=100000)
+        seconds, (mean, variance, _) = timed(
+            lambda: batched(clrender.Renderer(scene, device, volume_method="null"), spp, seed=100000))
         clrender.save_image(mean.astype(np.float32), mean_path)
         clrender.save_image(variance.astype(np.float32), variance_path)
-        print(f"{name}: reference {spp} spp in {time.perf_counter() - start:.0f} s -> {mean_path.relative_to(ROOT)}")
+        print(f"{name}: reference {spp} spp in {seconds:.0f} s -> {mean_path.relative_to(ROOT)}")
     return mean_path, clrender.load_image(mean_path).astype(np.float64), clrender.load_image(variance_path)
 
 
