@@ -100,10 +100,18 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     int depth = 1;
     while (depth <= max_depth) {
         Hit hit;
-        bool found = intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit);
+        float t_max = INFINITY;
+#if MEDIA
+        FreeFlight flight;
+        if (medium >= 0) {
+            flight = begin_free_flight(scene, medium, rng);
+            t_max = flight.t;   // a surface beyond the collision does not matter
+        }
+#endif
+        bool found = intersect_scene(scene, ray.origin, ray.direction, t_max, &hit);
 #if MEDIA
         if (medium >= 0) {
-            MediumSample ms = sample_medium(scene, medium, ray, found ? hit.t : INFINITY, rng);
+            MediumSample ms = sample_medium(scene, medium, flight, ray, found ? hit.t : INFINITY, rng);
             if (ms.event == MEDIUM_EVENT_SCATTER) aov_record_medium(aov, scene->media + medium, throughput, eta_scale);
             throughput *= ms.weight;
             prev_pdf_w *= ms.pdf_ratio;

@@ -23,9 +23,8 @@
 // exp(-sigma_t depth) per channel; a channel with sigma_t = 0 is 1 even at depth = INFINITY
 // (0 * inf is NaN).
 float3 transmittance(float3 sigma_t, float depth) {
-    float3 tau = sigma_t * depth;
-    return (float3)(sigma_t.x > 0.0f ? exp(-tau.x) : 1.0f, sigma_t.y > 0.0f ? exp(-tau.y) : 1.0f,
-                    sigma_t.z > 0.0f ? exp(-tau.z) : 1.0f);
+    float3 tau = select((float3)(0.0f), sigma_t * depth, sigma_t > 0.0f);
+    return exp(-tau);
 }
 
 int sample_hero(Rng* rng) { return min((int)(rng_float(rng) * 3.0f), 2); }
@@ -53,13 +52,25 @@ MediumSample free_flight_sample(float3 sigma_t, float3 sigma_s, float depth, boo
     return s;
 }
 
-MediumSample sample_homogeneous_medium(__global const Medium* m, float t_max, bool spectral_mis,
-                                       Rng* rng) {
-    float3 sigma_t = medium_sigma_t(m);
-    int hero = sample_hero(rng);
-    float t = sample_free_flight(sigma_t, hero, rng_float(rng));
-    bool collided = t < t_max;
-    return free_flight_sample(sigma_t, medium_sigma_s(m), collided ? t : t_max, collided, hero, spectral_mis);
+// A free flight whose collision distance is drawn before the segment's end is known (it does not
+// depend on it; media/medium.h says why).
+typedef struct {
+    int hero;
+    float t;   // distance to the collision (INFINITY: none, or not drawn yet)
+} FreeFlight;
+
+FreeFlight begin_homogeneous_flight(__global const Medium* m, Rng* rng) {
+    FreeFlight f;
+    f.hero = sample_hero(rng);
+    f.t = sample_free_flight(medium_sigma_t(m), f.hero, rng_float(rng));
+    return f;
+}
+
+// The flight over the segment [0, t_max): collided if its distance falls inside.
+MediumSample sample_homogeneous_medium(__global const Medium* m, FreeFlight f, float t_max, bool spectral_mis) {
+    bool collided = f.t < t_max;
+    return free_flight_sample(medium_sigma_t(m), medium_sigma_s(m), collided ? f.t : t_max, collided, f.hero,
+                              spectral_mis);
 }
 
 // Analytic transmittance of a shadow segment; *pdf_ratio as for a pass (see the top).

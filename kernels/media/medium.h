@@ -1,5 +1,9 @@
 // The media interface of the integrator: path.h and media/transport.h see nothing else.
 //
+//   begin_free_flight      the part of a free flight that does not depend on the segment's end:
+//                          a homogeneous medium's collision distance, which bounds the
+//                          integrator's surface intersection (nothing beyond it matters; Mitsuba's
+//                          volpath caps ray.maxt the same way); nothing for grid media
 //   sample_medium          free flight along one ray segment inside one medium: the event
 //                          (pass, scatter at t, absorb), the throughput factor f / p and, on a
 //                          pass, the ratio of the segment's transmittance pdfs (unidirectional
@@ -37,12 +41,26 @@ int medium_beyond(const SurfacePoint* sp) {
     return sp->front_face ? (sp->media & 0xFFFF) - 1 : (sp->media >> 16) - 1;
 }
 
-MediumSample sample_medium(const Scene* scene, int medium, Ray ray, float t_max, Rng* rng) {
+FreeFlight begin_free_flight(const Scene* scene, int medium, Rng* rng) {
+    __global const Medium* m = scene->media + medium;
+#if GRID_MEDIA
+    if (medium_is_grid(m)) {
+        FreeFlight walked;   // the estimator walks the segment in sample_medium
+        walked.hero = -1;
+        walked.t = INFINITY;
+        return walked;
+    }
+#endif
+    return begin_homogeneous_flight(m, rng);
+}
+
+// The flight begun over the segment [0, t_max) of the ray (t_max: the surface hit, or INFINITY).
+MediumSample sample_medium(const Scene* scene, int medium, FreeFlight flight, Ray ray, float t_max, Rng* rng) {
     __global const Medium* m = scene->media + medium;
 #if GRID_MEDIA
     if (medium_is_grid(m)) return sample_grid_medium(scene, m, ray, t_max, rng);
 #endif
-    return sample_homogeneous_medium(m, t_max, media_spectral_mis(scene), rng);
+    return sample_homogeneous_medium(m, flight, t_max, media_spectral_mis(scene));
 }
 
 float3 medium_transmittance(const Scene* scene, int medium, float3 origin, float3 dir, float t_max,
