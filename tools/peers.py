@@ -321,13 +321,18 @@ def run(args):
         stats = {}
         for runner in runners:
             runs = results[(name, runner)]
+            mses = [r[2] for r in runs]
             stats[runner] = (median([r[0] for r in runs]), median([r[1] for r in runs]),
-                             float(np.mean([r[2] for r in runs])))
-        cw, cc, cm = stats[runners[0]]
+                             float(np.mean(mses)), relative_standard_error(mses))
+        cw, cc, cm, c_error = stats[runners[0]]
         row = [BENCHMARKS[name][0], f"{cw:.2f}", f"{cm:.3g}"]
         for runner in runners[1:]:
-            mw, mc, mm = stats[runner]
-            row += [f"{mw:.2f}", f"{mm:.3g}", f"{(mm * mw) / (cm * cw):.2f}", f"{(mm * mc) / (cm * cc):.2f}"]
+            mw, mc, mm, m_error = stats[runner]
+            # Mean MSEs of a few seeds are the noisy part of a ratio (the medians of time vary by a
+            # few percent): its relative standard error from theirs.
+            error = np.hypot(c_error, m_error)
+            row += [f"{mw:.2f}", f"{mm:.3g}", f"{(mm * mw) / (cm * cw):.2f} ± {100 * error:.0f} %",
+                    f"{(mm * mc) / (cm * cc):.2f}"]
         rows.append(row + [f"{checks[name]['blocks']:.2f}"])
     header = ["scene (256x256)", "clrender s", "clrender MSE"]
     for _, sampler in runners[1:]:
@@ -335,10 +340,20 @@ def run(args):
     header.append("agreement")
     print()
     print(f"{args.spp} spp, max depth 64, roulette from depth 5; median of {args.runs} fresh processes each, "
-          f"interleaved; MSE: mean over the runs against the mean of both {args.reference_batches} x "
-          f"{args.spp}-spp references, less their noise; clrender sampler {args.sampler}")
+          f"interleaved; MSE: mean over the runs (seeds) against the mean of both {args.reference_batches} x "
+          f"{args.spp}-spp references, less their noise; ± the ratio's relative standard error from "
+          f"the spread of the runs' MSEs; clrender sampler {args.sampler}")
     print(markdown_table(header, rows))
     print(f"\n`{command}`")
+
+
+def relative_standard_error(values):
+    """Standard error of the mean of `values` over the mean (0 for a single value)."""
+    import numpy as np
+
+    if len(values) < 2:
+        return 0.0
+    return float(np.std(values, ddof=1) / np.sqrt(len(values)) / np.mean(values))
 
 
 def _measure(renderer, sampler, folder, spp, seeds, scratch, variant, env, reference):
