@@ -98,13 +98,17 @@ uint owen_sobol1(uint index, uint seed) {
     return reverse_bits(laine_karras_permutation(sobol_dimension1_reversed(index), seed));
 }
 
+// A hash of the stream's key and its counter: the independent generator's number, the Sobol
+// generator's seed of the current dimension.
+uint hash_of_counter(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
+
 // The current dimension's seeds: one hash of (pixel, seed, dimension), then the index shuffle's
 // seed and the two coordinates' scramble seeds as its products with distinct odd constants
-// (bijections of the hash, so each is as uniform as the hash; a hash apiece cost about 5 % of
-// the Cornell box's kernel time and sat on the path's critical dependency chain).
+// (bijections of the hash, so each is as uniform as the hash; a hash apiece would sit on the
+// path's dependency chain).
 typedef struct { uint index; uint x; uint y; } SobolSeeds;
 SobolSeeds sobol_dimension_seeds(const Rng* rng) {
-    uint h = hash_u32(rng->key + rng->counter * 0x9e3779b9u);
+    uint h = hash_of_counter(rng);
     SobolSeeds seeds = {h, h * 0x2c1b3c6du, h * 0x297a2d39u};
     return seeds;
 }
@@ -122,7 +126,7 @@ float rng_float(Rng* rng) {
         SobolSeeds seeds = sobol_dimension_seeds(rng);
         bits = owen_sobol0(sobol_shuffled_index(rng, seeds.index), seeds.x);
     } else {
-        bits = hash_u32(rng->key + rng->counter * 0x9e3779b9u);
+        bits = hash_of_counter(rng);
     }
     rng->counter += 1u;
     return uint_to_unit_float(bits);

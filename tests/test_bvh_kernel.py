@@ -66,6 +66,17 @@ def test_kernel_hits_equal_brute_force(context, queue, count, seed):
         assert hit.mean() > 0.2  # the test rays do hit things
 
 
+def assert_hits_match_brute_force(context, queue, v0, v1, v2, origins, directions, rtol):
+    """Closest and any hits of the kernel are those of the brute-force intersector, for test rays
+    of which at least 30 % hit something."""
+    t, triangle, any_hit = trace_on_device(context, queue, v0, v1, v2, origins, directions)
+    ref_t, ref_triangle = intersect_brute_force(v0, v1, v2, origins, directions)
+    hit = ref_triangle >= 0
+    assert hit.mean() > 0.3
+    assert np.array_equal(triangle >= 0, hit) and np.array_equal(any_hit, hit)
+    np.testing.assert_allclose(t[hit], ref_t[hit], rtol=rtol)
+
+
 @pytest.mark.parametrize("offset,scale", [(1e4, 1e-3), (-2e5, 1.0), (3e3, 1e4)])
 def test_kernel_hits_equal_brute_force_far_from_the_origin(context, queue, offset, scale):
     """Far from the world origin, and at small and large scales, the slab test's rounding margins
@@ -76,12 +87,7 @@ def test_kernel_hits_equal_brute_force_far_from_the_origin(context, queue, offse
     v0, v1, v2 = (corner.astype(np.float32).astype(np.float64) for corner in (v0, v1, v2))
     origins, directions = random_rays(rng, 3000)
     origins = (offset + scale * origins / 2).astype(np.float32).astype(np.float64)
-    t, triangle, any_hit = trace_on_device(context, queue, v0, v1, v2, origins, directions)
-    ref_t, ref_triangle = intersect_brute_force(v0, v1, v2, origins, directions)
-    hit = ref_triangle >= 0
-    assert hit.mean() > 0.3
-    assert np.array_equal(triangle >= 0, hit) and np.array_equal(any_hit, hit)
-    np.testing.assert_allclose(t[hit], ref_t[hit], rtol=1e-3)
+    assert_hits_match_brute_force(context, queue, v0, v1, v2, origins, directions, rtol=1e-3)
 
 
 def test_axis_parallel_rays_find_their_hits(context, queue):
@@ -93,12 +99,7 @@ def test_axis_parallel_rays_find_their_hits(context, queue):
                      [-0.0, 1, -0.0], [0.0, -0.0, -1], [0.6, 0.8, 0], [0, -0.6, 0.8]], float)
     origins = np.repeat(rng.uniform(-5, 5, (400, 3)), len(axes), axis=0)
     directions = np.tile(axes, (400, 1))
-    t, triangle, any_hit = trace_on_device(context, queue, v0, v1, v2, origins, directions)
-    ref_t, ref_triangle = intersect_brute_force(v0, v1, v2, origins, directions)
-    hit = ref_triangle >= 0
-    assert hit.mean() > 0.3
-    assert np.array_equal(triangle >= 0, hit) and np.array_equal(any_hit, hit)
-    np.testing.assert_allclose(t[hit], ref_t[hit], rtol=1e-4)
+    assert_hits_match_brute_force(context, queue, v0, v1, v2, origins, directions, rtol=1e-4)
 
 
 def test_tiny_and_empty_scenes_render(device):
