@@ -122,9 +122,13 @@ void accumulate_aovs(AovSums* sums, const AovSample* aov, float3 value, bool fin
     sums->albedo.xyz += aov->albedo;
     sums->normal.xyz += aov->normal;
     sums->emission.xyz += finite ? aov->emission : (float3)(0.0f);
-    float3 mean_before = sum.w > 0.0f ? sum.xyz / sum.w : (float3)(0.0f);
-    float3 mean_after = (sum.xyz + value) / (sum.w + 1.0f);
-    sums->colour_m2.xyz += (value - mean_before) * (value - mean_after);
+    // The deviations from the means before and after, value - sum / n, as (n value - sum) / n:
+    // exactly 0 for a pixel whose samples are all equal (and add up exactly) however the device
+    // rounds division, where sum / n may differ from value (GPUs divide to 2.5 ulp by default).
+    float n = sum.w;
+    float3 before = n > 0.0f ? (n * value - sum.xyz) / n : (float3)(0.0f);
+    float3 after = ((n + 1.0f) * value - (sum.xyz + value)) / (n + 1.0f);
+    sums->colour_m2.xyz += before * after;
 }
 #endif
 

@@ -37,7 +37,8 @@ def test_cli_without_pyoidn_fails_cleanly(tmp_path):
     blocker = tmp_path / "blocked" / "pyoidn"
     blocker.mkdir(parents=True)
     (blocker / "__init__.py").write_text("raise ImportError('pyoidn blocked by the test')\n")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(blocker.parent), REPO]))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(blocker.parent), REPO,
+                                                                     os.environ.get("PYTHONPATH")])))
     out = tmp_path / "x.exr"
     result = subprocess.run([sys.executable, "-m", "clrender.cli", "render", "scenes/cornell_box.json", "-o",
                              str(out), "--spp", "1", "--denoise", "--quiet"], capture_output=True, text=True,

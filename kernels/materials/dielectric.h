@@ -21,7 +21,8 @@
 
 // cos of the transmitted angle, from Snell's law written as cos_t^2 = (eta^2 - 1 + cos_i^2) / eta^2
 // rather than 1 - sin_t^2: near grazing 1 - (1 - cos_i^2) cancels to a few ulps, and at eta = 1
-// this form gives cos_t = cos_i exactly. Negative: total internal reflection.
+// this form gives cos_t = cos_i (exactly where sqrt rounds correctly). Negative: total internal
+// reflection.
 float cos_transmitted(float cos_i, float eta) {
     float g2 = eta * eta - 1.0f + cos_i * cos_i;
     return g2 > 0.0f ? sqrt(g2) / eta : -1.0f;
@@ -32,9 +33,13 @@ float cos_transmitted(float cos_i, float eta) {
 // critical angle it is exactly 1 (total internal reflection). Both denominators are > 0 where
 // there is a transmitted ray, since then cos_t > 0.
 float fresnel_dielectric(float cos_i, float eta) {
+    // No interface reflects nothing and grazing incidence everything; said outright, because the
+    // formula gets there only where sqrt(c * c) = c and x / x = 1, i.e. with correctly rounded
+    // division and square roots, which GPUs do not give by default (OpenCL allows 2.5 and 3 ulp).
+    if (eta == 1.0f) return 0.0f;
     cos_i = clamp(cos_i, 0.0f, 1.0f);
     float cos_t = cos_transmitted(cos_i, eta);
-    if (cos_t <= 0.0f) return 1.0f;
+    if (cos_t <= 0.0f || cos_i == 0.0f) return 1.0f;
     float r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     float r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     return 0.5f * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
