@@ -21,6 +21,12 @@ The timed runs use clrender's --sampler (default: the scene's, sobol) and each o
 --mitsuba-samplers (default independent; a column group each); references always use both
 renderers' independent samplers (unbiased whatever the sampler; cached across samplers).
 
+With --timing render (for GPUs, where start-up is most of a process and says nothing about
+rendering): one process per renderer and scene renders a warm-up image (kernel builds, Mitsuba's
+JIT), then --runs images back to back, each timed until it is on the host; the ratio uses the
+median of those render times. Run it on the GPU's machine: clrender takes the first GPU (or
+$CLRENDER_DEVICE), Mitsuba the --variant (cuda_ad_rgb).
+
 Mitsuba is an optional extra (`pip install -e '.[peers]'`). Its LLVM variants need an LLVM
 shared library: DRJIT_LIBLLVM_PATH defaults to Debian's libllvm19 when that file exists.
 """
@@ -145,20 +151,31 @@ def prepare(name, data, cache):
 # ---------------------------------------------------------------------------------------------
 # The timed processes: each renders, writes the image, exits
 # ---------------------------------------------------------------------------------------------
-def child_clrender(folder, spp, seed, batches, out, sampler):
-    import numpy as np
-
+def child_clrender(folder, spp, seed, batches, out, sampler, warmup):
     import clrender
 
     renderer = clrender.Renderer(clrender.load_scene(folder / "scene.json"), sampler=sampler)
-    images = [renderer.render(spp=spp, seed=seed + b).image for b in range(batches)]
-    _write(out, np.stack(images))
+    _render_batches(lambda s: renderer.render(spp=spp, seed=s).image, seed, batches, out, warmup)
 
 
-def child_mitsuba(folder, spp, seed, batches, out, variant, sampler):
+def _render_batches(render, seed, batches, out, warmup):
+    """Images of seeds seed, seed + 1, ... written to `out` with each one's seconds beside it
+    (`render(seed)` returns the image on the host); with `warmup`, one untimed render first."""
+    import numpy as np
+
+    from clrender.bench import timed
+
+    if warmup:
+        render(0)
+    seconds, images = zip(*(timed(lambda: render(seed + b)) for b in range(batches)))
+    _write(out, np.stack(images), seconds)
+
+
+def child_mitsuba(folder, spp, seed, batches, out, variant, sampler, warmup):
     import importlib.util
 
     import mitsuba as mi
+    import numpy as np
 
     mi.set_variant(variant)
     # By file path: importing the clrender package would add pyopencl to Mitsuba's process.
@@ -168,22 +185,22 @@ def child_mitsuba(folder, spp, seed, batches, out, variant, sampler):
     description = json.loads((folder / "mitsuba.json").read_text())
     description["sensor"]["sampler"]["type"] = sampler
     scene = mi.load_dict(export.to_mitsuba_dict(description, mi))
-    images = [mi.render(scene, spp=spp, seed=seed + b) for b in range(batches)]
+    _render_batches(lambda s: np.asarray(mi.render(scene, spp=spp, seed=s), np.float32)[..., :3],
+                    seed, batches, out, warmup)
+
+
+def _write(out, images, seconds):
     import numpy as np
 
-    _write(out, np.stack([np.asarray(image, np.float32)[..., :3] for image in images]))
+    np.save(out, images[..., :3].astype(np.float32))
+    Path(out).with_suffix(".seconds.json").write_text(json.dumps(list(seconds)))
 
 
-def _write(out, images):
-    import numpy as np
-
-    np.save(out, images.astype(np.float32))
-
-
-def child_command(renderer, folder, spp, seed, out, variant, batches=1, sampler="independent"):
+def child_command(renderer, folder, spp, seed, out, variant, batches=1, sampler="independent", warmup=False):
     """The process rendering `batches` images; `sampler`: the renderer's name for its sampler."""
-    return [sys.executable, str(Path(__file__).resolve()), "--child", renderer, str(folder), str(spp),
-            str(seed), str(batches), str(out), "--variant", variant, "--child-sampler", sampler]
+    return ([sys.executable, str(Path(__file__).resolve()), "--child", renderer, str(folder), str(spp),
+             str(seed), str(batches), str(out), "--variant", variant, "--child-sampler", sampler]
+            + (["--child-warmup"] if warmup else []))
 
 
 def byte_compile_clrender():
@@ -261,16 +278,21 @@ def main():
     parser.add_argument("--mitsuba-samplers", nargs="+", default=["independent"],
                         choices=("independent", "stratified", "multijitter", "orthogonal", "ldsampler"),
                         help="Mitsuba's samplers in the timed runs, a column group each")
+    parser.add_argument("--timing", choices=("process", "render"), default="process",
+                        help="time whole fresh processes, or renders after a warm-up (GPUs)")
     parser.add_argument("--child-sampler", help=argparse.SUPPRESS)
+    parser.add_argument("--child-warmup", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--child", nargs=6, metavar=("RENDERER", "FOLDER", "SPP", "SEED", "BATCHES", "OUT"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         renderer, folder, spp, seed, batches, out = args.child
         if renderer == "clrender":
-            child_clrender(Path(folder), int(spp), int(seed), int(batches), out, args.child_sampler)
+            child_clrender(Path(folder), int(spp), int(seed), int(batches), out, args.child_sampler,
+                           args.child_warmup)
         else:
-            child_mitsuba(Path(folder), int(spp), int(seed), int(batches), out, args.variant, args.child_sampler)
+            child_mitsuba(Path(folder), int(spp), int(seed), int(batches), out, args.variant, args.child_sampler,
+                          args.child_warmup)
         return
     run(args)
 
@@ -310,37 +332,43 @@ def run(args):
     with tempfile.TemporaryDirectory() as scratch:
         seeds = iter(range(1, 10 ** 6))
         runners = [("clrender", args.sampler)] + [("mitsuba", m) for m in args.mitsuba_samplers]
-        measures = {}
-        for name in args.scenes:
-            for runner in runners:
-                measures[(name, runner)] = _measure(*runner, folders[name], args.spp, seeds, scratch,
-                                                    args.variant, env, references[name])
-        results = interleaved(measures, rounds=args.runs, warmup=1)
+        if args.timing == "render":
+            results = {(name, runner): _render_timings(*runner, folders[name], args.spp, args.runs, scratch,
+                                                       args.variant, env, references[name])
+                       for name in args.scenes for runner in runners}
+        else:
+            measures = {(name, runner): _measure(*runner, folders[name], args.spp, seeds, scratch, args.variant,
+                                                 env, references[name])
+                        for name in args.scenes for runner in runners}
+            results = interleaved(measures, rounds=args.runs, warmup=1)
+    processes = args.timing == "process"
     rows = []
     for name in args.scenes:
         stats = {}
         for runner in runners:
             runs = results[(name, runner)]
             mses = [r[2] for r in runs]
-            stats[runner] = (median([r[0] for r in runs]), median([r[1] for r in runs]),
+            stats[runner] = (median([r[0] for r in runs]), median([r[1] for r in runs]) if processes else None,
                              float(np.mean(mses)), relative_standard_error(mses))
         cw, cc, cm, c_error = stats[runners[0]]
-        row = [BENCHMARKS[name][0], f"{cw:.2f}", f"{cm:.3g}"]
+        row = [BENCHMARKS[name][0], f"{cw:.4g}", f"{cm:.3g}"]
         for runner in runners[1:]:
             mw, mc, mm, m_error = stats[runner]
             # Mean MSEs of a few seeds are the noisy part of a ratio (the medians of time vary by a
             # few percent): its relative standard error from theirs.
             error = np.hypot(c_error, m_error)
-            row += [f"{mw:.2f}", f"{mm:.3g}", f"{(mm * mw) / (cm * cw):.2f} ± {100 * error:.0f} %",
-                    f"{(mm * mc) / (cm * cc):.2f}"]
+            row += [f"{mw:.4g}", f"{mm:.3g}", f"{(mm * mw) / (cm * cw):.2f} ± {100 * error:.0f} %"]
+            row += [f"{(mm * mc) / (cm * cc):.2f}"] if processes else []
         rows.append(row + [f"{checks[name]['blocks']:.2f}"])
     header = ["scene (256x256)", "clrender s", "clrender MSE"]
     for _, sampler in runners[1:]:
-        header += [f"Mitsuba {sampler} s", f"Mitsuba {sampler} MSE", f"ratio vs {sampler}", "ratio (CPU s)"]
+        header += [f"Mitsuba {sampler} s", f"Mitsuba {sampler} MSE", f"ratio vs {sampler}"]
+        header += ["ratio (CPU s)"] if processes else []
     header.append("agreement")
     print()
-    print(f"{args.spp} spp, max depth 64, roulette from depth 5; median of {args.runs} fresh processes each, "
-          f"interleaved; MSE: mean over the runs (seeds) against the mean of both {args.reference_batches} x "
+    timing = (f"median of {args.runs} fresh processes each, interleaved" if processes else
+              f"median of {args.runs} renders after a warm-up render, in one process per renderer and scene")
+    print(f"{args.spp} spp, max depth 64, roulette from depth 5; {timing}; MSE: mean over the runs (seeds) against the mean of both {args.reference_batches} x "
           f"{args.spp}-spp references, less their noise; ± the ratio's relative standard error from "
           f"the spread of the runs' MSEs; clrender sampler {args.sampler}")
     print(markdown_table(header, rows))
@@ -366,10 +394,27 @@ def _measure(renderer, sampler, folder, spp, seeds, scratch, variant, env, refer
         seed = next(seeds)
         out = Path(scratch) / f"{renderer}-{seed}.npy"
         timing = run_process(child_command(renderer, folder, spp, seed, out, variant, sampler=sampler), env=env)
-        image = np.load(out)[0]
-        mse = float(np.mean((image - reference[0]) ** 2)) - reference[1]
-        return timing.wall_seconds, timing.cpu_seconds, mse
+        return timing.wall_seconds, timing.cpu_seconds, _mse(np.load(out)[0], reference)
     return measure
+
+
+def _render_timings(renderer, sampler, folder, spp, runs, scratch, variant, env, reference):
+    """(render s, None, MSE) of `runs` renders (seeds 1, 2, ...) in one process, after a warm-up."""
+    import numpy as np
+
+    from clrender.bench import run_process
+
+    out = Path(scratch) / f"{renderer}-{sampler}-{folder.name}.npy"
+    run_process(child_command(renderer, folder, spp, 1, out, variant, runs, sampler, warmup=True), env=env)
+    seconds = json.loads(out.with_suffix(".seconds.json").read_text())
+    return [(s, None, _mse(image, reference)) for s, image in zip(seconds, np.load(out))]
+
+
+def _mse(image, reference):
+    """MSE of `image` against reference = (mean image, its noise), less that noise."""
+    import numpy as np
+
+    return float(np.mean((image - reference[0]) ** 2)) - reference[1]
 
 
 def _mitsuba_version(env):
