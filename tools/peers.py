@@ -368,9 +368,9 @@ def run(args):
     print()
     timing = (f"median of {args.runs} fresh processes each, interleaved" if processes else
               f"median of {args.runs} renders after a warm-up render, in one process per renderer and scene")
-    print(f"{args.spp} spp, max depth 64, roulette from depth 5; {timing}; MSE: mean over the runs (seeds) against the mean of both {args.reference_batches} x "
-          f"{args.spp}-spp references, less their noise; ± the ratio's relative standard error from "
-          f"the spread of the runs' MSEs; clrender sampler {args.sampler}")
+    print(f"{args.spp} spp, max depth 64, roulette from depth 5; {timing}; MSE: mean over the runs (seeds) "
+          f"against the mean of both {args.reference_batches} x {args.spp}-spp references, less their noise; "
+          f"± the ratio's relative standard error from the spread of the runs' MSEs; clrender sampler {args.sampler}")
     print(markdown_table(header, rows))
     print(f"\n`{command}`")
 
