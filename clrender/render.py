@@ -42,6 +42,10 @@ class RenderResult:
 
 
 MAX_SPP = limits.MAX_SPP   # per-pixel sample counts are float32 in the accumulator
+# A render's first launch covers at most this many pixels (a band of whole rows): before it, its
+# time is unknown, and one sample of a 4K frame of a heavy scene could outlast a display GPU's
+# watchdog (Windows: 2 s).
+FIRST_LAUNCH_PIXELS = 1 << 18
 
 
 @dataclass
@@ -247,8 +251,9 @@ class Renderer:
                samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
                denoise_keep_emission=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
-        after every launch. Samples per launch adapt to `pass_seconds` unless fixed by
-        `samples_per_pass`; the image does not depend on the split. With `time_limit` (seconds of
+        after every launch. Samples per launch adapt to `pass_seconds` (down to bands of rows of
+        one sample, for GPU watchdogs) unless fixed by `samples_per_pass` (whole frames); the image
+        does not depend on the split. With `time_limit` (seconds of
         kernel time) rendering stops after the launch that reaches it, or at `spp` if given.
         `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py); they
         leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
@@ -301,10 +306,10 @@ class Renderer:
                                hostbuf=np.ascontiguousarray(aov_sums, dtype=layout.AOV_SUMS))
         kernel = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
-        global_size = self._global_size(tile_width, tile_height)
 
         end = state.samples + samples
         done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
+        rows = tile_height if samples_per_pass else self._first_launch_rows(tile_width, tile_height)
         try:
             while done < end and (time_limit is None or seconds < time_limit):
                 count = min(per_pass, end - done)
@@ -312,15 +317,23 @@ class Renderer:
                                        seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering,
                                        state.tile, self.sampler)
                 cl.enqueue_copy(self.queue, params_buffer, params)
-                start = time.perf_counter()
-                kernel(self.queue, global_size, self.local_size, params_buffer,
-                       *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer)
-                self.queue.finish()
-                elapsed = time.perf_counter() - start
-                seconds += elapsed
+                # The tile's rows in bands of `rows` (a multiple of the work-group height but for
+                # the last, whose excess rows the kernel's guard skips), each band a launch
+                # offset to its first row: every pixel gets these samples once, in index order.
+                for first_row in range(0, tile_height, rows):
+                    band = min(rows, tile_height - first_row)
+                    start = time.perf_counter()
+                    kernel(self.queue, self._global_size(tile_width, band), self.local_size, params_buffer,
+                           *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer,
+                           global_offset=(0, first_row))
+                    self.queue.finish()
+                    elapsed = time.perf_counter() - start
+                    seconds += elapsed
+                    if progress is not None and first_row + band < tile_height:
+                        progress(done, end, state.seconds + seconds)
                 done += count
                 if samples_per_pass is None:
-                    per_pass = self._next_pass_size(count, elapsed)
+                    per_pass, rows = self._next_launch(count, band, tile_height, elapsed)
                 if progress is not None:
                     progress(done, end, state.seconds + seconds)
         except KeyboardInterrupt as interrupt:
@@ -364,11 +377,27 @@ class Renderer:
         lx, ly = self.local_size
         return (-(-width // lx) * lx, -(-height // ly) * ly)
 
-    def _next_pass_size(self, count, elapsed):
-        if elapsed <= 0:
-            return count * 2
-        target = int(count * self.pass_seconds / elapsed)
-        return max(1, min(target, count * 4))
+    def _row_step(self):
+        """Rows per band come in multiples of the work-group height."""
+        return 1 if self.local_size is None else self.local_size[1]
+
+    def _first_launch_rows(self, width, height):
+        """The first launch, whose time is not known yet, covers at most FIRST_LAUNCH_PIXELS."""
+        step = self._row_step()
+        return min(height, max(step, FIRST_LAUNCH_PIXELS // width // step * step))
+
+    def _next_launch(self, count, rows, height, elapsed):
+        """(samples, rows) of the next launches, from the last one (`count` samples over `rows`
+        rows in `elapsed` s): work (samples x rows) of about pass_seconds, at most 4x the last
+        (2x when it took no measurable time); the whole tile's rows once that is at least one
+        sample of all of them, else bands of one sample, so that no launch runs long enough for a
+        GPU watchdog however large the frame (portability.md)."""
+        work = count * rows
+        target = 2 * work if elapsed <= 0 else min(int(work * self.pass_seconds / elapsed), 4 * work)
+        if target >= height:
+            return target // height, height
+        step = self._row_step()
+        return 1, min(height, max(step, target // step * step))
 
     def _download(self, state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, samples=None):
         """The Accumulation after the launches completed on `state`'s buffers, which hold

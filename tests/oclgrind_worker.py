@@ -37,12 +37,14 @@ RESOLUTION = (8, 8)
 mf = cl.mem_flags
 
 
-def render(scene, device, method=None, local_size=None, launches=2, aovs=(), **settings):
-    """`launches` of one sample each (a later one adds to the accumulator of the earlier);
-    `aovs`: the AOVs to accumulate (the AOVS feature when sample-level ones are named)."""
-    renderer = clrender.Renderer(scene, device, local_size=local_size, volume_method=method, **settings)
-    result = renderer.render(spp=launches, samples_per_pass=1, max_depth=min(scene.render.max_depth, 4), seed=1,
-                             aovs=aovs)
+def render(scene, device, method=None, local_size=None, launches=2, aovs=(), banded=False, **settings):
+    """`launches` samples, one per launch (a later one adds to the accumulator of the earlier);
+    `aovs`: the AOVs to accumulate (the AOVS feature when sample-level ones are named); `banded`:
+    the samples after the first in bands of one work-group row, launches offset to their row."""
+    renderer = clrender.Renderer(scene, device, local_size=local_size, volume_method=method,
+                                 **settings, **({"pass_seconds": 1e-9} if banded else {}))
+    result = renderer.render(spp=launches, samples_per_pass=None if banded else 1,
+                             max_depth=min(scene.render.max_depth, 4), seed=1, aovs=aovs)
     return {"discarded": result.discarded_samples, "finite": bool(np.all(np.isfinite(result.image)))}
 
 
@@ -68,7 +70,7 @@ def run_scene(case, device):
     scene = clrender.load_scene(case["path"])
     width, height = scene.camera.resolution
     scene.camera.resolution = (8, max(1, round(8 * height / width)))
-    return render(scene, device, local_size=(4, 4))
+    return render(scene, device, local_size=(4, 4), banded=True)
 
 
 # ----- tests.cl, on a few work-items --------------------------------------------------------

@@ -1,4 +1,6 @@
 """Counter-based RNG: the image depends only on (scene, seed, spp), not on how it is launched."""
+import importlib
+
 import numpy as np
 
 import clrender
@@ -20,6 +22,24 @@ def test_split_into_launches_gives_identical_image(device):
     assert whole.samples == ones.samples == uneven.samples == 12
     assert np.array_equal(whole.image, ones.image)
     assert np.array_equal(whole.image, uneven.image)
+
+
+def test_launches_of_row_bands_give_identical_image(device, monkeypatch):
+    # A launch longer than pass_seconds at one sample is split into bands of rows (GPU
+    # watchdogs), and so is a render's first launch beyond FIRST_LAUNCH_PIXELS: here both at
+    # once, the first launch 8 rows and every later one a band of one work-group row.
+    monkeypatch.setattr(importlib.import_module("clrender.render"), "FIRST_LAUNCH_PIXELS", 40 * 8)
+    scene = small_cornell_box()
+    for local_size in (None, (4, 4)):   # 30 rows: the last band of 4 overruns the image by 2
+        whole = clrender.Renderer(scene, device, local_size=local_size).render(spp=3, seed=4, samples_per_pass=3)
+        launches = []
+        banded = clrender.Renderer(scene, device, local_size=local_size, pass_seconds=1e-9).render(
+            spp=3, seed=4, progress=lambda *a: launches.append(a))
+        rows = 1 if local_size is None else 4
+        assert len(launches) == 4 + 2 * -(-30 // rows), local_size   # 8 rows in bands, then 2 samples
+        assert banded.samples == 3 and np.array_equal(banded.image, whole.image), local_size
+        assert np.array_equal(banded.aux["object_id"], whole.aux["object_id"])
+        assert np.array_equal(banded.aux["depth"], whole.aux["depth"])
 
 
 def test_work_group_size_does_not_change_the_image(device):

@@ -12,7 +12,8 @@ whose stderr is split by case. Settings, and why:
       out of float3 code; unoptimised code has none, and checks the source more literally.
   -DALBEDO_GRID=4                                  the energy-table kernel loops 192^2 times per
       entry, minutes under the simulator; its memory accesses do not depend on the loop length.
-Scenes are 8 x 8 pixels (example scenes 8 pixels wide), two launches of one sample, depth 4.
+Scenes are 8 x 8 pixels (example scenes 8 pixels wide), two samples of one launch each (the
+example scenes' second in bands of 4 rows, launches offset to their first row), depth 4.
 Skipped when Oclgrind is not installed (apt-get install oclgrind); CI installs it.
 Time: 3 minutes here (two workers in parallel; 81 s of CPU), on this shared 2-core machine.
 """
