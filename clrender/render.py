@@ -251,10 +251,11 @@ class Renderer:
                samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
                denoise_keep_emission=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
-        after every launch. Samples per launch adapt to `pass_seconds` (down to bands of rows of
-        one sample, for GPU watchdogs) unless fixed by `samples_per_pass` (whole frames); the image
-        does not depend on the split. With `time_limit` (seconds of
-        kernel time) rendering stops after the launch that reaches it, or at `spp` if given.
+        after every launch (samples_done a fraction after a band of rows). Samples per launch
+        adapt to `pass_seconds` (down to bands of rows of one sample, for GPU watchdogs) unless
+        fixed by `samples_per_pass` (whole frames); the image does not depend on the split. With
+        `time_limit` (seconds of kernel time) rendering stops after the launch that reaches it,
+        or at `spp` if given.
         `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py); they
         leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
         Denoise guided by the albedo and normal AOVs (returned too), result.noisy_image keeps the
@@ -329,8 +330,8 @@ class Renderer:
                     self.queue.finish()
                     elapsed = time.perf_counter() - start
                     seconds += elapsed
-                    if progress is not None and first_row + band < tile_height:
-                        progress(done, end, state.seconds + seconds)
+                    if progress is not None and first_row + band < tile_height:   # a fraction of a sample
+                        progress(done + count * (first_row + band) / tile_height, end, state.seconds + seconds)
                 done += count
                 if samples_per_pass is None:
                     per_pass, rows = self._next_launch(count, band, tile_height, elapsed)

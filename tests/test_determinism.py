@@ -37,6 +37,8 @@ def test_launches_of_row_bands_give_identical_image(device, monkeypatch):
             spp=3, seed=4, progress=lambda *a: launches.append(a))
         rows = 1 if local_size is None else 4
         assert len(launches) == 4 + 2 * -(-30 // rows), local_size   # 8 rows in bands, then 2 samples
+        done = [a[0] for a in launches]   # samples done, in fractions of a sample after each band
+        assert done[:4] == [8 / 30, 16 / 30, 24 / 30, 1] and done == sorted(done) and done[-1] == 3
         assert banded.samples == 3 and np.array_equal(banded.image, whole.image), local_size
         assert np.array_equal(banded.aux["object_id"], whole.aux["object_id"])
         assert np.array_equal(banded.aux["depth"], whole.aux["depth"])
