@@ -494,8 +494,8 @@ def xml_folder(tmp_path_factory):
 
 def names_xml_line(error, data):
     """The error's place is `scene.xml:LINE`, LINE a line of the file (then the element, for
-    errors found after parsing)."""
-    match = re.match(r"scene\.xml:(\d+)(?: <[a-z]+\b.*>)?$", error.where, re.S)
+    errors found after parsing; an XML name: a letter or _, then letters, digits, _ - . or :)."""
+    match = re.match(r"scene\.xml:(\d+)(?: <[A-Za-z_][\w.:-]*\b.*>)?$", error.where, re.S)
     return match and 1 <= int(match.group(1)) <= data.count(b"\n") + 1
 
 

@@ -173,6 +173,24 @@ def test_hard_media_stay_finite(device, medium, render):
     assert np.all(np.isfinite(result.image)) and np.all(result.image >= 0)
 
 
+def test_fog_with_an_almost_clear_channel_stays_finite(device):
+    # Found by fuzzing (tests/test_fuzz.py, random mode): in scene-wide fog whose red sigma_s is
+    # 1e-20, a red hero flies ~1e20 before it scatters; a light's solid-angle pdf from there
+    # squares past FLT_MAX and the power heuristic gave inf / inf (458 of 1024 samples were NaN).
+    data = {
+        "camera": camera(position=(0, 1, 6), look_at=(0, 0, 0), fov=10, resolution=(4, 4)),
+        "media": [{"name": "fog", "sigma_a": 0.0, "sigma_s": [1e-20, 0.18, 0.125]}],
+        "medium": "fog",
+        "materials": [{"name": "lamp", "type": "emissive", "radiance": 1.0}],
+        "shapes": [{"type": "rectangle", "material": "lamp",
+                    "transform": {"translate": [0, 2.5, 0], "rotate": [90, 0, 0], "scale": 0.5}}],
+        "render": {"max_depth": 3},
+    }
+    result = clrender.Renderer(clrender.load_scene_dict(data), device).render(spp=64, seed=0)
+    assert result.discarded_samples == 0
+    assert np.all(np.isfinite(result.image))
+
+
 def test_scene_wide_fog_attenuates_a_directly_seen_light(device):
     # A camera in fog (no boundaries) looks at an emitter at distance 4: with max depth 1 the
     # pixel estimates L exp(-sigma_t * 4) exactly.
