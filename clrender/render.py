@@ -378,14 +378,15 @@ class Renderer:
         lx, ly = self.local_size
         return (-(-width // lx) * lx, -(-height // ly) * ly)
 
-    def _row_step(self):
-        """Rows per band come in multiples of the work-group height."""
-        return 1 if self.local_size is None else self.local_size[1]
+    def _band_rows(self, rows, height):
+        """`rows` rounded down to a multiple of the work-group height (at least one), at most
+        the tile's `height`."""
+        step = 1 if self.local_size is None else self.local_size[1]
+        return min(height, max(step, rows // step * step))
 
     def _first_launch_rows(self, width, height):
         """The first launch, whose time is not known yet, covers at most FIRST_LAUNCH_PIXELS."""
-        step = self._row_step()
-        return min(height, max(step, FIRST_LAUNCH_PIXELS // width // step * step))
+        return self._band_rows(FIRST_LAUNCH_PIXELS // width, height)
 
     def _next_launch(self, count, rows, height, elapsed):
         """(samples, rows) of the next launches, from the last one (`count` samples over `rows`
@@ -397,8 +398,7 @@ class Renderer:
         target = 2 * work if elapsed <= 0 else min(int(work * self.pass_seconds / elapsed), 4 * work)
         if target >= height:
             return target // height, height
-        step = self._row_step()
-        return 1, min(height, max(step, target // step * step))
+        return 1, self._band_rows(target, height)
 
     def _download(self, state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, samples=None):
         """The Accumulation after the launches completed on `state`'s buffers, which hold

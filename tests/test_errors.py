@@ -605,9 +605,9 @@ def loaded(process, libraries):
 # Libraries whose loading marks a stage: numpy is first loaded inside clrender's main (with
 # signals held: numpy turns a Ctrl-C during its import into an ImportError with a traceback, which
 # this test caught about once in 40 runs before; Python's own start-up, site and .pth files, loads
-# none, and a Ctrl-C there is Python's); the OpenCL drivers are loaded when the platforms are listed, after the scene is
-# loaded and before the context, the scene's arrays and the kernel build (cold caches: PoCL's
-# too; Intel's runtime builds this scene in well under a second).
+# none, and a Ctrl-C there is Python's); the OpenCL drivers are loaded when the platforms are
+# listed, after the scene is loaded and before the context, the scene's arrays and the kernel
+# build (cold caches: PoCL's too; Intel's runtime builds this scene in well under a second).
 STAGES = {"loading": ("_multiarray_umath",), "building": ("libpocl", "libintelocl", "liboclgrind", "libnvidia-opencl")}
 
 
