@@ -27,11 +27,19 @@ JIT), then --runs images back to back, each timed until it is on the host; the r
 median of those render times. Run it on the GPU's machine: clrender takes the first GPU (or
 $CLRENDER_DEVICE), Mitsuba the --variant (cuda_ad_rgb).
 
+With --timing traversal: no images. Rays with origins uniform in the scene's bounding box (its
+middle 90 % per axis) and uniform directions (--rays of them, the same file for both) are traced
+by both renderers in one process each: a closest hit and an any-hit (shadow) query per ray, a
+warm-up launch, then --runs launches (median CPU seconds per ray). The two must find the same
+hits (the fraction that agree is printed) before their times mean anything: clrender's BVH
+traversal (kernels/bvh.h) against Mitsuba's (Embree on the CPU).
+
 Mitsuba is an optional extra (`pip install -e '.[peers]'`). Its LLVM variants need an LLVM
 shared library: DRJIT_LIBLLVM_PATH defaults to Debian's libllvm19 when that file exists.
 """
 import argparse
 import hashlib
+import importlib.util
 import json
 import os
 import sys
@@ -172,8 +180,6 @@ def _render_batches(render, seed, batches, out, warmup):
 
 
 def child_mitsuba(folder, spp, seed, batches, out, variant, sampler, warmup):
-    import importlib.util
-
     import mitsuba as mi
     import numpy as np
 
@@ -187,6 +193,85 @@ def child_mitsuba(folder, spp, seed, batches, out, variant, sampler, warmup):
     scene = mi.load_dict(export.to_mitsuba_dict(description, mi))
     _render_batches(lambda s: np.asarray(mi.render(scene, spp=spp, seed=s), np.float32)[..., :3],
                     seed, batches, out, warmup)
+
+
+def child_traversal_clrender(folder, rays_path, runs, out):
+    """Hit distances of the rays in rays_path ((N, 2, 3): origins, directions) by clrender's
+    traversal kernel (the tests' trace_rays), and the CPU seconds of each timed launch."""
+    import numpy as np
+    import pyopencl as cl
+
+    import clrender
+    from clrender.arrays import build_scene_arrays
+    from clrender.device import build_program
+    from clrender.features import FEATURE_VALUES
+
+    rays = np.load(rays_path)
+    arrays = build_scene_arrays(clrender.load_scene(folder / "scene.json"))
+    origins = np.zeros((len(rays), 4), np.float32)
+    directions = np.zeros((len(rays), 4), np.float32)
+    origins[:, :3] = rays[:, 0] * arrays.length_scale
+    directions[:, :3] = rays[:, 1]
+    context = cl.Context([clrender.choose_device()])
+    queue = cl.CommandQueue(context)
+    no_features = {name: values[0] for name, values in FEATURE_VALUES.items()}
+    kernel = cl.Kernel(build_program(context, no_features, entry="tests.cl"), "trace_rays")
+    flags = cl.mem_flags
+    inputs = [cl.Buffer(context, flags.READ_ONLY | flags.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(x))
+              for x in (arrays.nodes, arrays.triangles, origins, directions)]
+    outputs = [cl.Buffer(context, flags.WRITE_ONLY, 4 * len(rays)) for _ in range(3)]
+
+    def launch():
+        kernel(queue, (len(rays),), None, *inputs, *outputs).wait()
+    seconds = _cpu_seconds_of_runs(launch, runs)
+    t = np.empty(len(rays), np.float32)
+    cl.enqueue_copy(queue, t, outputs[0])
+    _write_traversal(out, t / arrays.length_scale, seconds)
+
+
+def child_traversal_mitsuba(folder, rays_path, runs, out, variant):
+    """The same with Mitsuba's ray_intersect_preliminary and ray_test."""
+    import drjit as dr
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant(variant)
+    spec = importlib.util.spec_from_file_location("mitsuba_export", ROOT / "clrender" / "mitsuba_export.py")
+    export = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(export)
+    scene = mi.load_dict(export.to_mitsuba_dict(json.loads((folder / "mitsuba.json").read_text()), mi))
+    rays = np.load(rays_path).astype(np.float32)
+    ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(rays[:, 0].T)), mi.Vector3f(np.ascontiguousarray(rays[:, 1].T)))
+    dr.eval(ray)
+    hits = []
+
+    def launch():
+        nearest = scene.ray_intersect_preliminary(ray)
+        blocked = scene.ray_test(ray)
+        dr.eval(nearest.t, blocked)
+        dr.sync_thread()
+        hits[:] = [nearest.t]
+    seconds = _cpu_seconds_of_runs(launch, runs)
+    _write_traversal(out, np.array(hits[0], np.float32), seconds)
+
+
+def _cpu_seconds_of_runs(launch, runs):
+    """CPU seconds (all threads) of each of `runs` calls of `launch`, after one untimed call."""
+    launch()
+    seconds = []
+    for _ in range(runs):
+        before = os.times()
+        launch()
+        after = os.times()
+        seconds.append((after.user - before.user) + (after.system - before.system))
+    return seconds
+
+
+def _write_traversal(out, t, seconds):
+    import numpy as np
+
+    np.save(out, np.where(np.isfinite(t), t, np.inf).astype(np.float32))
+    Path(out).with_suffix(".seconds.json").write_text(json.dumps(seconds))
 
 
 def _write(out, images, seconds):
@@ -278,13 +363,23 @@ def main():
     parser.add_argument("--mitsuba-samplers", nargs="+", default=["independent"],
                         choices=("independent", "stratified", "multijitter", "orthogonal", "ldsampler"),
                         help="Mitsuba's samplers in the timed runs, a column group each")
-    parser.add_argument("--timing", choices=("process", "render"), default="process",
-                        help="time whole fresh processes, or renders after a warm-up (GPUs)")
+    parser.add_argument("--timing", choices=("process", "render", "traversal"), default="process",
+                        help="time whole fresh processes, renders after a warm-up (GPUs), or ray traversal alone")
+    parser.add_argument("--rays", type=int, default=1 << 21, help="rays per launch with --timing traversal")
     parser.add_argument("--child-sampler", help=argparse.SUPPRESS)
     parser.add_argument("--child-warmup", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--child", nargs=6, metavar=("RENDERER", "FOLDER", "SPP", "SEED", "BATCHES", "OUT"),
                         help=argparse.SUPPRESS)
+    parser.add_argument("--child-traversal", nargs=4, metavar=("RENDERER", "FOLDER", "RAYS", "OUT"),
+                        help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.child_traversal:
+        renderer, folder, rays, out = args.child_traversal
+        if renderer == "clrender":
+            child_traversal_clrender(Path(folder), rays, args.runs, out)
+        else:
+            child_traversal_mitsuba(Path(folder), rays, args.runs, out, args.variant)
+        return
     if args.child:
         renderer, folder, spp, seed, batches, out = args.child
         if renderer == "clrender":
@@ -312,6 +407,9 @@ def run(args):
     print(f"machine: {machine_description()}; OpenCL: {clrender.choose_device().name.strip()} "
           f"({clrender.choose_device().platform.version.strip()}); Mitsuba {_mitsuba_version(env)} {args.variant}")
     folders, references, checks = {}, {}, {}
+    if args.timing == "traversal":
+        run_traversal(args, env, command)
+        return
     for name in args.scenes:
         folders[name], keys = prepare(name, benchmark_scene(name, args.spp), args.cache)
         print(f"{name}: {folders[name]}", flush=True)
@@ -373,6 +471,70 @@ def run(args):
           f"± the ratio's relative standard error from the spread of the runs' MSEs; clrender sampler {args.sampler}")
     print(markdown_table(header, rows))
     print(f"\n`{command}`")
+
+
+def run_traversal(args, env, command):
+    """--timing traversal: the table of CPU nanoseconds per ray (closest hit and any hit)."""
+    import tempfile
+
+    import numpy as np
+
+    import clrender
+    from clrender.bench import markdown_table, median, run_process
+
+    rows = []
+    with tempfile.TemporaryDirectory() as scratch:
+        for name in args.scenes:
+            folder, _ = prepare(name, benchmark_scene(name, args.spp), args.cache)
+            rays_path = Path(scratch) / f"{name}-rays.npy"
+            np.save(rays_path, random_rays(clrender.load_scene(folder / "scene.json"), args.rays))
+            results = {}
+            for renderer in RENDERERS:
+                out = Path(scratch) / f"{name}-{renderer}.npy"
+                run_process([sys.executable, str(Path(__file__).resolve()), "--child-traversal", renderer,
+                             str(folder), str(rays_path), str(out), "--runs", str(args.runs),
+                             "--variant", args.variant], env=env)
+                seconds = json.loads(out.with_suffix(".seconds.json").read_text())
+                results[renderer] = (np.load(out), median(seconds) / args.rays * 1e9)
+            (t_ours, ns_ours), (t_theirs, ns_theirs) = results["clrender"], results["mitsuba"]
+            same = hits_agree(t_ours, t_theirs)
+            rows.append([BENCHMARKS[name][0], f"{ns_ours:.1f}", f"{ns_theirs:.1f}", f"{ns_theirs / ns_ours:.2f}",
+                         f"{100 * np.mean(~np.isfinite(t_ours)):.1f} %", f"{100 * same:.3f} %"])
+            print(f"{name}: done", flush=True)
+    print(f"\n{args.rays} rays per launch; CPU ns per ray (a closest hit and an any hit), median of {args.runs} "
+          f"launches after a warm-up; ratio > 1: clrender faster; agree: rays whose nearest hit both find at "
+          f"the same distance (relative 1e-4) or both miss")
+    print(markdown_table(["scene", "clrender ns", "Mitsuba ns", "ratio", "misses", "agree"], rows))
+    print(f"\n`{command}`")
+
+
+def random_rays(scene, count, seed=1):
+    """(count, 2, 3) float32 rays: origins uniform in the middle 90 % of the bounding box of the
+    scene's geometry along each axis, directions uniform on the sphere."""
+    import numpy as np
+
+    from clrender.arrays import build_scene_arrays
+
+    arrays = build_scene_arrays(scene)
+    root = arrays.nodes[0]   # the union of its children's boxes (empty lanes: lo +inf, hi -inf)
+    low = np.array([root[f"lo_{axis}"][np.isfinite(root[f"lo_{axis}"])].min() for axis in "xyz"])
+    high = np.array([root[f"hi_{axis}"][np.isfinite(root[f"hi_{axis}"])].max() for axis in "xyz"])
+    low, high = low / arrays.length_scale, high / arrays.length_scale
+    rng = np.random.default_rng(seed)
+    origins = rng.uniform(low + 0.05 * (high - low), high - 0.05 * (high - low), (count, 3))
+    directions = rng.normal(size=(count, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    return np.stack([origins, directions], axis=1).astype(np.float32)
+
+
+def hits_agree(t_a, t_b):
+    """Fraction of rays that both miss or both hit at the same distance (relative 1e-4)."""
+    import numpy as np
+
+    both_miss = ~np.isfinite(t_a) & ~np.isfinite(t_b)
+    with np.errstate(invalid="ignore"):
+        same = np.isfinite(t_a) & np.isfinite(t_b) & (np.abs(t_a - t_b) <= 1e-4 * np.maximum(t_a, t_b))
+    return float(np.mean(both_miss | same))
 
 
 def relative_standard_error(values):
