@@ -1,0 +1,349 @@
+// PROTOTYPE, for a measurement (docs/performance.md, "Explicit ray packets"): the megakernel's
+// path tracer with 8 camera paths per work-item, their state in float8 lanes (SIMD across rays,
+// written out by hand: PoCL does not vectorise across work-items, see that section). Scope: the
+// benchmark's surface scenes without spheres: diffuse and smooth-dielectric triangles, triangle
+// emitters, no media, environment, toon, AOVs or one-sided materials; the image width a
+// multiple of 8 and one launch for the whole frame. Traversal stays the scalar traverse_bvh,
+// one lane after another. Same random numbers (Sobol dimensions) as the megakernel, so the
+// images agree pixel for pixel up to float rounding. Appended to the megakernel's source.
+typedef struct { float8 x, y, z; } V8;
+V8 v8(float8 x, float8 y, float8 z) { V8 v = {x, y, z}; return v; }
+V8 v8s(float s) { return v8((float8)(s), (float8)(s), (float8)(s)); }
+V8 v8_add(V8 a, V8 b) { return v8(a.x + b.x, a.y + b.y, a.z + b.z); }
+V8 v8_sub(V8 a, V8 b) { return v8(a.x - b.x, a.y - b.y, a.z - b.z); }
+V8 v8_mul(V8 a, V8 b) { return v8(a.x * b.x, a.y * b.y, a.z * b.z); }
+V8 v8_scale(V8 a, float8 s) { return v8(a.x * s, a.y * s, a.z * s); }
+V8 v8_neg(V8 a) { return v8(-a.x, -a.y, -a.z); }
+float8 v8_dot(V8 a, V8 b) { return fma(a.x, b.x, fma(a.y, b.y, a.z * b.z)); }
+V8 v8_cross(V8 a, V8 b) { return v8(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
+V8 v8_abs(V8 a) { return v8(fabs(a.x), fabs(a.y), fabs(a.z)); }
+V8 v8_sel(V8 a, V8 b, int8 m) { return v8(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m)); }
+V8 v8_normalize(V8 a) { return v8_scale(a, rsqrt(v8_dot(a, a))); }
+float8 v8_maxc(V8 a) { return fmax(a.x, fmax(a.y, a.z)); }
+int8 v8_black(V8 a) { return a.x == 0.0f & a.y == 0.0f & a.z == 0.0f; }
+
+uint8 hash8(uint8 x) { x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16; return x; }
+uint8 rev8(uint8 x) {
+    x = (x << 16) | (x >> 16);
+    x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
+    x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
+    x = ((x & 0x33333333u) << 2) | ((x >> 2) & 0x33333333u);
+    x = ((x & 0x55555555u) << 1) | ((x >> 1) & 0x55555555u);
+    return x;
+}
+uint8 lk8(uint8 x, uint8 seed) {
+    x ^= x * 0x3d20adeau; x += seed; x *= (seed >> 16) | 1u; x ^= x * 0x05526c56u; x ^= x * 0x53a22864u; return x;
+}
+uint8 sobol1rev8(uint8 x) {
+    x ^= (x >> 1) & 0x55555555u; x ^= (x >> 2) & 0x33333333u; x ^= (x >> 4) & 0x0f0f0f0fu;
+    x ^= (x >> 8) & 0x00ff00ffu; x ^= (x >> 16) & 0x0000ffffu; return x;
+}
+float8 u2f8(uint8 b) { return convert_float8(b >> 8) * 0x1.0p-24f; }
+typedef struct { uint8 key; uint8 index_reversed; uint counter; } Rng8;
+void draw2(Rng8* r, float8* ux, float8* uy) {
+    uint8 h = hash8(r->key + r->counter * 0x9e3779b9u);
+    uint8 index = rev8(lk8(r->index_reversed, h));
+    r->counter += 1u;
+    *ux = u2f8(rev8(lk8(index, h * 0x2c1b3c6du)));
+    *uy = u2f8(rev8(lk8(sobol1rev8(index), h * 0x297a2d39u)));
+}
+float8 draw1(Rng8* r) {
+    uint8 h = hash8(r->key + r->counter * 0x9e3779b9u);
+    uint8 index = rev8(lk8(r->index_reversed, h));
+    r->counter += 1u;
+    return u2f8(rev8(lk8(index, h * 0x2c1b3c6du)));
+}
+
+void sincos_2pi8(float8 u, float8* s, float8* c) {
+    float8 x = u * 4.0f;
+    float8 q = floor(x + 0.5f);
+    float8 r = (x - q) * (0.5f * PI_F);
+    float8 r2 = r * r;
+    float8 sr = r * (1.0f + r2 * (-1.6666667e-1f + r2 * (8.3333310e-3f + r2 * -1.9840874e-4f)));
+    float8 cr = 1.0f + r2 * (-0.5f + r2 * (4.1666638e-2f + r2 * (-1.3888378e-3f + r2 * 2.4760495e-5f)));
+    int8 quadrant = convert_int8(q) & 3;
+    float8 sv = select(sr, cr, (quadrant & 1) != 0);
+    float8 cv = select(cr, sr, (quadrant & 1) != 0);
+    *s = select(sv, -sv, (quadrant & 2) != 0);
+    *c = select(cv, -cv, ((quadrant + 1) & 2) != 0);
+}
+
+V8 to_world8(V8 v, V8 n) {
+    float8 s = select((float8)(-1.0f), (float8)(1.0f), n.z >= 0.0f);
+    float8 a = -1.0f / (s + n.z);
+    float8 c = n.x * n.y * a;
+    V8 t = v8(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
+    V8 b = v8(c, s + n.y * n.y * a, -n.y);
+    return v8_add(v8_add(v8_scale(t, v.x), v8_scale(b, v.y)), v8_scale(n, v.z));
+}
+
+float8 offset_comp8(float8 p, float8 off) {
+    int8 away = (p > 0.0f) == (off > 0.0f);
+    float8 stepped = as_float8(as_int8(p) + select((int8)(-1), (int8)(1), away));
+    float8 from_zero = select((float8)(-FLT_MIN), (float8)(FLT_MIN), off > 0.0f);
+    float8 r = select(stepped, from_zero, p == 0.0f);
+    return select(r, p, off == 0.0f);
+}
+V8 offset_origin8(V8 p, V8 n, float8 err) {
+    V8 off = v8_scale(n, err);
+    V8 q = v8_add(p, off);
+    return v8(offset_comp8(q.x, off.x), offset_comp8(q.y, off.y), offset_comp8(q.z, off.z));
+}
+
+float8 power_heuristic8(float8 a, float8 b) {
+    a *= a; b *= b;
+    return select((float8)(0.0f), a / (a + b), a + b > 0.0f);
+}
+
+
+float8 fresnel8(float8 cos_i, float8 eta) {
+    cos_i = clamp(cos_i, 0.0f, 1.0f);
+    float8 g2 = eta * eta - 1.0f + cos_i * cos_i;
+    float8 cos_t = select((float8)(-1.0f), sqrt(g2) / eta, g2 > 0.0f);
+    float8 rpa = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    float8 rpe = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    float8 f = 0.5f * (rpa * rpa + rpe * rpe);
+    f = select(f, (float8)(1.0f), (cos_t <= 0.0f) | (cos_i == 0.0f));
+    return select(f, (float8)(0.0f), eta == 1.0f);
+}
+V8 reflect8(V8 wo, V8 n) { return v8_normalize(v8_sub(v8_scale(n, 2.0f * v8_dot(wo, n)), wo)); }
+int8 refract8(V8 wo, V8 n, float8 eta, V8* wt) {
+    float8 cos_i = clamp(v8_dot(n, wo), 0.0f, 1.0f);
+    float8 g2 = eta * eta - 1.0f + cos_i * cos_i;
+    float8 cos_t = select((float8)(-1.0f), sqrt(g2) / eta, g2 > 0.0f);
+    *wt = v8_normalize(v8_add(v8_scale(wo, -1.0f / eta), v8_scale(n, cos_i / eta - cos_t)));
+    return cos_t > 0.0f;
+}
+
+#define LOADV(name, arr) V8 name = v8(vload8(0, arr[0]), vload8(0, arr[1]), vload8(0, arr[2]))
+
+V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng8* rng) {
+    int max_depth = scene->params->config.x, rr_depth = scene->params->config.y;
+    int count = scene->params->config.w;
+    V8 radiance = v8s(0.0f), thr = v8s(1.0f), prev_p = org;
+    float8 prev_pdf = 0.0f, eta_scale = 1.0f;
+    int8 prev_delta = (int8)(-1), alive = (int8)(-1);
+    for (int depth = 1; depth <= max_depth; ++depth) {
+        float o[3][8], d[3][8];
+        vstore8(org.x, 0, o[0]); vstore8(org.y, 0, o[1]); vstore8(org.z, 0, o[2]);
+        vstore8(dir.x, 0, d[0]); vstore8(dir.y, 0, d[1]); vstore8(dir.z, 0, d[2]);
+        int live[8]; vstore8(alive, 0, live);
+        float b1a[8], b2a[8]; int prima[8];
+        for (int i = 0; i < 8; ++i) {
+            Hit h; h.t = INFINITY; h.prim = -1; h.b1 = h.b2 = 0.0f;
+            if (live[i]) traverse_bvh(scene->nodes, scene->triangles, (float3)(o[0][i], o[1][i], o[2][i]),
+                                      (float3)(d[0][i], d[1][i], d[2][i]), false, &h);
+            b1a[i] = h.b1; b2a[i] = h.b2; prima[i] = h.prim;
+        }
+        int8 prim = vload8(0, prima);
+        alive &= prim >= 0;
+        if (!any(alive)) break;
+        int8 pi = max(prim, 0);
+        __global const Triangle* T = scene->triangles;
+        __global const TriangleShading* S = scene->shading;
+        __global const TriangleInfo* I = scene->info;
+        __global const Material* M = scene->materials;
+#define G8(IDX, E) (float8)(E(IDX.s0), E(IDX.s1), E(IDX.s2), E(IDX.s3), E(IDX.s4), E(IDX.s5), E(IDX.s6), E(IDX.s7))
+#define GI8(IDX, E) (int8)(E(IDX.s0), E(IDX.s1), E(IDX.s2), E(IDX.s3), E(IDX.s4), E(IDX.s5), E(IDX.s6), E(IDX.s7))
+#define GV(IDX, ARR, F) v8(G8(IDX, ARR##_##F##x), G8(IDX, ARR##_##F##y), G8(IDX, ARR##_##F##z))
+#define T_v0x(i) T[i].v0.x
+#define T_v0y(i) T[i].v0.y
+#define T_v0z(i) T[i].v0.z
+#define T_e1x(i) T[i].e1.x
+#define T_e1y(i) T[i].e1.y
+#define T_e1z(i) T[i].e1.z
+#define T_e2x(i) T[i].e2.x
+#define T_e2y(i) T[i].e2.y
+#define T_e2z(i) T[i].e2.z
+#define S_n0x(i) S[i].n0.x
+#define S_n0y(i) S[i].n0.y
+#define S_n0z(i) S[i].n0.z
+#define S_n1x(i) S[i].n1.x
+#define S_n1y(i) S[i].n1.y
+#define S_n1z(i) S[i].n1.z
+#define S_n2x(i) S[i].n2.x
+#define S_n2y(i) S[i].n2.y
+#define S_n2z(i) S[i].n2.z
+#define I_mat(i) I[i].info.x
+#define I_emi(i) I[i].info.z
+        V8 v0 = GV(pi, T, v0), e1 = GV(pi, T, e1), e2 = GV(pi, T, e2);
+        V8 n0 = GV(pi, S, n0), n1 = GV(pi, S, n1), n2 = GV(pi, S, n2);
+        int8 mat = GI8(pi, I_mat), emitter = GI8(pi, I_emi);
+#define M_cx(i) M[i].color.x
+#define M_cy(i) M[i].color.y
+#define M_cz(i) M[i].color.z
+#define M_ex(i) M[i].emission.x
+#define M_ey(i) M[i].emission.y
+#define M_ez(i) M[i].emission.z
+        V8 albedo = GV(mat, M, c), emission = GV(mat, M, e);
+#define M_kind(i) M[i].kind.x
+#define M_ior(i) M[i].params.x
+#define M_ext(i) M[i].params.y
+        int8 glass = GI8(mat, M_kind) == MATERIAL_DIELECTRIC;
+        float8 ior = G8(mat, M_ior), ext = G8(mat, M_ext);
+        int8 ei = max(emitter, 0);
+#define E_area(i) scene->emitters[i].p0.w
+#define E_pmf(i) emitter_selection_pmf(scene, i)
+        float8 area = G8(ei, E_area), pmf_hit = select((float8)(0.0f), G8(ei, E_pmf), emitter >= 0);
+        float8 b1 = vload8(0, b1a), b2 = vload8(0, b2a), b0 = 1.0f - b1 - b2;
+        V8 p = v8_add(v0, v8_add(v8_scale(e1, b1), v8_scale(e2, b2)));
+        V8 ng = v8_normalize(v8_cross(e1, e2));
+        V8 mag = v8_add(v8_abs(v0), v8_add(v8_abs(e1), v8_abs(e2)));
+        float8 p_error = SURFACE_ERROR_EPS * v8_dot(v8_abs(ng), mag);
+        V8 ns = v8_add(v8_scale(n0, b0), v8_add(v8_scale(n1, b1), v8_scale(n2, b2)));
+        float8 ns_len = sqrt(v8_dot(ns, ns));
+        ns = v8_sel(ng, v8_scale(ns, 1.0f / ns_len), ns_len > 0.0f);
+        int8 front = v8_dot(ng, dir) < 0.0f;
+        ng = v8_sel(v8_neg(ng), ng, front);
+        ns = v8_sel(ns, v8_neg(ns), v8_dot(ns, ng) < 0.0f);
+        // emission
+        int8 emits = alive & front & (emitter >= 0);
+        if (any(emits)) {
+            V8 dp = v8_sub(p, prev_p);
+            float8 dist = sqrt(v8_dot(dp, dp));
+            float8 cos_light = -v8_dot(dir, ng);
+            float8 light_pdf = pmf_hit * select((float8)(0.0f), dist * dist / (cos_light * area), cos_light > 0.0f);
+            float8 w = select(power_heuristic8(prev_pdf, light_pdf), (float8)(1.0f), prev_delta);
+            radiance = v8_sel(radiance, v8_add(radiance, v8_scale(v8_mul(thr, emission), w)), emits);
+        }
+        if (depth == max_depth) break;
+        // next-event estimation
+        float8 ux, uy;
+        draw2(rng, &ux, &uy);
+        float8 rnl = ux;
+        float ua[8]; vstore8(ux, 0, ua);
+        int li[8]; float lr[8];
+        for (int i = 0; i < 8; ++i) li[i] = sample_discrete_cdf_reuse(scene->emitter_cdf, count, ua[i], &lr[i]);
+        int8 lidx = vload8(0, li);
+        float8 lux = vload8(0, lr);
+        __global const Emitter* EM = scene->emitters;
+#define EM_px(i) EM[i].p0.x
+#define EM_py(i) EM[i].p0.y
+#define EM_pz(i) EM[i].p0.z
+#define EM_1x(i) EM[i].e1.x
+#define EM_1y(i) EM[i].e1.y
+#define EM_1z(i) EM[i].e1.z
+#define EM_2x(i) EM[i].e2.x
+#define EM_2y(i) EM[i].e2.y
+#define EM_2z(i) EM[i].e2.z
+#define EM_rx(i) EM[i].radiance.x
+#define EM_ry(i) EM[i].radiance.y
+#define EM_rz(i) EM[i].radiance.z
+#define EM_area(i) EM[i].p0.w
+        float8 pmf = G8(lidx, E_pmf), larea = G8(lidx, EM_area);
+        V8 lp0 = GV(lidx, EM, p), le1 = GV(lidx, EM, 1), le2 = GV(lidx, EM, 2), lrad = GV(lidx, EM, r);
+        float8 su = sqrt(lux);
+        float8 bx = 1.0f - su, by = uy * su;
+        V8 n_light = v8_normalize(v8_cross(le1, le2));
+        V8 q = v8_add(lp0, v8_add(v8_scale(le1, bx), v8_scale(le2, by)));
+        V8 lmag = v8_add(v8_abs(lp0), v8_add(v8_abs(le1), v8_abs(le2)));
+        q = offset_origin8(q, v8_sel(v8_neg(n_light), n_light, v8_dot(v8_sub(p, q), n_light) > 0.0f),
+                           SURFACE_ERROR_EPS * v8_dot(v8_abs(n_light), lmag));
+        V8 dq = v8_sub(q, p);
+        float8 dist = sqrt(v8_dot(dq, dq));
+        V8 wi = v8_scale(dq, 1.0f / dist);
+        float8 cos_light = -v8_dot(wi, n_light);
+        float8 lpdf = pmf * select((float8)(0.0f), dist * dist / (cos_light * larea), cos_light > 0.0f);
+        float8 cos_ng = v8_dot(ng, wi), cos_ns = fmax(v8_dot(ns, wi), 0.0f);
+        V8 f = v8_scale(albedo, select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f));
+        int8 ok = alive & ~glass & (dist > 0.0f) & (lpdf > 0.0f) & ~v8_black(lrad) & ~v8_black(f);
+        if (any(ok)) {
+            V8 so = offset_origin8(p, v8_sel(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
+            float s[3][8], w3[3][8], dd[8]; int oka[8], vis[8];
+            vstore8(so.x, 0, s[0]); vstore8(so.y, 0, s[1]); vstore8(so.z, 0, s[2]);
+            vstore8(wi.x, 0, w3[0]); vstore8(wi.y, 0, w3[1]); vstore8(wi.z, 0, w3[2]);
+            vstore8(dist, 0, dd); vstore8(ok, 0, oka);
+            for (int i = 0; i < 8; ++i)
+                vis[i] = oka[i] && !occluded(scene, (float3)(s[0][i], s[1][i], s[2][i]),
+                                             (float3)(w3[0][i], w3[1][i], w3[2][i]), dd[i]) ? -1 : 0;
+            int8 visible = vload8(0, vis);
+            float8 bpdf = select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
+            float8 w = power_heuristic8(lpdf, bpdf) / lpdf;
+            radiance = v8_sel(radiance, v8_add(radiance, v8_scale(v8_mul(v8_mul(thr, f), lrad), w)), visible);
+        }
+        // BSDF sample
+        draw2(rng, &ux, &uy);
+        float8 r = sqrt(ux), sn, cs;
+        sincos_2pi8(uy, &sn, &cs);
+        V8 lw = v8(r * cs, r * sn, sqrt(fmax(0.0f, 1.0f - ux)));
+        wi = to_world8(lw, ns);
+        cos_ng = v8_dot(ng, wi);
+        float8 bpdf = select(fmax(v8_dot(ns, wi), 0.0f) * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
+        V8 weight = albedo;
+        if (any(glass & alive)) {
+            V8 wo = v8_neg(dir);
+            V8 n = v8_sel(ng, ns, v8_dot(wo, ns) > 0.0f);
+            float8 eta = select(ext / ior, ior / ext, front);
+            float8 fr = fresnel8(v8_dot(n, wo), eta);
+            int8 reflected = rnl < fr;
+            V8 wt, wt2;
+            int8 ok1 = refract8(wo, n, eta, &wt);
+            int8 ok2 = refract8(wo, ng, eta, &wt2);
+            int8 use2 = ok1 & (v8_dot(wt, ng) >= 0.0f);
+            reflected |= ~ok1 | (use2 & ~ok2);
+            wt = v8_sel(wt, wt2, use2);
+            V8 wr = reflect8(wo, n);
+            wr = v8_sel(wr, reflect8(wo, ng), v8_dot(wr, ng) <= 0.0f);
+            V8 gwi = v8_sel(wt, wr, reflected);
+            V8 gweight = v8_sel(v8_scale(albedo, 1.0f / (eta * eta)), v8s(1.0f), reflected);
+            int8 straight = eta == 1.0f;
+            gwi = v8_sel(gwi, dir, straight);
+            gweight = v8_sel(gweight, albedo, straight);
+            eta_scale = select(eta_scale, eta_scale * eta * eta, glass & ~reflected & ~straight);
+            wi = v8_sel(wi, gwi, glass);
+            weight = v8_sel(weight, gweight, glass);
+            bpdf = select(bpdf, (float8)(1.0f), glass);
+            cos_ng = v8_dot(ng, wi);
+        }
+        alive &= (bpdf > 0.0f) & ~v8_black(weight);
+        thr = v8_mul(thr, weight);
+        prev_pdf = bpdf; prev_delta = glass; prev_p = p;
+        org = offset_origin8(p, v8_sel(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
+        dir = wi;
+        if (depth >= rr_depth) {
+            float8 u = draw1(rng);
+            float8 survive = fmin(v8_maxc(thr) * eta_scale, 0.95f);
+            alive &= u < survive;
+            thr = v8_scale(thr, 1.0f / survive);
+        }
+        if (!any(alive)) break;
+    }
+    return radiance;
+}
+
+__kernel void render_packet8(__constant RenderParams* params, __global const WideBvhNode* nodes,
+                             __global const Triangle* triangles, __global const TriangleShading* shading,
+                             __global const TriangleInfo* info, __global const Material* materials,
+                             __global const Emitter* emitters, __global const float* emitter_cdf,
+                             __global float4* accumulator) {
+    int gx = get_global_id(0), y = get_global_id(1);
+    int width = params->frame.x, height = params->frame.y;
+    int x0 = gx * 8;
+    if (x0 >= width || y >= height) return;
+    Scene scene = {params, nodes, triangles, shading, info, materials, 0, emitters, emitter_cdf, 0, 0, 0, 0, 0};
+    int8 xs = x0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+    uint8 pixel = convert_uint8(y * width + xs);
+    uint8 key = hash8(pixel ^ hash_u32((uint)params->config.z ^ 0x2c1b3c6du));
+    __constant Camera* cam = &params->camera;
+    V8 sum = v8s(0.0f);
+    int first = params->frame.z;
+    for (int s = first; s < first + params->frame.w; ++s) {
+        Rng8 rng = {key, (uint8)(reverse_bits((uint)s)), 0u};
+        float8 jx, jy;
+        draw2(&rng, &jx, &jy);
+        float8 sx = 2.0f * (convert_float8(xs) + jx) / (float)width - 1.0f;
+        float8 sy = 1.0f - 2.0f * ((float)y + jy) / (float)height;
+        V8 d = v8(cam->forward.x + sx * cam->right.x + sy * cam->up.x,
+                  cam->forward.y + sx * cam->right.y + sy * cam->up.y,
+                  cam->forward.z + sx * cam->right.z + sy * cam->up.z);
+        d = v8_normalize(d);
+        V8 o = v8((float8)(cam->origin.x), (float8)(cam->origin.y), (float8)(cam->origin.z));
+        V8 rad = trace_path8(&scene, o, d, &rng);
+        int8 finite = isfinite(rad.x) & isfinite(rad.y) & isfinite(rad.z);
+        sum = v8_add(sum, v8_sel(v8s(0.0f), rad, finite));
+    }
+    float a[3][8];
+    vstore8(sum.x, 0, a[0]); vstore8(sum.y, 0, a[1]); vstore8(sum.z, 0, a[2]);
+    for (int i = 0; i < 8; ++i)
+        accumulator[y * width + x0 + i] += (float4)(a[0][i], a[1][i], a[2][i], (float)params->frame.w);
+}
