@@ -211,11 +211,18 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng8* rng) {
         float8 ux, uy;
         draw2(rng, &ux, &uy);
         float8 rnl = ux;
-        float ua[8]; vstore8(ux, 0, ua);
-        int li[8]; float lr[8];
-        for (int i = 0; i < 8; ++i) li[i] = sample_discrete_cdf_reuse(scene->emitter_cdf, count, ua[i], &lr[i]);
-        int8 lidx = vload8(0, li);
-        float8 lux = vload8(0, lr);
+        // Branchless binary search: every lane halves the same length, so the trip count is uniform.
+        __global const float* CDF = scene->emitter_cdf;
+#define CDF_at(i) CDF[i]
+        int8 lidx = (int8)(0);
+        for (int len = count; len > 1; ) {
+            int step = len >> 1;
+            int8 mid = lidx + step;
+            lidx = select(lidx, mid, G8(mid, CDF_at) <= ux);
+            len -= step;
+        }
+        float8 c0 = G8(lidx, CDF_at), c1 = G8((lidx + 1), CDF_at);
+        float8 lux = clamp((ux - c0) / fmax(c1 - c0, 1e-30f), 0.0f, 0x1.fffffep-1f);
         __global const Emitter* EM = scene->emitters;
 #define EM_px(i) EM[i].p0.x
 #define EM_py(i) EM[i].p0.y
