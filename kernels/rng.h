@@ -12,14 +12,16 @@
 //   with hashing while the samples of one pixel stratify every 2D draw.
 #ifndef CLRENDER_RNG_H
 #define CLRENDER_RNG_H
+#include "lanes.h"
 
 // SAMPLER_INDEPENDENT, SAMPLER_SOBOL: clrender/layout.py SAMPLERS.
 // index_reversed: the sample index with its bits reversed, the form the index scramble needs
-// (reversed once per path, not once per draw).
-typedef struct { uint key; uint counter; uint index_reversed; int sampler; } Rng;
+// (reversed once per path, not once per draw). The key and index are per lane (lanes.h); all
+// lanes draw the same dimension (counter) at each step.
+typedef struct { lane_uint key; uint counter; lane_uint index_reversed; int sampler; } Rng;
 
 // "lowbias32" integer hash (C. Wellons, 2018): full avalanche with two multiplies.
-uint hash_u32(uint x) {
+lane_uint hash_u32(lane_uint x) {
     x ^= x >> 16;
     x *= 0x7feb352du;
     x ^= x >> 15;
@@ -29,7 +31,7 @@ uint hash_u32(uint x) {
 }
 
 // OpenCL C 1.2 has no bit-reversal builtin: swap halves, then quarters, ... (5 steps).
-uint reverse_bits(uint x) {
+lane_uint reverse_bits(lane_uint x) {
     x = (x << 16) | (x >> 16);
     x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
     x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
@@ -39,7 +41,7 @@ uint reverse_bits(uint x) {
 }
 
 // The independent generator's stream of one sample.
-Rng rng_for_sample(uint pixel, uint sample, uint seed) {
+Rng rng_for_sample(lane_uint pixel, uint sample, uint seed) {
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(sample ^ hash_u32(seed ^ 0x5bd1e995u)));
     rng.counter = 0u;
@@ -49,7 +51,7 @@ Rng rng_for_sample(uint pixel, uint sample, uint seed) {
 }
 
 // The numbers of camera path `sample` of `pixel` from `sampler` (RenderParams.sampling.x, SAMPLER_*).
-Rng rng_for_path(uint pixel, uint sample, uint seed, int sampler) {
+Rng rng_for_path(lane_uint pixel, uint sample, uint seed, int sampler) {
     if (sampler != SAMPLER_SOBOL) return rng_for_sample(pixel, sample, seed);
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(seed ^ 0x2c1b3c6du));   // not the sample: scrambles are per pixel
@@ -62,7 +64,7 @@ Rng rng_for_path(uint pixel, uint sample, uint seed, int sampler) {
 // A random permutation of the bits of x where bit j depends on bits 0..j only, i.e. an Owen
 // scramble of the reversed number: the Laine-Karras hash with N. Vegdahl's constants, as
 // pbrt-v4's FastOwenScrambler uses.
-uint laine_karras_permutation(uint x, uint seed) {
+lane_uint laine_karras_permutation(lane_uint x, lane_uint seed) {
     x ^= x * 0x3d20adeau;
     x += seed;
     x *= (seed >> 16) | 1u;
@@ -72,15 +74,15 @@ uint laine_karras_permutation(uint x, uint seed) {
 }
 
 // Nested uniform (Owen) scramble of x read as the binary fraction 0.b31 b30 ... b0.
-uint nested_uniform_scramble(uint x, uint seed) {
+lane_uint nested_uniform_scramble(lane_uint x, lane_uint seed) {
     return reverse_bits(laine_karras_permutation(reverse_bits(x), seed));
 }
 
 // Sobol dimension 1 with its bits reversed (bit r = fraction digit r + 1): the generator matrix
 // is Pascal's triangle mod 2, so digit r is the XOR of the index bits k with r a bit-subset of k
 // (Lucas), a superset-sum over the five bits of r in five steps instead of a 32-step loop.
-uint sobol_dimension1_reversed(uint index) {
-    uint x = index;
+lane_uint sobol_dimension1_reversed(lane_uint index) {
+    lane_uint x = index;
     x ^= (x >> 1) & 0x55555555u;
     x ^= (x >> 2) & 0x33333333u;
     x ^= (x >> 4) & 0x0f0f0f0fu;
@@ -89,39 +91,39 @@ uint sobol_dimension1_reversed(uint index) {
     return x;
 }
 
-float uint_to_unit_float(uint bits) { return (float)(bits >> 8) * 0x1.0p-24f; }
+lane_float uint_to_unit_float(lane_uint bits) { return lane_uint_to_float(bits >> 8) * 0x1.0p-24f; }
 
 // Sobol dimension 0 is reverse_bits(index), so its Owen scramble is one reversal; likewise
 // dimension 1 from its reversed form.
-uint owen_sobol0(uint index, uint seed) { return reverse_bits(laine_karras_permutation(index, seed)); }
-uint owen_sobol1(uint index, uint seed) {
+lane_uint owen_sobol0(lane_uint index, lane_uint seed) { return reverse_bits(laine_karras_permutation(index, seed)); }
+lane_uint owen_sobol1(lane_uint index, lane_uint seed) {
     return reverse_bits(laine_karras_permutation(sobol_dimension1_reversed(index), seed));
 }
 
 // A hash of the stream's key and its counter: the independent generator's number, the Sobol
 // generator's seed of the current dimension.
-uint hash_of_counter(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
+lane_uint hash_of_counter(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
 
 // The current dimension's seeds: one hash of (pixel, seed, dimension), then the index shuffle's
 // seed and the two coordinates' scramble seeds as its products with distinct odd constants
 // (bijections of the hash, so each is as uniform as the hash; a hash apiece would sit on the
 // path's dependency chain).
-typedef struct { uint index; uint x; uint y; } SobolSeeds;
+typedef struct { lane_uint index; lane_uint x; lane_uint y; } SobolSeeds;
 SobolSeeds sobol_dimension_seeds(const Rng* rng) {
-    uint h = hash_of_counter(rng);
+    lane_uint h = hash_of_counter(rng);
     SobolSeeds seeds = {h, h * 0x2c1b3c6du, h * 0x297a2d39u};
     return seeds;
 }
 
 // The sample index of the current dimension, shuffled by a nested uniform scramble (its first
 // reversal done once in rng_for_path).
-uint sobol_shuffled_index(const Rng* rng, uint seed) {
+lane_uint sobol_shuffled_index(const Rng* rng, lane_uint seed) {
     return reverse_bits(laine_karras_permutation(rng->index_reversed, seed));
 }
 
 // Uniform in [0, 1): 24 random mantissa bits, so 1.0f is never returned.
-float rng_float(Rng* rng) {
-    uint bits;
+lane_float rng_float(Rng* rng) {
+    lane_uint bits;
     if (rng->sampler == SAMPLER_SOBOL) {
         SobolSeeds seeds = sobol_dimension_seeds(rng);
         bits = owen_sobol0(sobol_shuffled_index(rng, seeds.index), seeds.x);
@@ -133,16 +135,16 @@ float rng_float(Rng* rng) {
 }
 
 // Sobol: one dimension, both coordinates of its (0,2)-sequence. Independent: two draws.
-float2 rng_float2(Rng* rng) {
+lane_float2 rng_float2(Rng* rng) {
     if (rng->sampler == SAMPLER_SOBOL) {
         SobolSeeds seeds = sobol_dimension_seeds(rng);
-        uint index = sobol_shuffled_index(rng, seeds.index);
+        lane_uint index = sobol_shuffled_index(rng, seeds.index);
         rng->counter += 1u;
-        return (float2)(uint_to_unit_float(owen_sobol0(index, seeds.x)),
-                        uint_to_unit_float(owen_sobol1(index, seeds.y)));
+        return make_lane_float2(uint_to_unit_float(owen_sobol0(index, seeds.x)),
+                                uint_to_unit_float(owen_sobol1(index, seeds.y)));
     }
-    float a = rng_float(rng);
-    return (float2)(a, rng_float(rng));
+    lane_float a = rng_float(rng);
+    return make_lane_float2(a, rng_float(rng));
 }
 
 #endif

@@ -49,8 +49,10 @@ def main():
     arrays = build_scene_arrays(scene)
     if arrays.spheres:
         raise SystemExit("the prototype has no analytic spheres")
-    source = device.kernel_source("integrator.cl") + '\n#line 1 "packet8.cl"\n' + (HERE / "packet8.cl").read_text()
-    program = cl.Program(context, source).build(options=f"{device.BUILD_OPTIONS} {device.define_options(needed)}")
+    entry = os.path.relpath(HERE / "packet8.cl", device.kernel_dir())
+    source = device.kernel_source(entry)
+    options = f"{device.BUILD_OPTIONS} {device.define_options(needed)} -DLANES=8"
+    program = cl.Program(context, source).build(options=options)
     kernel = cl.Kernel(program, "render_packet8")
     flags = cl.mem_flags
     buffers = [cl.Buffer(context, flags.READ_ONLY | flags.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(x))

@@ -5,7 +5,13 @@
 // emitters, no media, environment, toon, AOVs or one-sided materials; the image width a
 // multiple of 8 and one launch for the whole frame. Traversal stays the scalar traverse_bvh,
 // one lane after another. Same random numbers (Sobol dimensions) as the megakernel, so the
-// images agree pixel for pixel up to float rounding. Appended to the megakernel's source.
+// images agree pixel for pixel up to float rounding. Built on its own, with LANES 8 (lanes.h):
+// the random numbers are kernels/rng.h itself, over 8 lanes.
+#include "types.h"
+#include "math.h"
+#include "scene.h"
+#include "rng.h"
+
 typedef struct { float8 x, y, z; } V8;
 V8 v8(float8 x, float8 y, float8 z) { V8 v = {x, y, z}; return v; }
 V8 v8s(float s) { return v8((float8)(s), (float8)(s), (float8)(s)); }
@@ -21,38 +27,6 @@ V8 v8_sel(V8 a, V8 b, int8 m) { return v8(select(a.x, b.x, m), select(a.y, b.y, 
 V8 v8_normalize(V8 a) { return v8_scale(a, rsqrt(v8_dot(a, a))); }
 float8 v8_maxc(V8 a) { return fmax(a.x, fmax(a.y, a.z)); }
 int8 v8_black(V8 a) { return a.x == 0.0f & a.y == 0.0f & a.z == 0.0f; }
-
-uint8 hash8(uint8 x) { x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16; return x; }
-uint8 rev8(uint8 x) {
-    x = (x << 16) | (x >> 16);
-    x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
-    x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
-    x = ((x & 0x33333333u) << 2) | ((x >> 2) & 0x33333333u);
-    x = ((x & 0x55555555u) << 1) | ((x >> 1) & 0x55555555u);
-    return x;
-}
-uint8 lk8(uint8 x, uint8 seed) {
-    x ^= x * 0x3d20adeau; x += seed; x *= (seed >> 16) | 1u; x ^= x * 0x05526c56u; x ^= x * 0x53a22864u; return x;
-}
-uint8 sobol1rev8(uint8 x) {
-    x ^= (x >> 1) & 0x55555555u; x ^= (x >> 2) & 0x33333333u; x ^= (x >> 4) & 0x0f0f0f0fu;
-    x ^= (x >> 8) & 0x00ff00ffu; x ^= (x >> 16) & 0x0000ffffu; return x;
-}
-float8 u2f8(uint8 b) { return convert_float8(b >> 8) * 0x1.0p-24f; }
-typedef struct { uint8 key; uint8 index_reversed; uint counter; } Rng8;
-void draw2(Rng8* r, float8* ux, float8* uy) {
-    uint8 h = hash8(r->key + r->counter * 0x9e3779b9u);
-    uint8 index = rev8(lk8(r->index_reversed, h));
-    r->counter += 1u;
-    *ux = u2f8(rev8(lk8(index, h * 0x2c1b3c6du)));
-    *uy = u2f8(rev8(lk8(sobol1rev8(index), h * 0x297a2d39u)));
-}
-float8 draw1(Rng8* r) {
-    uint8 h = hash8(r->key + r->counter * 0x9e3779b9u);
-    uint8 index = rev8(lk8(r->index_reversed, h));
-    r->counter += 1u;
-    return u2f8(rev8(lk8(index, h * 0x2c1b3c6du)));
-}
 
 void sincos_2pi8(float8 u, float8* s, float8* c) {
     float8 x = u * 4.0f;
@@ -117,7 +91,7 @@ int8 refract8(V8 wo, V8 n, float8 eta, V8* wt) {
 
 #define LOADV(name, arr) V8 name = v8(vload8(0, arr[0]), vload8(0, arr[1]), vload8(0, arr[2]))
 
-V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng8* rng) {
+V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
     int max_depth = scene->params->config.x, rr_depth = scene->params->config.y;
     int count = scene->params->config.w;
     V8 radiance = v8s(0.0f), thr = v8s(1.0f), prev_p = org;
@@ -209,7 +183,7 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng8* rng) {
         if (depth == max_depth) break;
         // next-event estimation
         float8 ux, uy;
-        draw2(rng, &ux, &uy);
+        { lane_float2 u2 = rng_float2(rng); ux = u2.x; uy = u2.y; }
         float8 rnl = ux;
         // Branchless binary search: every lane halves the same length, so the trip count is uniform.
         __global const float* CDF = scene->emitter_cdf;
@@ -269,7 +243,7 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng8* rng) {
             radiance = v8_sel(radiance, v8_add(radiance, v8_scale(v8_mul(v8_mul(thr, f), lrad), w)), visible);
         }
         // BSDF sample
-        draw2(rng, &ux, &uy);
+        { lane_float2 u2 = rng_float2(rng); ux = u2.x; uy = u2.y; }
         float8 r = sqrt(ux), sn, cs;
         sincos_2pi8(uy, &sn, &cs);
         V8 lw = v8(r * cs, r * sn, sqrt(fmax(0.0f, 1.0f - ux)));
@@ -308,7 +282,7 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng8* rng) {
         org = offset_origin8(p, v8_sel(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
         dir = wi;
         if (depth >= rr_depth) {
-            float8 u = draw1(rng);
+            float8 u = rng_float(rng);
             float8 survive = fmin(v8_maxc(thr) * eta_scale, 0.95f);
             alive &= u < survive;
             thr = v8_scale(thr, 1.0f / survive);
@@ -330,14 +304,13 @@ __kernel void render_packet8(__constant RenderParams* params, __global const Wid
     Scene scene = {params, nodes, triangles, shading, info, materials, 0, emitters, emitter_cdf, 0, 0, 0, 0, 0};
     int8 xs = x0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
     uint8 pixel = convert_uint8(y * width + xs);
-    uint8 key = hash8(pixel ^ hash_u32((uint)params->config.z ^ 0x2c1b3c6du));
     __constant Camera* cam = &params->camera;
     V8 sum = v8s(0.0f);
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
-        Rng8 rng = {key, (uint8)(reverse_bits((uint)s)), 0u};
-        float8 jx, jy;
-        draw2(&rng, &jx, &jy);
+        Rng rng = rng_for_path(pixel, (uint)s, (uint)params->config.z, params->sampling.x);
+        lane_float2 jitter = rng_float2(&rng);
+        float8 jx = jitter.x, jy = jitter.y;
         float8 sx = 2.0f * (convert_float8(xs) + jx) / (float)width - 1.0f;
         float8 sy = 1.0f - 2.0f * ((float)y + jy) / (float)height;
         V8 d = v8(cam->forward.x + sx * cam->right.x + sy * cam->up.x,
