@@ -1,6 +1,7 @@
 // Small vector helpers and the numeric traps of spawning rays.
 #ifndef CLRENDER_MATH_H
 #define CLRENDER_MATH_H
+#include "lanes.h"
 
 #define PI_F 3.14159265358979323846f
 #define INV_PI_F 0.31830988618379067154f
@@ -32,34 +33,34 @@ bool is_black(float3 c) { return c.x == 0.0f && c.y == 0.0f && c.z == 0.0f; }
 
 // Branchless orthonormal basis around a unit vector (Duff et al. 2017, "Building an Orthonormal
 // Basis, Revisited"): no normalisation, no special case except the sign.
-void make_basis(float3 n, float3* t, float3* b) {
-    float s = n.z >= 0.0f ? 1.0f : -1.0f;
-    float a = -1.0f / (s + n.z);
-    float c = n.x * n.y * a;
-    *t = (float3)(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
-    *b = (float3)(c, s + n.y * n.y * a, -n.y);
+void make_basis(lane_float3 n, lane_float3* t, lane_float3* b) {
+    lane_float s = select((lane_float)(-1.0f), (lane_float)(1.0f), n.z >= 0.0f);
+    lane_float a = -1.0f / (s + n.z);
+    lane_float c = n.x * n.y * a;
+    *t = make_lane_float3(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
+    *b = make_lane_float3(c, s + n.y * n.y * a, -n.y);
 }
 
-float3 to_world(float3 v, float3 n) {
-    float3 t, b;
+lane_float3 to_world(lane_float3 v, lane_float3 n) {
+    lane_float3 t, b;
     make_basis(n, &t, &b);
-    return v.x * t + v.y * b + v.z * n;
+    return l3_madd(n, v.z, l3_madd(t, v.x, l3_scale(b, v.y)));
 }
 
 // sin and cos of 2*pi*u for u in [0, 1). PoCL's sin/cos are slow (tens of M/s); a minimax
 // polynomial on [-pi/4, pi/4] after octant reduction is exact to ~1 ulp for sampling purposes.
-void sincos_2pi(float u, float* s, float* c) {
-    float x = u * 4.0f;                      // quarter turns
-    float q = floor(x + 0.5f);
-    float r = (x - q) * (0.5f * PI_F);       // in [-pi/4, pi/4]
-    float r2 = r * r;
-    float sr = r * (1.0f + r2 * (-1.6666667e-1f + r2 * (8.3333310e-3f + r2 * -1.9840874e-4f)));
-    float cr = 1.0f + r2 * (-0.5f + r2 * (4.1666638e-2f + r2 * (-1.3888378e-3f + r2 * 2.4760495e-5f)));
-    int quadrant = ((int)q) & 3;
-    float sv = (quadrant & 1) ? cr : sr;
-    float cv = (quadrant & 1) ? sr : cr;
-    *s = (quadrant & 2) ? -sv : sv;
-    *c = ((quadrant + 1) & 2) ? -cv : cv;
+void sincos_2pi(lane_float u, lane_float* s, lane_float* c) {
+    lane_float x = u * 4.0f;                      // quarter turns
+    lane_float q = floor(x + 0.5f);
+    lane_float r = (x - q) * (0.5f * PI_F);       // in [-pi/4, pi/4]
+    lane_float r2 = r * r;
+    lane_float sr = r * (1.0f + r2 * (-1.6666667e-1f + r2 * (8.3333310e-3f + r2 * -1.9840874e-4f)));
+    lane_float cr = 1.0f + r2 * (-0.5f + r2 * (4.1666638e-2f + r2 * (-1.3888378e-3f + r2 * 2.4760495e-5f)));
+    lane_int quadrant = lane_float_to_int(q) & 3;
+    lane_float sv = select(sr, cr, (quadrant & 1) != 0);
+    lane_float cv = select(cr, sr, (quadrant & 1) != 0);
+    *s = select(sv, -sv, (quadrant & 2) != 0);
+    *c = select(cv, -cv, ((quadrant + 1) & 2) != 0);
 }
 
 // Offset a ray origin off a surface so that the spawned ray cannot re-hit it, at any scale and

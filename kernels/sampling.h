@@ -5,29 +5,29 @@
 #include "math.h"
 
 // Cosine-weighted direction around +z (Malley's method on the unit disk).
-float3 sample_cosine_hemisphere(float2 u) {
-    float r = sqrt(u.x);
-    float s, c;
+lane_float3 sample_cosine_hemisphere(lane_float2 u) {
+    lane_float r = sqrt(u.x);
+    lane_float s, c;
     sincos_2pi(u.y, &s, &c);
-    return (float3)(r * c, r * s, sqrt(fmax(0.0f, 1.0f - u.x)));
+    return make_lane_float3(r * c, r * s, sqrt(fmax(0.0f, 1.0f - u.x)));
 }
 
-float sample_cosine_hemisphere_pdf_w(float cos_theta) { return fmax(cos_theta, 0.0f) * INV_PI_F; }
+lane_float sample_cosine_hemisphere_pdf_w(lane_float cos_theta) { return fmax(cos_theta, 0.0f) * INV_PI_F; }
 
-float3 sample_uniform_sphere(float2 u) {
-    float z = 1.0f - 2.0f * u.x;
-    float r = sqrt(fmax(0.0f, 1.0f - z * z));
-    float s, c;
+lane_float3 sample_uniform_sphere(lane_float2 u) {
+    lane_float z = 1.0f - 2.0f * u.x;
+    lane_float r = sqrt(fmax(0.0f, 1.0f - z * z));
+    lane_float s, c;
     sincos_2pi(u.y, &s, &c);
-    return (float3)(r * c, r * s, z);
+    return make_lane_float3(r * c, r * s, z);
 }
 
 #define UNIFORM_SPHERE_PDF_W (0.25f * INV_PI_F)
 
 // Barycentrics (b1, b2) uniform over a triangle.
-float2 sample_triangle(float2 u) {
-    float su = sqrt(u.x);
-    return (float2)(1.0f - su, u.y * su);
+lane_float2 sample_triangle(lane_float2 u) {
+    lane_float su = sqrt(u.x);
+    return make_lane_float2(1.0f - su, u.y * su);
 }
 
 // Index i with probability cdf[i+1] - cdf[i]; cdf has n+1 entries, cdf[0] = 0, cdf[n] = 1.

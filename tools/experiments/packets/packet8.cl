@@ -11,45 +11,12 @@
 #include "math.h"
 #include "scene.h"
 #include "rng.h"
+#include "sampling.h"
 
-typedef struct { float8 x, y, z; } V8;
-V8 v8(float8 x, float8 y, float8 z) { V8 v = {x, y, z}; return v; }
-V8 v8s(float s) { return v8((float8)(s), (float8)(s), (float8)(s)); }
-V8 v8_add(V8 a, V8 b) { return v8(a.x + b.x, a.y + b.y, a.z + b.z); }
-V8 v8_sub(V8 a, V8 b) { return v8(a.x - b.x, a.y - b.y, a.z - b.z); }
-V8 v8_mul(V8 a, V8 b) { return v8(a.x * b.x, a.y * b.y, a.z * b.z); }
-V8 v8_scale(V8 a, float8 s) { return v8(a.x * s, a.y * s, a.z * s); }
-V8 v8_neg(V8 a) { return v8(-a.x, -a.y, -a.z); }
-float8 v8_dot(V8 a, V8 b) { return fma(a.x, b.x, fma(a.y, b.y, a.z * b.z)); }
-V8 v8_cross(V8 a, V8 b) { return v8(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
-V8 v8_abs(V8 a) { return v8(fabs(a.x), fabs(a.y), fabs(a.z)); }
-V8 v8_sel(V8 a, V8 b, int8 m) { return v8(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m)); }
-V8 v8_normalize(V8 a) { return v8_scale(a, rsqrt(v8_dot(a, a))); }
-float8 v8_maxc(V8 a) { return fmax(a.x, fmax(a.y, a.z)); }
-int8 v8_black(V8 a) { return a.x == 0.0f & a.y == 0.0f & a.z == 0.0f; }
-
-void sincos_2pi8(float8 u, float8* s, float8* c) {
-    float8 x = u * 4.0f;
-    float8 q = floor(x + 0.5f);
-    float8 r = (x - q) * (0.5f * PI_F);
-    float8 r2 = r * r;
-    float8 sr = r * (1.0f + r2 * (-1.6666667e-1f + r2 * (8.3333310e-3f + r2 * -1.9840874e-4f)));
-    float8 cr = 1.0f + r2 * (-0.5f + r2 * (4.1666638e-2f + r2 * (-1.3888378e-3f + r2 * 2.4760495e-5f)));
-    int8 quadrant = convert_int8(q) & 3;
-    float8 sv = select(sr, cr, (quadrant & 1) != 0);
-    float8 cv = select(cr, sr, (quadrant & 1) != 0);
-    *s = select(sv, -sv, (quadrant & 2) != 0);
-    *c = select(cv, -cv, ((quadrant + 1) & 2) != 0);
-}
-
-V8 to_world8(V8 v, V8 n) {
-    float8 s = select((float8)(-1.0f), (float8)(1.0f), n.z >= 0.0f);
-    float8 a = -1.0f / (s + n.z);
-    float8 c = n.x * n.y * a;
-    V8 t = v8(1.0f + s * n.x * n.x * a, s * c, -s * n.x);
-    V8 b = v8(c, s + n.y * n.y * a, -n.y);
-    return v8_add(v8_add(v8_scale(t, v.x), v8_scale(b, v.y)), v8_scale(n, v.z));
-}
+lane_float3 v8_neg(lane_float3 a) { return make_lane_float3(-a.x, -a.y, -a.z); }
+lane_float3 v8_abs(lane_float3 a) { return make_lane_float3(fabs(a.x), fabs(a.y), fabs(a.z)); }
+float8 v8_maxc(lane_float3 a) { return fmax(a.x, fmax(a.y, a.z)); }
+int8 v8_black(lane_float3 a) { return a.x == 0.0f & a.y == 0.0f & a.z == 0.0f; }
 
 float8 offset_comp8(float8 p, float8 off) {
     int8 away = (p > 0.0f) == (off > 0.0f);
@@ -58,10 +25,10 @@ float8 offset_comp8(float8 p, float8 off) {
     float8 r = select(stepped, from_zero, p == 0.0f);
     return select(r, p, off == 0.0f);
 }
-V8 offset_origin8(V8 p, V8 n, float8 err) {
-    V8 off = v8_scale(n, err);
-    V8 q = v8_add(p, off);
-    return v8(offset_comp8(q.x, off.x), offset_comp8(q.y, off.y), offset_comp8(q.z, off.z));
+lane_float3 offset_origin8(lane_float3 p, lane_float3 n, float8 err) {
+    lane_float3 off = l3_scale(n, err);
+    lane_float3 q = l3_add(p, off);
+    return make_lane_float3(offset_comp8(q.x, off.x), offset_comp8(q.y, off.y), offset_comp8(q.z, off.z));
 }
 
 float8 power_heuristic8(float8 a, float8 b) {
@@ -80,21 +47,21 @@ float8 fresnel8(float8 cos_i, float8 eta) {
     f = select(f, (float8)(1.0f), (cos_t <= 0.0f) | (cos_i == 0.0f));
     return select(f, (float8)(0.0f), eta == 1.0f);
 }
-V8 reflect8(V8 wo, V8 n) { return v8_normalize(v8_sub(v8_scale(n, 2.0f * v8_dot(wo, n)), wo)); }
-int8 refract8(V8 wo, V8 n, float8 eta, V8* wt) {
-    float8 cos_i = clamp(v8_dot(n, wo), 0.0f, 1.0f);
+lane_float3 reflect8(lane_float3 wo, lane_float3 n) { return l3_normalize(l3_sub(l3_scale(n, 2.0f * l3_dot(wo, n)), wo)); }
+int8 refract8(lane_float3 wo, lane_float3 n, float8 eta, lane_float3* wt) {
+    float8 cos_i = clamp(l3_dot(n, wo), 0.0f, 1.0f);
     float8 g2 = eta * eta - 1.0f + cos_i * cos_i;
     float8 cos_t = select((float8)(-1.0f), sqrt(g2) / eta, g2 > 0.0f);
-    *wt = v8_normalize(v8_add(v8_scale(wo, -1.0f / eta), v8_scale(n, cos_i / eta - cos_t)));
+    *wt = l3_normalize(l3_add(l3_scale(wo, -1.0f / eta), l3_scale(n, cos_i / eta - cos_t)));
     return cos_t > 0.0f;
 }
 
-#define LOADV(name, arr) V8 name = v8(vload8(0, arr[0]), vload8(0, arr[1]), vload8(0, arr[2]))
+#define LOADV(name, arr) lane_float3 name = make_lane_float3(vload8(0, arr[0]), vload8(0, arr[1]), vload8(0, arr[2]))
 
-V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
+lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rng* rng) {
     int max_depth = scene->params->config.x, rr_depth = scene->params->config.y;
     int count = scene->params->config.w;
-    V8 radiance = v8s(0.0f), thr = v8s(1.0f), prev_p = org;
+    lane_float3 radiance = l3_splat(0.0f), thr = l3_splat(1.0f), prev_p = org;
     float8 prev_pdf = 0.0f, eta_scale = 1.0f;
     int8 prev_delta = (int8)(-1), alive = (int8)(-1);
     for (int depth = 1; depth <= max_depth; ++depth) {
@@ -119,7 +86,7 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
         __global const Material* M = scene->materials;
 #define G8(IDX, E) (float8)(E(IDX.s0), E(IDX.s1), E(IDX.s2), E(IDX.s3), E(IDX.s4), E(IDX.s5), E(IDX.s6), E(IDX.s7))
 #define GI8(IDX, E) (int8)(E(IDX.s0), E(IDX.s1), E(IDX.s2), E(IDX.s3), E(IDX.s4), E(IDX.s5), E(IDX.s6), E(IDX.s7))
-#define GV(IDX, ARR, F) v8(G8(IDX, ARR##_##F##x), G8(IDX, ARR##_##F##y), G8(IDX, ARR##_##F##z))
+#define GV(IDX, ARR, F) make_lane_float3(G8(IDX, ARR##_##F##x), G8(IDX, ARR##_##F##y), G8(IDX, ARR##_##F##z))
 #define T_v0x(i) T[i].v0.x
 #define T_v0y(i) T[i].v0.y
 #define T_v0z(i) T[i].v0.z
@@ -140,8 +107,8 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
 #define S_n2z(i) S[i].n2.z
 #define I_mat(i) I[i].info.x
 #define I_emi(i) I[i].info.z
-        V8 v0 = GV(pi, T, v0), e1 = GV(pi, T, e1), e2 = GV(pi, T, e2);
-        V8 n0 = GV(pi, S, n0), n1 = GV(pi, S, n1), n2 = GV(pi, S, n2);
+        lane_float3 v0 = GV(pi, T, v0), e1 = GV(pi, T, e1), e2 = GV(pi, T, e2);
+        lane_float3 n0 = GV(pi, S, n0), n1 = GV(pi, S, n1), n2 = GV(pi, S, n2);
         int8 mat = GI8(pi, I_mat), emitter = GI8(pi, I_emi);
 #define M_cx(i) M[i].color.x
 #define M_cy(i) M[i].color.y
@@ -149,7 +116,7 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
 #define M_ex(i) M[i].emission.x
 #define M_ey(i) M[i].emission.y
 #define M_ez(i) M[i].emission.z
-        V8 albedo = GV(mat, M, c), emission = GV(mat, M, e);
+        lane_float3 albedo = GV(mat, M, c), emission = GV(mat, M, e);
 #define M_kind(i) M[i].kind.x
 #define M_ior(i) M[i].params.x
 #define M_ext(i) M[i].params.y
@@ -160,25 +127,25 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
 #define E_pmf(i) emitter_selection_pmf(scene, i)
         float8 area = G8(ei, E_area), pmf_hit = select((float8)(0.0f), G8(ei, E_pmf), emitter >= 0);
         float8 b1 = vload8(0, b1a), b2 = vload8(0, b2a), b0 = 1.0f - b1 - b2;
-        V8 p = v8_add(v0, v8_add(v8_scale(e1, b1), v8_scale(e2, b2)));
-        V8 ng = v8_normalize(v8_cross(e1, e2));
-        V8 mag = v8_add(v8_abs(v0), v8_add(v8_abs(e1), v8_abs(e2)));
-        float8 p_error = SURFACE_ERROR_EPS * v8_dot(v8_abs(ng), mag);
-        V8 ns = v8_add(v8_scale(n0, b0), v8_add(v8_scale(n1, b1), v8_scale(n2, b2)));
-        float8 ns_len = sqrt(v8_dot(ns, ns));
-        ns = v8_sel(ng, v8_scale(ns, 1.0f / ns_len), ns_len > 0.0f);
-        int8 front = v8_dot(ng, dir) < 0.0f;
-        ng = v8_sel(v8_neg(ng), ng, front);
-        ns = v8_sel(ns, v8_neg(ns), v8_dot(ns, ng) < 0.0f);
+        lane_float3 p = l3_add(v0, l3_add(l3_scale(e1, b1), l3_scale(e2, b2)));
+        lane_float3 ng = l3_normalize(l3_cross(e1, e2));
+        lane_float3 mag = l3_add(v8_abs(v0), l3_add(v8_abs(e1), v8_abs(e2)));
+        float8 p_error = SURFACE_ERROR_EPS * l3_dot(v8_abs(ng), mag);
+        lane_float3 ns = l3_add(l3_scale(n0, b0), l3_add(l3_scale(n1, b1), l3_scale(n2, b2)));
+        float8 ns_len = sqrt(l3_dot(ns, ns));
+        ns = l3_select(ng, l3_scale(ns, 1.0f / ns_len), ns_len > 0.0f);
+        int8 front = l3_dot(ng, dir) < 0.0f;
+        ng = l3_select(v8_neg(ng), ng, front);
+        ns = l3_select(ns, v8_neg(ns), l3_dot(ns, ng) < 0.0f);
         // emission
         int8 emits = alive & front & (emitter >= 0);
         if (any(emits)) {
-            V8 dp = v8_sub(p, prev_p);
-            float8 dist = sqrt(v8_dot(dp, dp));
-            float8 cos_light = -v8_dot(dir, ng);
+            lane_float3 dp = l3_sub(p, prev_p);
+            float8 dist = sqrt(l3_dot(dp, dp));
+            float8 cos_light = -l3_dot(dir, ng);
             float8 light_pdf = pmf_hit * select((float8)(0.0f), dist * dist / (cos_light * area), cos_light > 0.0f);
             float8 w = select(power_heuristic8(prev_pdf, light_pdf), (float8)(1.0f), prev_delta);
-            radiance = v8_sel(radiance, v8_add(radiance, v8_scale(v8_mul(thr, emission), w)), emits);
+            radiance = l3_select(radiance, l3_add(radiance, l3_scale(l3_mul(thr, emission), w)), emits);
         }
         if (depth == max_depth) break;
         // next-event estimation
@@ -212,24 +179,24 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
 #define EM_rz(i) EM[i].radiance.z
 #define EM_area(i) EM[i].p0.w
         float8 pmf = G8(lidx, E_pmf), larea = G8(lidx, EM_area);
-        V8 lp0 = GV(lidx, EM, p), le1 = GV(lidx, EM, 1), le2 = GV(lidx, EM, 2), lrad = GV(lidx, EM, r);
-        float8 su = sqrt(lux);
-        float8 bx = 1.0f - su, by = uy * su;
-        V8 n_light = v8_normalize(v8_cross(le1, le2));
-        V8 q = v8_add(lp0, v8_add(v8_scale(le1, bx), v8_scale(le2, by)));
-        V8 lmag = v8_add(v8_abs(lp0), v8_add(v8_abs(le1), v8_abs(le2)));
-        q = offset_origin8(q, v8_sel(v8_neg(n_light), n_light, v8_dot(v8_sub(p, q), n_light) > 0.0f),
-                           SURFACE_ERROR_EPS * v8_dot(v8_abs(n_light), lmag));
-        V8 dq = v8_sub(q, p);
-        float8 dist = sqrt(v8_dot(dq, dq));
-        V8 wi = v8_scale(dq, 1.0f / dist);
-        float8 cos_light = -v8_dot(wi, n_light);
+        lane_float3 lp0 = GV(lidx, EM, p), le1 = GV(lidx, EM, 1), le2 = GV(lidx, EM, 2), lrad = GV(lidx, EM, r);
+        lane_float2 barycentrics = sample_triangle(make_lane_float2(lux, uy));
+        float8 bx = barycentrics.x, by = barycentrics.y;
+        lane_float3 n_light = l3_normalize(l3_cross(le1, le2));
+        lane_float3 q = l3_add(lp0, l3_add(l3_scale(le1, bx), l3_scale(le2, by)));
+        lane_float3 lmag = l3_add(v8_abs(lp0), l3_add(v8_abs(le1), v8_abs(le2)));
+        q = offset_origin8(q, l3_select(v8_neg(n_light), n_light, l3_dot(l3_sub(p, q), n_light) > 0.0f),
+                           SURFACE_ERROR_EPS * l3_dot(v8_abs(n_light), lmag));
+        lane_float3 dq = l3_sub(q, p);
+        float8 dist = sqrt(l3_dot(dq, dq));
+        lane_float3 wi = l3_scale(dq, 1.0f / dist);
+        float8 cos_light = -l3_dot(wi, n_light);
         float8 lpdf = pmf * select((float8)(0.0f), dist * dist / (cos_light * larea), cos_light > 0.0f);
-        float8 cos_ng = v8_dot(ng, wi), cos_ns = fmax(v8_dot(ns, wi), 0.0f);
-        V8 f = v8_scale(albedo, select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f));
+        float8 cos_ng = l3_dot(ng, wi), cos_ns = fmax(l3_dot(ns, wi), 0.0f);
+        lane_float3 f = l3_scale(albedo, select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f));
         int8 ok = alive & ~glass & (dist > 0.0f) & (lpdf > 0.0f) & ~v8_black(lrad) & ~v8_black(f);
         if (any(ok)) {
-            V8 so = offset_origin8(p, v8_sel(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
+            lane_float3 so = offset_origin8(p, l3_select(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
             float s[3][8], w3[3][8], dd[8]; int oka[8], vis[8];
             vstore8(so.x, 0, s[0]); vstore8(so.y, 0, s[1]); vstore8(so.z, 0, s[2]);
             vstore8(wi.x, 0, w3[0]); vstore8(wi.y, 0, w3[1]); vstore8(wi.z, 0, w3[2]);
@@ -240,52 +207,49 @@ V8 trace_path8(const Scene* scene, V8 org, V8 dir, Rng* rng) {
             int8 visible = vload8(0, vis);
             float8 bpdf = select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
             float8 w = power_heuristic8(lpdf, bpdf) / lpdf;
-            radiance = v8_sel(radiance, v8_add(radiance, v8_scale(v8_mul(v8_mul(thr, f), lrad), w)), visible);
+            radiance = l3_select(radiance, l3_add(radiance, l3_scale(l3_mul(l3_mul(thr, f), lrad), w)), visible);
         }
         // BSDF sample
         { lane_float2 u2 = rng_float2(rng); ux = u2.x; uy = u2.y; }
-        float8 r = sqrt(ux), sn, cs;
-        sincos_2pi8(uy, &sn, &cs);
-        V8 lw = v8(r * cs, r * sn, sqrt(fmax(0.0f, 1.0f - ux)));
-        wi = to_world8(lw, ns);
-        cos_ng = v8_dot(ng, wi);
-        float8 bpdf = select(fmax(v8_dot(ns, wi), 0.0f) * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
-        V8 weight = albedo;
+        wi = to_world(sample_cosine_hemisphere(make_lane_float2(ux, uy)), ns);
+        cos_ng = l3_dot(ng, wi);
+        float8 bpdf = select(fmax(l3_dot(ns, wi), 0.0f) * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
+        lane_float3 weight = albedo;
         if (any(glass & alive)) {
-            V8 wo = v8_neg(dir);
-            V8 n = v8_sel(ng, ns, v8_dot(wo, ns) > 0.0f);
+            lane_float3 wo = v8_neg(dir);
+            lane_float3 n = l3_select(ng, ns, l3_dot(wo, ns) > 0.0f);
             float8 eta = select(ext / ior, ior / ext, front);
-            float8 fr = fresnel8(v8_dot(n, wo), eta);
+            float8 fr = fresnel8(l3_dot(n, wo), eta);
             int8 reflected = rnl < fr;
-            V8 wt, wt2;
+            lane_float3 wt, wt2;
             int8 ok1 = refract8(wo, n, eta, &wt);
             int8 ok2 = refract8(wo, ng, eta, &wt2);
-            int8 use2 = ok1 & (v8_dot(wt, ng) >= 0.0f);
+            int8 use2 = ok1 & (l3_dot(wt, ng) >= 0.0f);
             reflected |= ~ok1 | (use2 & ~ok2);
-            wt = v8_sel(wt, wt2, use2);
-            V8 wr = reflect8(wo, n);
-            wr = v8_sel(wr, reflect8(wo, ng), v8_dot(wr, ng) <= 0.0f);
-            V8 gwi = v8_sel(wt, wr, reflected);
-            V8 gweight = v8_sel(v8_scale(albedo, 1.0f / (eta * eta)), v8s(1.0f), reflected);
+            wt = l3_select(wt, wt2, use2);
+            lane_float3 wr = reflect8(wo, n);
+            wr = l3_select(wr, reflect8(wo, ng), l3_dot(wr, ng) <= 0.0f);
+            lane_float3 gwi = l3_select(wt, wr, reflected);
+            lane_float3 gweight = l3_select(l3_scale(albedo, 1.0f / (eta * eta)), l3_splat(1.0f), reflected);
             int8 straight = eta == 1.0f;
-            gwi = v8_sel(gwi, dir, straight);
-            gweight = v8_sel(gweight, albedo, straight);
+            gwi = l3_select(gwi, dir, straight);
+            gweight = l3_select(gweight, albedo, straight);
             eta_scale = select(eta_scale, eta_scale * eta * eta, glass & ~reflected & ~straight);
-            wi = v8_sel(wi, gwi, glass);
-            weight = v8_sel(weight, gweight, glass);
+            wi = l3_select(wi, gwi, glass);
+            weight = l3_select(weight, gweight, glass);
             bpdf = select(bpdf, (float8)(1.0f), glass);
-            cos_ng = v8_dot(ng, wi);
+            cos_ng = l3_dot(ng, wi);
         }
         alive &= (bpdf > 0.0f) & ~v8_black(weight);
-        thr = v8_mul(thr, weight);
+        thr = l3_mul(thr, weight);
         prev_pdf = bpdf; prev_delta = glass; prev_p = p;
-        org = offset_origin8(p, v8_sel(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
+        org = offset_origin8(p, l3_select(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
         dir = wi;
         if (depth >= rr_depth) {
             float8 u = rng_float(rng);
             float8 survive = fmin(v8_maxc(thr) * eta_scale, 0.95f);
             alive &= u < survive;
-            thr = v8_scale(thr, 1.0f / survive);
+            thr = l3_scale(thr, 1.0f / survive);
         }
         if (!any(alive)) break;
     }
@@ -305,7 +269,7 @@ __kernel void render_packet8(__constant RenderParams* params, __global const Wid
     int8 xs = x0 + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
     uint8 pixel = convert_uint8(y * width + xs);
     __constant Camera* cam = &params->camera;
-    V8 sum = v8s(0.0f);
+    lane_float3 sum = l3_splat(0.0f);
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_path(pixel, (uint)s, (uint)params->config.z, params->sampling.x);
@@ -313,14 +277,14 @@ __kernel void render_packet8(__constant RenderParams* params, __global const Wid
         float8 jx = jitter.x, jy = jitter.y;
         float8 sx = 2.0f * (convert_float8(xs) + jx) / (float)width - 1.0f;
         float8 sy = 1.0f - 2.0f * ((float)y + jy) / (float)height;
-        V8 d = v8(cam->forward.x + sx * cam->right.x + sy * cam->up.x,
+        lane_float3 d = make_lane_float3(cam->forward.x + sx * cam->right.x + sy * cam->up.x,
                   cam->forward.y + sx * cam->right.y + sy * cam->up.y,
                   cam->forward.z + sx * cam->right.z + sy * cam->up.z);
-        d = v8_normalize(d);
-        V8 o = v8((float8)(cam->origin.x), (float8)(cam->origin.y), (float8)(cam->origin.z));
-        V8 rad = trace_path8(&scene, o, d, &rng);
+        d = l3_normalize(d);
+        lane_float3 o = make_lane_float3((float8)(cam->origin.x), (float8)(cam->origin.y), (float8)(cam->origin.z));
+        lane_float3 rad = trace_path8(&scene, o, d, &rng);
         int8 finite = isfinite(rad.x) & isfinite(rad.y) & isfinite(rad.z);
-        sum = v8_add(sum, v8_sel(v8s(0.0f), rad, finite));
+        sum = l3_add(sum, l3_select(l3_splat(0.0f), rad, finite));
     }
     float a[3][8];
     vstore8(sum.x, 0, a[0]); vstore8(sum.y, 0, a[1]); vstore8(sum.z, 0, a[2]);
