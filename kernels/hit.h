@@ -1,6 +1,7 @@
 // A ray's nearest intersection, as the primitive intersectors (bvh.h, sphere.h) record it.
 #ifndef CLRENDER_HIT_H
 #define CLRENDER_HIT_H
+#include "lanes.h"
 
 typedef struct {
     float t;
@@ -9,5 +10,17 @@ typedef struct {
     bool sphere;    // the slot holds an analytic sphere (sphere.h), not a triangle
     float3 from_centre;   // spheres: the hit point relative to the centre, from the ray
 } Hit;
+
+// The hits of a work-item's lanes (lanes.h): Hit itself for one lane.
+#if LANES == 1
+typedef Hit LaneHit;
+#else
+typedef struct {
+    lane_float t, b1, b2;
+    lane_int prim;      // clamped to a valid slot in lanes without a hit
+    lane_int sphere;    // a comparison's result
+    lane_float3 from_centre;
+} LaneHit;
+#endif
 
 #endif

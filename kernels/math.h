@@ -75,18 +75,18 @@ void sincos_2pi(lane_float u, lane_float* s, lane_float* c) {
 // arithmetic on the bits (PoCL calls a library routine for nextafter). Stepping away from zero
 // adds one to the magnitude's bits, towards zero subtracts one; zero itself steps to the
 // smallest float of the offset's sign.
-float offset_component(float p, float offset) {
-    if (offset == 0.0f) return p;
-    if (p == 0.0f) return offset > 0.0f ? FLT_MIN : -FLT_MIN;
-    bool away_from_zero = (p > 0.0f) == (offset > 0.0f);
-    return as_float(as_int(p) + (away_from_zero ? 1 : -1));
+lane_float offset_component(lane_float p, lane_float offset) {
+    lane_int away_from_zero = (p > 0.0f) == (offset > 0.0f);
+    lane_float stepped = as_lane_float(as_lane_int(p) + select((lane_int)(-1), (lane_int)(1), away_from_zero));
+    lane_float from_zero = select((lane_float)(-FLT_MIN), (lane_float)(FLT_MIN), offset > 0.0f);
+    return select(select(stepped, from_zero, p == 0.0f), p, offset == 0.0f);
 }
 
-float3 offset_ray_origin(float3 p, float3 n, float err) {
-    float3 offset = err * n;
-    float3 q = p + offset;
-    return (float3)(offset_component(q.x, offset.x), offset_component(q.y, offset.y),
-                    offset_component(q.z, offset.z));
+lane_float3 offset_ray_origin(lane_float3 p, lane_float3 n, lane_float err) {
+    lane_float3 offset = l3_scale(n, err);
+    lane_float3 q = l3_add(p, offset);
+    return make_lane_float3(offset_component(q.x, offset.x), offset_component(q.y, offset.y),
+                            offset_component(q.z, offset.z));
 }
 
 #endif

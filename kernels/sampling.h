@@ -52,17 +52,19 @@ int sample_discrete_cdf_reuse(__global const float* cdf, int n, float u, float* 
     return i;
 }
 
-float power_heuristic(float pdf_a, float pdf_b) {
-    float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+lane_float power_heuristic(lane_float pdf_a, lane_float pdf_b) {
+    lane_float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+    // both zero only where neither strategy could have produced the sample
+    lane_float weight = select((lane_float)(0.0f), a / (a + b), a + b > 0.0f);
     // A solid-angle pdf past 1.8e19 (a light seen from that far: a vertex deep in a medium with
     // an almost clear channel) squares to infinity, and a / (a + b) to NaN. Then the same weight
     // from the pdfs' ratio, which still sums to 1 with the other technique's.
-    if (isinf(a) || isinf(b)) {
-        float r = pdf_b / pdf_a;
-        return 1.0f / (1.0f + r * r);
+    lane_int overflow = isinf(a) | isinf(b);
+    if (lane_any(overflow)) {
+        lane_float r = pdf_b / pdf_a;
+        weight = select(weight, 1.0f / (1.0f + r * r), overflow);
     }
-    // both zero only where neither strategy could have produced the sample
-    return a + b > 0.0f ? a / (a + b) : 0.0f;
+    return weight;
 }
 
 #endif

@@ -23,16 +23,18 @@ typedef struct {
     __global const float* majorant_data; // (max, min) per majorant block (medium_majorant_offset)
 } Scene;
 
+// Per lane (lanes.h).
 typedef struct {
-    float3 p;          // position, from barycentrics (more accurate than origin + t * dir)
-    float3 ng;         // unit geometric normal, on the side the ray came from
-    float3 ns;         // unit shading normal, on the same side as ng
-    float p_error;     // bound on the rounding error of p along ng (world units)
-    bool front_face;   // ray arrived on the front side (the triangle's winding, a sphere's outside)
-    int material;
-    int object;
-    int emitter;
-    int media;         // packed media behind / in front of the front face (TriangleInfo.w)
+    lane_float3 p;     // position, from barycentrics (more accurate than origin + t * dir)
+    lane_float3 ng;    // unit geometric normal, on the side the ray came from
+    lane_float3 ns;    // unit shading normal, on the same side as ng
+    lane_float p_error;   // bound on the rounding error of p along ng (world units)
+    lane_int front_face;  // ray arrived on the front side (the triangle's winding, a sphere's
+                          // outside): a comparison's result
+    lane_int material;
+    lane_int object;
+    lane_int emitter;
+    lane_int media;    // packed media behind / in front of the front face (TriangleInfo.w)
 } SurfacePoint;
 
 bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
@@ -50,51 +52,73 @@ bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
 
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
-INLINE SurfacePoint surface_point(const Scene* scene, const Hit* hit, float3 dir) {
-    __global const Triangle* tri = scene->triangles + hit->prim;
-    int4 info = scene->info[hit->prim].info;
+INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_float3 dir) {
+    lane_int prim = hit->prim;
+    lane_int is_sphere = hit->sphere != 0;
     SurfacePoint sp;
-    float3 ng, ns;   // the front face's normals
-    if (hit->sphere) {
+    lane_float3 ng = l3_splat(0.0f), ns = l3_splat(0.0f);   // the front face's normals
+    lane_float3 p = l3_splat(0.0f);
+    lane_float p_error = 0.0f;
+    if (lane_any(is_sphere)) {
         // Exact geometry: the point on the sphere in the direction of the hit, its normal.
-        float4 sphere = ((__global const Sphere*)tri)->centre_radius;
-        float3 n = normalize(hit->from_centre);
-        sp.p = sphere_point(sphere.xyz, sphere.w, n, &sp.p_error);
-        ng = ns = sphere.w < 0.0f ? -n : n;
-    } else {
-        __global const TriangleShading* sh = scene->shading + hit->prim;
-        float b0 = 1.0f - hit->b1 - hit->b2;
-        sp.p = tri->v0.xyz + hit->b1 * tri->e1.xyz + hit->b2 * tri->e2.xyz;
-        ng = normalize(cross(tri->e1.xyz, tri->e2.xyz));
+        // A sphere's slot holds its Sphere record (centre_radius) where a triangle's has v0.
+        lane_float3 centre = LANE_LOAD3(scene->triangles, prim, .v0);
+        lane_float radius = LANE_LOAD(scene->triangles, prim, .v0.w);
+        lane_float3 n = l3_normalize(hit->from_centre);
+        lane_float sphere_error;
+        lane_float3 sphere_p = sphere_point(centre, radius, n, &sphere_error);
+        lane_float3 sphere_n = l3_select(n, l3_neg(n), radius < 0.0f);
+        p = l3_select(p, sphere_p, is_sphere);
+        p_error = select(p_error, sphere_error, is_sphere);
+        ng = l3_select(ng, sphere_n, is_sphere);
+        ns = l3_select(ns, sphere_n, is_sphere);
+    }
+    if (lane_any(!is_sphere)) {
+        lane_float b1 = hit->b1, b2 = hit->b2;
+        lane_float b0 = 1.0f - b1 - b2;
+        lane_float3 v0 = LANE_LOAD3(scene->triangles, prim, .v0);
+        lane_float3 e1 = LANE_LOAD3(scene->triangles, prim, .e1);
+        lane_float3 e2 = LANE_LOAD3(scene->triangles, prim, .e2);
+        lane_float3 triangle_p = l3_add(l3_add(v0, l3_scale(e1, b1)), l3_scale(e2, b2));
+        lane_float3 triangle_ng = l3_normalize(l3_cross(e1, e2));
         // p is rounded relative to |v0| + |e1| + |e2| per component, and the intersector's
         // distance to the plane of a ray starting on the triangle is rounded relative to the
         // same sizes (its origin - v0 spans the triangle). SURFACE_ERROR_EPS times that bounds
         // both: in tests/test_dielectric.py (rays spawned at scales 1e-3 to 1e3, up to 3e7 from
         // the origin, down to 1e-4 from grazing) 1 FLT_EPSILON already suffices; 4 leaves a margin.
-        float3 magnitude = fabs(tri->v0.xyz) + fabs(tri->e1.xyz) + fabs(tri->e2.xyz);
-        sp.p_error = SURFACE_ERROR_EPS * dot(fabs(ng), magnitude);
-        ns = b0 * sh->n0.xyz + hit->b1 * sh->n1.xyz + hit->b2 * sh->n2.xyz;
-        float ns_len = length(ns);
-        ns = ns_len > 0.0f ? ns / ns_len : ng;
+        lane_float3 magnitude = l3_add(l3_add(l3_abs(v0), l3_abs(e1)), l3_abs(e2));
+        lane_float triangle_error = SURFACE_ERROR_EPS * l3_dot(l3_abs(triangle_ng), magnitude);
+        lane_float3 interpolated = l3_add(l3_add(l3_scale(LANE_LOAD3(scene->shading, prim, .n0), b0),
+                                                 l3_scale(LANE_LOAD3(scene->shading, prim, .n1), b1)),
+                                          l3_scale(LANE_LOAD3(scene->shading, prim, .n2), b2));
+        lane_float ns_len = l3_length(interpolated);
+        lane_float3 triangle_ns = l3_select(triangle_ng, l3_div(interpolated, ns_len), ns_len > 0.0f);
+        lane_int is_triangle = !is_sphere;
+        p = l3_select(p, triangle_p, is_triangle);
+        p_error = select(p_error, triangle_error, is_triangle);
+        ng = l3_select(ng, triangle_ng, is_triangle);
+        ns = l3_select(ns, triangle_ns, is_triangle);
     }
-    sp.front_face = dot(ng, dir) < 0.0f;
-    sp.ng = sp.front_face ? ng : -ng;
-    sp.ns = dot(ns, sp.ng) < 0.0f ? -ns : ns;
-    sp.material = info.x;
-    sp.object = info.y;
-    sp.emitter = info.z;
-    sp.media = info.w;
+    sp.p = p;
+    sp.p_error = p_error;
+    sp.front_face = l3_dot(ng, dir) < 0.0f;
+    sp.ng = l3_select(l3_neg(ng), ng, sp.front_face);
+    sp.ns = l3_select(ns, l3_neg(ns), l3_dot(ns, sp.ng) < 0.0f);
+    sp.material = LANE_LOAD_INT(scene->info, prim, .info.x);
+    sp.object = LANE_LOAD_INT(scene->info, prim, .info.y);
+    sp.emitter = LANE_LOAD_INT(scene->info, prim, .info.z);
+    sp.media = LANE_LOAD_INT(scene->info, prim, .info.w);
     return sp;
 }
 
 // Origin of a ray leaving sp in direction dir: offset to the side dir goes (through the surface
 // for transmission).
-float3 spawn_ray_origin(const SurfacePoint* sp, float3 dir) {
-    return offset_ray_origin(sp->p, dot(dir, sp->ng) > 0.0f ? sp->ng : -sp->ng, sp->p_error);
+lane_float3 spawn_ray_origin(const SurfacePoint* sp, lane_float3 dir) {
+    return offset_ray_origin(sp->p, l3_select(l3_neg(sp->ng), sp->ng, l3_dot(dir, sp->ng) > 0.0f), sp->p_error);
 }
 
-float emitter_selection_pmf(const Scene* scene, int emitter) {
-    return scene->emitter_cdf[emitter + 1] - scene->emitter_cdf[emitter];
+lane_float emitter_selection_pmf(const Scene* scene, lane_int emitter) {
+    return LANE_LOAD(scene->emitter_cdf, emitter + 1, ) - LANE_LOAD(scene->emitter_cdf, emitter, );
 }
 
 #endif

@@ -56,10 +56,10 @@ bool intersect_sphere(__global const Sphere* s, int slot, float3 origin, float3 
 
 // The point of a sphere in the direction of unit n from its centre: on the surface (the ray's
 // hit point is only near it), and a bound on its error along n.
-float3 sphere_point(float3 centre, float radius, float3 n, float* error) {
-    float3 from_centre = n * fabs(radius);
-    float3 p = centre + from_centre;
-    *error = dot(fabs(n), SPHERE_POINT_EPS * fabs(from_centre) + SPHERE_CENTRE_EPS * fabs(p));
+lane_float3 sphere_point(lane_float3 centre, lane_float radius, lane_float3 n, lane_float* error) {
+    lane_float3 from_centre = l3_scale(n, fabs(radius));
+    lane_float3 p = l3_add(centre, from_centre);
+    *error = l3_dot(l3_abs(n), l3_add(l3_scale(l3_abs(from_centre), SPHERE_POINT_EPS), l3_scale(l3_abs(p), SPHERE_CENTRE_EPS)));
     return p;
 }
 
