@@ -1,7 +1,7 @@
 // PROTOTYPE, for a measurement (docs/performance.md, "Explicit ray packets"): the megakernel's
 // path tracer with 8 camera paths per work-item, their state in float8 lanes (SIMD across rays,
 // written out by hand: PoCL does not vectorise across work-items, see that section). Scope: the
-// benchmark's surface scenes without spheres: diffuse and smooth-dielectric triangles, triangle
+// benchmark's surface scenes: diffuse and smooth-dielectric triangles and spheres, triangle
 // emitters, no media, environment, toon, AOVs or one-sided materials; the image width a
 // multiple of 8 and one launch for the whole frame. Traversal stays the scalar traverse_bvh,
 // one lane after another. Same random numbers (Sobol dimensions) as the megakernel, so the
@@ -13,29 +13,8 @@
 #include "rng.h"
 #include "sampling.h"
 
-lane_float3 v8_neg(lane_float3 a) { return make_lane_float3(-a.x, -a.y, -a.z); }
-lane_float3 v8_abs(lane_float3 a) { return make_lane_float3(fabs(a.x), fabs(a.y), fabs(a.z)); }
 float8 v8_maxc(lane_float3 a) { return fmax(a.x, fmax(a.y, a.z)); }
 int8 v8_black(lane_float3 a) { return a.x == 0.0f & a.y == 0.0f & a.z == 0.0f; }
-
-float8 offset_comp8(float8 p, float8 off) {
-    int8 away = (p > 0.0f) == (off > 0.0f);
-    float8 stepped = as_float8(as_int8(p) + select((int8)(-1), (int8)(1), away));
-    float8 from_zero = select((float8)(-FLT_MIN), (float8)(FLT_MIN), off > 0.0f);
-    float8 r = select(stepped, from_zero, p == 0.0f);
-    return select(r, p, off == 0.0f);
-}
-lane_float3 offset_origin8(lane_float3 p, lane_float3 n, float8 err) {
-    lane_float3 off = l3_scale(n, err);
-    lane_float3 q = l3_add(p, off);
-    return make_lane_float3(offset_comp8(q.x, off.x), offset_comp8(q.y, off.y), offset_comp8(q.z, off.z));
-}
-
-float8 power_heuristic8(float8 a, float8 b) {
-    a *= a; b *= b;
-    return select((float8)(0.0f), a / (a + b), a + b > 0.0f);
-}
-
 
 float8 fresnel8(float8 cos_i, float8 eta) {
     cos_i = clamp(cos_i, 0.0f, 1.0f);
@@ -69,74 +48,35 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
         vstore8(org.x, 0, o[0]); vstore8(org.y, 0, o[1]); vstore8(org.z, 0, o[2]);
         vstore8(dir.x, 0, d[0]); vstore8(dir.y, 0, d[1]); vstore8(dir.z, 0, d[2]);
         int live[8]; vstore8(alive, 0, live);
-        float b1a[8], b2a[8]; int prima[8];
+        float ta[8], b1a[8], b2a[8], fa[3][8]; int prima[8], spha[8];
         for (int i = 0; i < 8; ++i) {
-            Hit h; h.t = INFINITY; h.prim = -1; h.b1 = h.b2 = 0.0f;
+            Hit h; h.t = INFINITY; h.prim = -1; h.b1 = h.b2 = 0.0f; h.sphere = false;
+            h.from_centre = (float3)(0.0f);
             if (live[i]) traverse_bvh(scene->nodes, scene->triangles, (float3)(o[0][i], o[1][i], o[2][i]),
                                       (float3)(d[0][i], d[1][i], d[2][i]), false, &h);
-            b1a[i] = h.b1; b2a[i] = h.b2; prima[i] = h.prim;
+            ta[i] = h.t; b1a[i] = h.b1; b2a[i] = h.b2; prima[i] = h.prim; spha[i] = h.sphere ? -1 : 0;
+            fa[0][i] = h.from_centre.x; fa[1][i] = h.from_centre.y; fa[2][i] = h.from_centre.z;
         }
         int8 prim = vload8(0, prima);
         alive &= prim >= 0;
         if (!any(alive)) break;
-        int8 pi = max(prim, 0);
-        __global const Triangle* T = scene->triangles;
-        __global const TriangleShading* S = scene->shading;
-        __global const TriangleInfo* I = scene->info;
-        __global const Material* M = scene->materials;
-#define G8(IDX, E) (float8)(E(IDX.s0), E(IDX.s1), E(IDX.s2), E(IDX.s3), E(IDX.s4), E(IDX.s5), E(IDX.s6), E(IDX.s7))
-#define GI8(IDX, E) (int8)(E(IDX.s0), E(IDX.s1), E(IDX.s2), E(IDX.s3), E(IDX.s4), E(IDX.s5), E(IDX.s6), E(IDX.s7))
-#define GV(IDX, ARR, F) make_lane_float3(G8(IDX, ARR##_##F##x), G8(IDX, ARR##_##F##y), G8(IDX, ARR##_##F##z))
-#define T_v0x(i) T[i].v0.x
-#define T_v0y(i) T[i].v0.y
-#define T_v0z(i) T[i].v0.z
-#define T_e1x(i) T[i].e1.x
-#define T_e1y(i) T[i].e1.y
-#define T_e1z(i) T[i].e1.z
-#define T_e2x(i) T[i].e2.x
-#define T_e2y(i) T[i].e2.y
-#define T_e2z(i) T[i].e2.z
-#define S_n0x(i) S[i].n0.x
-#define S_n0y(i) S[i].n0.y
-#define S_n0z(i) S[i].n0.z
-#define S_n1x(i) S[i].n1.x
-#define S_n1y(i) S[i].n1.y
-#define S_n1z(i) S[i].n1.z
-#define S_n2x(i) S[i].n2.x
-#define S_n2y(i) S[i].n2.y
-#define S_n2z(i) S[i].n2.z
-#define I_mat(i) I[i].info.x
-#define I_emi(i) I[i].info.z
-        lane_float3 v0 = GV(pi, T, v0), e1 = GV(pi, T, e1), e2 = GV(pi, T, e2);
-        lane_float3 n0 = GV(pi, S, n0), n1 = GV(pi, S, n1), n2 = GV(pi, S, n2);
-        int8 mat = GI8(pi, I_mat), emitter = GI8(pi, I_emi);
-#define M_cx(i) M[i].color.x
-#define M_cy(i) M[i].color.y
-#define M_cz(i) M[i].color.z
-#define M_ex(i) M[i].emission.x
-#define M_ey(i) M[i].emission.y
-#define M_ez(i) M[i].emission.z
-        lane_float3 albedo = GV(mat, M, c), emission = GV(mat, M, e);
-#define M_kind(i) M[i].kind.x
-#define M_ior(i) M[i].params.x
-#define M_ext(i) M[i].params.y
-        int8 glass = GI8(mat, M_kind) == MATERIAL_DIELECTRIC;
-        float8 ior = G8(mat, M_ior), ext = G8(mat, M_ext);
-        int8 ei = max(emitter, 0);
-#define E_area(i) scene->emitters[i].p0.w
-#define E_pmf(i) emitter_selection_pmf(scene, i)
-        float8 area = G8(ei, E_area), pmf_hit = select((float8)(0.0f), G8(ei, E_pmf), emitter >= 0);
-        float8 b1 = vload8(0, b1a), b2 = vload8(0, b2a), b0 = 1.0f - b1 - b2;
-        lane_float3 p = l3_add(v0, l3_add(l3_scale(e1, b1), l3_scale(e2, b2)));
-        lane_float3 ng = l3_normalize(l3_cross(e1, e2));
-        lane_float3 mag = l3_add(v8_abs(v0), l3_add(v8_abs(e1), v8_abs(e2)));
-        float8 p_error = SURFACE_ERROR_EPS * l3_dot(v8_abs(ng), mag);
-        lane_float3 ns = l3_add(l3_scale(n0, b0), l3_add(l3_scale(n1, b1), l3_scale(n2, b2)));
-        float8 ns_len = sqrt(l3_dot(ns, ns));
-        ns = l3_select(ng, l3_scale(ns, 1.0f / ns_len), ns_len > 0.0f);
-        int8 front = l3_dot(ng, dir) < 0.0f;
-        ng = l3_select(v8_neg(ng), ng, front);
-        ns = l3_select(ns, v8_neg(ns), l3_dot(ns, ng) < 0.0f);
+        LaneHit hit;
+        hit.t = vload8(0, ta); hit.b1 = vload8(0, b1a); hit.b2 = vload8(0, b2a);
+        hit.prim = max(prim, 0);
+        hit.sphere = vload8(0, spha);
+        hit.from_centre = make_lane_float3(vload8(0, fa[0]), vload8(0, fa[1]), vload8(0, fa[2]));
+        SurfacePoint sp = surface_point(scene, &hit, dir);
+        lane_float3 p = sp.p, ng = sp.ng, ns = sp.ns;
+        float8 p_error = sp.p_error;
+        int8 front = sp.front_face;
+        lane_float3 albedo = LANE_LOAD3(scene->materials, sp.material, .color);
+        lane_float3 emission = LANE_LOAD3(scene->materials, sp.material, .emission);
+        int8 glass = LANE_LOAD_INT(scene->materials, sp.material, .kind.x) == MATERIAL_DIELECTRIC;
+        float8 ior = LANE_LOAD(scene->materials, sp.material, .params.x);
+        float8 ext = LANE_LOAD(scene->materials, sp.material, .params.y);
+        int8 emitter = sp.emitter, ei = max(emitter, 0);
+        float8 area = LANE_LOAD(scene->emitters, ei, .p0.w);
+        float8 pmf_hit = select((float8)(0.0f), emitter_selection_pmf(scene, ei), emitter >= 0);
         // emission
         int8 emits = alive & front & (emitter >= 0);
         if (any(emits)) {
@@ -144,7 +84,7 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
             float8 dist = sqrt(l3_dot(dp, dp));
             float8 cos_light = -l3_dot(dir, ng);
             float8 light_pdf = pmf_hit * select((float8)(0.0f), dist * dist / (cos_light * area), cos_light > 0.0f);
-            float8 w = select(power_heuristic8(prev_pdf, light_pdf), (float8)(1.0f), prev_delta);
+            float8 w = select(power_heuristic(prev_pdf, light_pdf), (float8)(1.0f), prev_delta);
             radiance = l3_select(radiance, l3_add(radiance, l3_scale(l3_mul(thr, emission), w)), emits);
         }
         if (depth == max_depth) break;
@@ -153,40 +93,25 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
         { lane_float2 u2 = rng_float2(rng); ux = u2.x; uy = u2.y; }
         float8 rnl = ux;
         // Branchless binary search: every lane halves the same length, so the trip count is uniform.
-        __global const float* CDF = scene->emitter_cdf;
-#define CDF_at(i) CDF[i]
         int8 lidx = (int8)(0);
         for (int len = count; len > 1; ) {
             int step = len >> 1;
             int8 mid = lidx + step;
-            lidx = select(lidx, mid, G8(mid, CDF_at) <= ux);
+            lidx = select(lidx, mid, LANE_LOAD(scene->emitter_cdf, mid, ) <= ux);
             len -= step;
         }
-        float8 c0 = G8(lidx, CDF_at), c1 = G8((lidx + 1), CDF_at);
+        float8 c0 = LANE_LOAD(scene->emitter_cdf, lidx, ), c1 = LANE_LOAD(scene->emitter_cdf, lidx + 1, );
         float8 lux = clamp((ux - c0) / fmax(c1 - c0, 1e-30f), 0.0f, 0x1.fffffep-1f);
-        __global const Emitter* EM = scene->emitters;
-#define EM_px(i) EM[i].p0.x
-#define EM_py(i) EM[i].p0.y
-#define EM_pz(i) EM[i].p0.z
-#define EM_1x(i) EM[i].e1.x
-#define EM_1y(i) EM[i].e1.y
-#define EM_1z(i) EM[i].e1.z
-#define EM_2x(i) EM[i].e2.x
-#define EM_2y(i) EM[i].e2.y
-#define EM_2z(i) EM[i].e2.z
-#define EM_rx(i) EM[i].radiance.x
-#define EM_ry(i) EM[i].radiance.y
-#define EM_rz(i) EM[i].radiance.z
-#define EM_area(i) EM[i].p0.w
-        float8 pmf = G8(lidx, E_pmf), larea = G8(lidx, EM_area);
-        lane_float3 lp0 = GV(lidx, EM, p), le1 = GV(lidx, EM, 1), le2 = GV(lidx, EM, 2), lrad = GV(lidx, EM, r);
+        float8 pmf = c1 - c0, larea = LANE_LOAD(scene->emitters, lidx, .p0.w);
+        lane_float3 lp0 = LANE_LOAD3(scene->emitters, lidx, .p0), le1 = LANE_LOAD3(scene->emitters, lidx, .e1);
+        lane_float3 le2 = LANE_LOAD3(scene->emitters, lidx, .e2), lrad = LANE_LOAD3(scene->emitters, lidx, .radiance);
         lane_float2 barycentrics = sample_triangle(make_lane_float2(lux, uy));
         float8 bx = barycentrics.x, by = barycentrics.y;
         lane_float3 n_light = l3_normalize(l3_cross(le1, le2));
         lane_float3 q = l3_add(lp0, l3_add(l3_scale(le1, bx), l3_scale(le2, by)));
-        lane_float3 lmag = l3_add(v8_abs(lp0), l3_add(v8_abs(le1), v8_abs(le2)));
-        q = offset_origin8(q, l3_select(v8_neg(n_light), n_light, l3_dot(l3_sub(p, q), n_light) > 0.0f),
-                           SURFACE_ERROR_EPS * l3_dot(v8_abs(n_light), lmag));
+        lane_float3 lmag = l3_add(l3_abs(lp0), l3_add(l3_abs(le1), l3_abs(le2)));
+        q = offset_ray_origin(q, l3_select(l3_neg(n_light), n_light, l3_dot(l3_sub(p, q), n_light) > 0.0f),
+                           SURFACE_ERROR_EPS * l3_dot(l3_abs(n_light), lmag));
         lane_float3 dq = l3_sub(q, p);
         float8 dist = sqrt(l3_dot(dq, dq));
         lane_float3 wi = l3_scale(dq, 1.0f / dist);
@@ -196,7 +121,7 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
         lane_float3 f = l3_scale(albedo, select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f));
         int8 ok = alive & ~glass & (dist > 0.0f) & (lpdf > 0.0f) & ~v8_black(lrad) & ~v8_black(f);
         if (any(ok)) {
-            lane_float3 so = offset_origin8(p, l3_select(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
+            lane_float3 so = spawn_ray_origin(&sp, wi);
             float s[3][8], w3[3][8], dd[8]; int oka[8], vis[8];
             vstore8(so.x, 0, s[0]); vstore8(so.y, 0, s[1]); vstore8(so.z, 0, s[2]);
             vstore8(wi.x, 0, w3[0]); vstore8(wi.y, 0, w3[1]); vstore8(wi.z, 0, w3[2]);
@@ -206,7 +131,7 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
                                              (float3)(w3[0][i], w3[1][i], w3[2][i]), dd[i]) ? -1 : 0;
             int8 visible = vload8(0, vis);
             float8 bpdf = select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
-            float8 w = power_heuristic8(lpdf, bpdf) / lpdf;
+            float8 w = power_heuristic(lpdf, bpdf) / lpdf;
             radiance = l3_select(radiance, l3_add(radiance, l3_scale(l3_mul(l3_mul(thr, f), lrad), w)), visible);
         }
         // BSDF sample
@@ -216,7 +141,7 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
         float8 bpdf = select(fmax(l3_dot(ns, wi), 0.0f) * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
         lane_float3 weight = albedo;
         if (any(glass & alive)) {
-            lane_float3 wo = v8_neg(dir);
+            lane_float3 wo = l3_neg(dir);
             lane_float3 n = l3_select(ng, ns, l3_dot(wo, ns) > 0.0f);
             float8 eta = select(ext / ior, ior / ext, front);
             float8 fr = fresnel8(l3_dot(n, wo), eta);
@@ -243,7 +168,7 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
         alive &= (bpdf > 0.0f) & ~v8_black(weight);
         thr = l3_mul(thr, weight);
         prev_pdf = bpdf; prev_delta = glass; prev_p = p;
-        org = offset_origin8(p, l3_select(v8_neg(ng), ng, cos_ng > 0.0f), p_error);
+        org = spawn_ray_origin(&sp, wi);
         dir = wi;
         if (depth >= rr_depth) {
             float8 u = rng_float(rng);
