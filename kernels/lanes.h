@@ -25,6 +25,8 @@ typedef float3 lane_float3;
 #define as_lane_int(x) as_int(x)
 // Whether any lane's mask (a comparison's result) is set.
 #define lane_any(m) ((m) != 0)
+// A set lane mask, as comparisons give it.
+#define LANE_TRUE 1
 // Macros, not functions, for one lane: the expressions are then the ones written inline before,
 // and the compiler contracts a * b + c into fma exactly as it did (it contracts within an
 // expression only, so a function boundary would change the rounding).
@@ -60,6 +62,7 @@ typedef struct { float8 x, y, z; } lane_float3;
 #define as_lane_float(x) as_float8(x)
 #define as_lane_int(x) as_int8(x)
 #define lane_any(m) any(m)
+#define LANE_TRUE ((int8)(-1))
 lane_float2 make_lane_float2(float8 x, float8 y) { lane_float2 v = {x, y}; return v; }
 lane_float3 make_lane_float3(float8 x, float8 y, float8 z) { lane_float3 v = {x, y, z}; return v; }
 lane_float3 l3_splat(float s) { return make_lane_float3((float8)(s), (float8)(s), (float8)(s)); }

@@ -17,83 +17,8 @@
 #include "math.h"
 #include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
+#include "materials/dielectric_smooth.h"
 #if DIELECTRIC
-
-// cos of the transmitted angle, from Snell's law written as cos_t^2 = (eta^2 - 1 + cos_i^2) / eta^2
-// rather than 1 - sin_t^2: near grazing 1 - (1 - cos_i^2) cancels to a few ulps, and at eta = 1
-// this form gives cos_t = cos_i (exactly where sqrt rounds correctly). Negative: total internal
-// reflection.
-float cos_transmitted(float cos_i, float eta) {
-    float g2 = eta * eta - 1.0f + cos_i * cos_i;
-    return g2 > 0.0f ? sqrt(g2) / eta : -1.0f;
-}
-
-// Unpolarised Fresnel reflectance of a dielectric interface, cos_i in [0, 1] on the incident
-// side (Born and Wolf; pbrt-v4 FrDielectric), exact, not Schlick's approximation. Past the
-// critical angle it is exactly 1 (total internal reflection). Both denominators are > 0 where
-// there is a transmitted ray, since then cos_t > 0.
-float fresnel_dielectric(float cos_i, float eta) {
-    // No interface reflects nothing and grazing incidence everything; said outright, because the
-    // formula gets there only where sqrt(c * c) = c and x / x = 1, i.e. with correctly rounded
-    // division and square roots, which GPUs do not give by default (OpenCL allows 2.5 and 3 ulp).
-    if (eta == 1.0f) return 0.0f;
-    cos_i = clamp(cos_i, 0.0f, 1.0f);
-    float cos_t = cos_transmitted(cos_i, eta);
-    if (cos_t <= 0.0f || cos_i == 0.0f) return 1.0f;
-    float r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    float r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5f * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
-}
-
-float3 reflect(float3 wo, float3 n) { return normalize(2.0f * dot(wo, n) * n - wo); }
-
-// Snell's law: the transmitted direction for wo on n's side, false under total internal
-// reflection.
-bool refract(float3 wo, float3 n, float eta, float3* wt) {
-    float cos_i = clamp(dot(n, wo), 0.0f, 1.0f);
-    float cos_t = cos_transmitted(cos_i, eta);
-    if (cos_t <= 0.0f) return false;
-    *wt = normalize(-wo / eta + (cos_i / eta - cos_t) * n);
-    return true;
-}
-
-// ----- smooth interface: two delta lobes, picked with probability F and 1 - F ------------------
-// The weight of the chosen lobe is its throughput divided by its probability: 1 for reflection,
-// tint / eta^2 for refraction. eta == 1 is an index-matched interface: the ray goes straight on,
-// so the object vanishes exactly, with no Fresnel term rounded to a tiny non-zero value.
-// n may be an interpolated normal and ng is the facet's, both on wo's side. Near silhouettes n
-// can send the reflected ray into the object or the refracted one back out; such a ray would
-// cross (or not cross) the interface against its eta^2 scaling, or enter the glass at an angle
-// that total internal reflection then traps forever. The facet's normal decides the direction
-// then; if refraction about it is impossible, the ray reflects with weight 1 (energy kept).
-BsdfSample sample_dielectric_delta(float3 tint, float eta, float3 n, float3 ng, float3 wo,
-                                  float rnl) {
-    BsdfSample bs = bsdf_sample_none();
-    bs.delta = true;
-    if (eta == 1.0f) {
-        bs.wi = -wo;
-        bs.weight = tint;
-        bs.pdf_w = 1.0f;
-        return bs;
-    }
-    float f = fresnel_dielectric(dot(n, wo), eta);
-    bs.pdf_w = rnl < f ? f : 1.0f - f;
-    bool reflected = rnl < f;
-    if (!reflected) {
-        // f < 1 here, so refraction about n exists; about ng it may not.
-        reflected = !refract(wo, n, eta, &bs.wi) ||
-                    (dot(bs.wi, ng) >= 0.0f && !refract(wo, ng, eta, &bs.wi));
-    }
-    if (reflected) {
-        bs.wi = reflect(wo, n);
-        if (dot(bs.wi, ng) <= 0.0f) bs.wi = reflect(wo, ng);
-        bs.weight = (float3)(1.0f);
-    } else {
-        bs.weight = tint / (eta * eta);
-        bs.eta = eta;
-    }
-    return bs;
-}
 
 // ----- rough interface: GGX microfacets ----------------------------------------------------------
 // f * |cos_i| (Walter et al. 2007, eqs. 20-21), with height-correlated G2. Transmission uses the

@@ -5,18 +5,17 @@
 #include "sampling.h"
 #include "scene.h"
 
-float3 eval_diffuse(float3 albedo, const SurfacePoint* sp, float3 wi) {
+lane_float3 eval_diffuse(lane_float3 albedo, const SurfacePoint* sp, lane_float3 wi) {
     // Both normals must agree, or light leaks through the geometric surface.
-    if (dot(sp->ng, wi) <= 0.0f) return (float3)(0.0f);
-    return albedo * (fmax(dot(sp->ns, wi), 0.0f) * INV_PI_F);
+    lane_float3 f = l3_scale(albedo, (fmax(l3_dot(sp->ns, wi), 0.0f) * INV_PI_F));
+    return l3_select(f, l3_splat(0.0f), l3_dot(sp->ng, wi) <= 0.0f);
 }
 
-float sample_diffuse_pdf(const SurfacePoint* sp, float3 wi) {
-    if (dot(sp->ng, wi) <= 0.0f) return 0.0f;
-    return sample_cosine_hemisphere_pdf_w(dot(sp->ns, wi));
+lane_float sample_diffuse_pdf(const SurfacePoint* sp, lane_float3 wi) {
+    return select(sample_cosine_hemisphere_pdf_w(l3_dot(sp->ns, wi)), (lane_float)(0.0f), l3_dot(sp->ng, wi) <= 0.0f);
 }
 
-float3 sample_diffuse(const SurfacePoint* sp, float2 u) {
+lane_float3 sample_diffuse(const SurfacePoint* sp, lane_float2 u) {
     return to_world(sample_cosine_hemisphere(u), sp->ns);
 }
 

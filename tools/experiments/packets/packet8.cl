@@ -12,28 +12,11 @@
 #include "scene.h"
 #include "rng.h"
 #include "sampling.h"
+#include "materials/diffuse.h"
+#include "materials/dielectric_smooth.h"
 
 float8 v8_maxc(lane_float3 a) { return fmax(a.x, fmax(a.y, a.z)); }
 int8 v8_black(lane_float3 a) { return a.x == 0.0f & a.y == 0.0f & a.z == 0.0f; }
-
-float8 fresnel8(float8 cos_i, float8 eta) {
-    cos_i = clamp(cos_i, 0.0f, 1.0f);
-    float8 g2 = eta * eta - 1.0f + cos_i * cos_i;
-    float8 cos_t = select((float8)(-1.0f), sqrt(g2) / eta, g2 > 0.0f);
-    float8 rpa = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    float8 rpe = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    float8 f = 0.5f * (rpa * rpa + rpe * rpe);
-    f = select(f, (float8)(1.0f), (cos_t <= 0.0f) | (cos_i == 0.0f));
-    return select(f, (float8)(0.0f), eta == 1.0f);
-}
-lane_float3 reflect8(lane_float3 wo, lane_float3 n) { return l3_normalize(l3_sub(l3_scale(n, 2.0f * l3_dot(wo, n)), wo)); }
-int8 refract8(lane_float3 wo, lane_float3 n, float8 eta, lane_float3* wt) {
-    float8 cos_i = clamp(l3_dot(n, wo), 0.0f, 1.0f);
-    float8 g2 = eta * eta - 1.0f + cos_i * cos_i;
-    float8 cos_t = select((float8)(-1.0f), sqrt(g2) / eta, g2 > 0.0f);
-    *wt = l3_normalize(l3_add(l3_scale(wo, -1.0f / eta), l3_scale(n, cos_i / eta - cos_t)));
-    return cos_t > 0.0f;
-}
 
 #define LOADV(name, arr) lane_float3 name = make_lane_float3(vload8(0, arr[0]), vload8(0, arr[1]), vload8(0, arr[2]))
 
@@ -117,8 +100,7 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
         lane_float3 wi = l3_scale(dq, 1.0f / dist);
         float8 cos_light = -l3_dot(wi, n_light);
         float8 lpdf = pmf * select((float8)(0.0f), dist * dist / (cos_light * larea), cos_light > 0.0f);
-        float8 cos_ng = l3_dot(ng, wi), cos_ns = fmax(l3_dot(ns, wi), 0.0f);
-        lane_float3 f = l3_scale(albedo, select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f));
+        lane_float3 f = eval_diffuse(albedo, &sp, wi);
         int8 ok = alive & ~glass & (dist > 0.0f) & (lpdf > 0.0f) & ~v8_black(lrad) & ~v8_black(f);
         if (any(ok)) {
             lane_float3 so = spawn_ray_origin(&sp, wi);
@@ -130,41 +112,25 @@ lane_float3 trace_path8(const Scene* scene, lane_float3 org, lane_float3 dir, Rn
                 vis[i] = oka[i] && !occluded(scene, (float3)(s[0][i], s[1][i], s[2][i]),
                                              (float3)(w3[0][i], w3[1][i], w3[2][i]), dd[i]) ? -1 : 0;
             int8 visible = vload8(0, vis);
-            float8 bpdf = select(cos_ns * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
-            float8 w = power_heuristic(lpdf, bpdf) / lpdf;
+            float8 w = power_heuristic(lpdf, sample_diffuse_pdf(&sp, wi)) / lpdf;
             radiance = l3_select(radiance, l3_add(radiance, l3_scale(l3_mul(l3_mul(thr, f), lrad), w)), visible);
         }
         // BSDF sample
         { lane_float2 u2 = rng_float2(rng); ux = u2.x; uy = u2.y; }
-        wi = to_world(sample_cosine_hemisphere(make_lane_float2(ux, uy)), ns);
-        cos_ng = l3_dot(ng, wi);
-        float8 bpdf = select(fmax(l3_dot(ns, wi), 0.0f) * INV_PI_F, (float8)(0.0f), cos_ng <= 0.0f);
+        wi = sample_diffuse(&sp, make_lane_float2(ux, uy));
+        float8 bpdf = sample_diffuse_pdf(&sp, wi);
         lane_float3 weight = albedo;
+#if DIELECTRIC
         if (any(glass & alive)) {
             lane_float3 wo = l3_neg(dir);
             lane_float3 n = l3_select(ng, ns, l3_dot(wo, ns) > 0.0f);
-            float8 eta = select(ext / ior, ior / ext, front);
-            float8 fr = fresnel8(l3_dot(n, wo), eta);
-            int8 reflected = rnl < fr;
-            lane_float3 wt, wt2;
-            int8 ok1 = refract8(wo, n, eta, &wt);
-            int8 ok2 = refract8(wo, ng, eta, &wt2);
-            int8 use2 = ok1 & (l3_dot(wt, ng) >= 0.0f);
-            reflected |= ~ok1 | (use2 & ~ok2);
-            wt = l3_select(wt, wt2, use2);
-            lane_float3 wr = reflect8(wo, n);
-            wr = l3_select(wr, reflect8(wo, ng), l3_dot(wr, ng) <= 0.0f);
-            lane_float3 gwi = l3_select(wt, wr, reflected);
-            lane_float3 gweight = l3_select(l3_scale(albedo, 1.0f / (eta * eta)), l3_splat(1.0f), reflected);
-            int8 straight = eta == 1.0f;
-            gwi = l3_select(gwi, dir, straight);
-            gweight = l3_select(gweight, albedo, straight);
-            eta_scale = select(eta_scale, eta_scale * eta * eta, glass & ~reflected & ~straight);
-            wi = l3_select(wi, gwi, glass);
-            weight = l3_select(weight, gweight, glass);
-            bpdf = select(bpdf, (float8)(1.0f), glass);
-            cos_ng = l3_dot(ng, wi);
+            BsdfSample gs = sample_dielectric_delta(albedo, select(ext / ior, ior / ext, front), n, ng, wo, rnl);
+            eta_scale = select(eta_scale, eta_scale * gs.eta * gs.eta, glass);
+            wi = l3_select(wi, gs.wi, glass);
+            weight = l3_select(weight, gs.weight, glass);
+            bpdf = select(bpdf, gs.pdf_w, glass);
         }
+#endif
         alive &= (bpdf > 0.0f) & ~v8_black(weight);
         thr = l3_mul(thr, weight);
         prev_pdf = bpdf; prev_delta = glass; prev_p = p;
