@@ -137,8 +137,12 @@ def cache_dir():
     return os.environ.get("CLRENDER_CACHE_DIR") or str(Path.home() / ".cache" / "clrender")
 
 
-def build_program(context, features, entry="integrator.cl"):
-    """Build the program for `features`, or fetch it from the memory or disk cache."""
+def build_program(context, features, entry=None):
+    """Build the program for `features` (from `entry`, default the render kernel they select),
+    or fetch it from the memory or disk cache."""
+    from .features import entry_file
+
+    entry = entry or entry_file(features)
     source = kernel_source(entry)
     options = f"{BUILD_OPTIONS} {define_options(features)}"
     identity = "\n".join([_device_identity(context.devices[0]), options, source])

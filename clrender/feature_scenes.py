@@ -22,7 +22,10 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
     kinds of media. The spheres are analytic (they share BVH leaves with the triangles), or
-    icospheres of level `subdivisions` (0..7) when it is given."""
+    icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
+    lights and materials (features.packets_cover): their scene keeps only the rectangle light,
+    and DIELECTRIC adds the smooth glass only; it needs its features when the renderer asks for
+    packets."""
     materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
                  {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
     shapes = [{"name": "floor", "type": "rectangle", "material": "white",
@@ -40,10 +43,19 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         shapes.append({"name": name, "type": "sphere", "material": material, "center": center,
                        "radius": radius, **tessellation, **extra})
 
-    sphere("bulb", "lamp", [1.3, 0.9, -0.9], 0.15)
+    packets = features.get("LANES", 1) > 1
+    if packets:
+        lights = []
+    else:
+        sphere("bulb", "lamp", [1.3, 0.9, -0.9], 0.15)
     if features["ENVIRONMENT"] != ENVIRONMENT_MODES["none"]:
         lights.append({"type": "environment", "radiance": [0.3, 0.4, 0.5]})
-    if features["DIELECTRIC"]:
+    if features["DIELECTRIC"] and packets:
+        materials.append({"name": "glass", "type": "dielectric", "ior": 1.5})
+        sphere("glass", "glass", [0.9, -0.5, 0.3], 0.45)
+        shapes.append({"name": "prism", "type": "box", "material": "glass",
+                       "transform": {"scale": 0.3, "rotate": [20, 40, 0], "translate": [-0.2, -0.6, 0.9]}})
+    elif features["DIELECTRIC"]:
         materials += [{"name": "glass", "type": "dielectric", "ior": 1.5},
                       {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4},
                       {"name": "rough_mirror", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.3},

@@ -7,6 +7,9 @@ point and directional lights, for instance, are always compiled in (one untaken 
 """
 import itertools
 
+import numpy as np
+
+from . import meshes
 from .arrays import active_environment
 from .errors import ArgumentError
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
@@ -25,7 +28,14 @@ FEATURE_VALUES = {
     # Sample-level AOVs (albedo, normal, colour variance: kernels/aovs.h): decided by the render
     # request, not the scene, so that colour-only renders carry none of their code.
     "AOVS": (0, 1),
+    # Camera paths per work-item (kernels/lanes.h): 8 traces them in the vector lanes of a CPU
+    # (kernels/integrator_packets.cl, 1.3-1.4x faster on PoCL: docs/performance.md) for the
+    # scenes it covers (packets_cover); 1 is the megakernel, one path per work-item.
+    "LANES": (1, 8),
 }
+
+# What the packet integrator (LANES 8) leaves out: every other feature.
+PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0}
 
 SPECULAR_MATERIALS = ("dielectric", "conductor")
 
@@ -39,10 +49,12 @@ def volume_method(scene, override=None):
     return method
 
 
-def scene_features(scene, volume_method_override=None, sample_aovs=False):
+def scene_features(scene, volume_method_override=None, sample_aovs=False, packets=False):
     """The feature values (name -> int) that `scene` needs; `volume_method_override` replaces
     the scene's render.volume_method ("null" or "raymarch"); `sample_aovs`: whether the render
-    accumulates the sample-level AOVs (clrender/aovs.py)."""
+    accumulates the sample-level AOVs (clrender/aovs.py); `packets`: whether the device wants
+    camera paths in packets (a CPU), which they get where the packet integrator covers the
+    scene."""
     method = volume_method(scene, volume_method_override)   # checked even where unused
     # A black environment lights nothing and has no emitter (clrender/arrays.py): compiling the
     # environment code for it would read the emitter table at index -1.
@@ -51,7 +63,7 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False):
         env_mode = ENVIRONMENT_MODES["none"]
     else:
         env_mode = ENVIRONMENT_MODES["image" if environment.image is not None else "constant"]
-    return {
+    features = {
         "ENVIRONMENT": env_mode,
         "MEDIA": int(_uses_media(scene)),
         # Only materials some shape uses: an unused toon material cannot be hit.
@@ -60,7 +72,36 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False):
         "DIELECTRIC": int(any(_is_specular(scene.materials[shape.material]) for shape in scene.shapes)),
         "GRID_MEDIA": VOLUME_METHODS[method] if any(m.type == "grid" for m in scene.media) else 0,
         "AOVS": int(bool(sample_aovs)),
+        "LANES": 1,
     }
+    if packets and packets_cover(scene, features):
+        features["LANES"] = 8
+    return features
+
+
+def packets_cover(scene, features):
+    """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
+    features, every material some shape uses two-sided diffuse (emissive included) or smooth
+    dielectric, no light but emitting triangles (no emitting spheres, point, directional or
+    environment lights)."""
+    if any(features[name] != value for name, value in PACKET_FEATURES.items()):
+        return False
+    for shape in scene.shapes:
+        material = scene.materials[shape.material]
+        if material.type not in ("diffuse", "emissive", "dielectric") or not material.two_sided:
+            return False
+        if material.type == "dielectric" and not _is_smooth(material):
+            return False
+        if isinstance(shape.mesh, meshes.Sphere) and np.any(material.emission > 0):
+            return False
+    return not scene.lights
+
+
+def _is_smooth(material):
+    """A delta lobe, as material_is_delta in kernels/materials/bsdf.h decides it (float32 alpha
+    against MICROFACET_MIN_ALPHA)."""
+    roughness = np.float32(material.roughness)
+    return bool(roughness * roughness < np.float32(1e-3))
 
 
 def _is_specular(material):
@@ -77,11 +118,14 @@ def _uses_media(scene):
 
 def all_feature_combinations():
     """Every combination of feature values the defines allow (for compile checks). Grid media
-    are media: GRID_MEDIA > 0 comes with MEDIA = 1 only."""
+    are media: GRID_MEDIA > 0 comes with MEDIA = 1 only; packets (LANES 8) come with none of
+    PACKET_FEATURES."""
     names = list(FEATURE_VALUES)
     for values in itertools.product(*(FEATURE_VALUES[n] for n in names)):
         features = dict(zip(names, values))
         if features["GRID_MEDIA"] and not features["MEDIA"]:
+            continue
+        if features["LANES"] > 1 and any(features[n] != v for n, v in PACKET_FEATURES.items()):
             continue
         yield features
 
@@ -92,7 +136,14 @@ def describe(features):
     method_names = {v: k for k, v in VOLUME_METHODS.items()}
     parts = [f"environment={env_names[features['ENVIRONMENT']]}"]
     parts += [name.lower() for name, value in features.items()
-              if name not in ("ENVIRONMENT", "GRID_MEDIA") and value]
+              if name not in ("ENVIRONMENT", "GRID_MEDIA", "LANES") and value]
     if features.get("GRID_MEDIA"):
         parts.append(f"grid_media={method_names[features['GRID_MEDIA']]}")
+    if features.get("LANES", 1) > 1:
+        parts.append(f"packets of {features['LANES']}")
     return ", ".join(parts)
+
+
+def entry_file(features):
+    """The kernel source that features compile: the megakernel, or its packet form."""
+    return "integrator_packets.cl" if features.get("LANES", 1) > 1 else "integrator.cl"

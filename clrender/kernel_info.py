@@ -56,4 +56,5 @@ def combination_launch_seconds(device, features, resolution=(256, 256)):
     scene, method = feature_scene(features, resolution, subdivisions=3)
     scene.render.max_depth = 8
     aovs = SAMPLE_AOVS if features["AOVS"] else ()
-    return one_sample_launch_seconds(Renderer(scene, device, volume_method=method), aovs=aovs)
+    renderer = Renderer(scene, device, volume_method=method, packets=features["LANES"] > 1)
+    return one_sample_launch_seconds(renderer, aovs=aovs)

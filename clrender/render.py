@@ -184,19 +184,27 @@ class RenderInterrupted(KeyboardInterrupt):
         self.signal = signum
 
 
+# Work-group size of the packet kernel (LANES 8) when the caller gives none: 4 x 4 work-items,
+# 128 pixels.
+PACKET_LOCAL_SIZE = (4, 4)
+
+
 class Renderer:
     """A scene uploaded to one device with its specialised kernel, ready to render many times."""
 
     @device_errors()
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
-                 volume_method=None, step=None, raymarch_multiple_scattering=None, context=None, sampler=None):
+                 volume_method=None, step=None, raymarch_multiple_scattering=None, context=None, sampler=None,
+                 packets=None):
         """`scene`: a Scene, a scene dict or a file path. `device`: an OpenCL device or a choice
         for `choose_device` (default: the device of `context` if given). `volume_method`
         ("null" or "raymarch"), `step` (ray marching's longest step in voxels, >=
         limits.MIN_MARCH_STEP) and `raymarch_multiple_scattering` override the scene's render
         settings for grid media; `sampler` ("sobol" or "independent") the scene's render.sampler.
         `context`: an existing context of `device` to share, so renderers of many scenes reuse
-        its built programs."""
+        its built programs. `packets`: trace camera paths 8 per work-item where the packet
+        integrator covers the scene (features.packets_cover); default: on CPU devices, whose
+        vector lanes then carry them (the image is the same to float rounding)."""
         self.scene = scene = as_scene(scene)
         step = None if step is None else limits.setting("step", step)
         limits.number(pass_seconds, "pass_seconds", low=0.0, low_open=True)
@@ -207,7 +215,9 @@ class Renderer:
         self.device = device if isinstance(device, cl.Device) else choose_device(device)
         self.context = context if context is not None else cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
-        self.features = scene_features(scene, volume_method)
+        if packets is None:
+            packets = bool(self.device.type & cl.device_type.CPU)
+        self.features = scene_features(scene, volume_method, packets=packets)
         # Limits of the chosen method that the image may show, for the user (the CLI prints them).
         self.notes = march_notes(scene) if self.features["GRID_MEDIA"] == layout.VOLUME_METHODS["raymarch"] else []
         self.step = step
@@ -221,6 +231,11 @@ class Renderer:
         program = build_program(self.context, self.features)
         self.kernel = cl.Kernel(program, "render_pass")
         self._aov_kernel = None   # the AOVS build, made when a render first asks for it
+        # PoCL's own choice for the packet kernel (groups of up to 4096 work-items) crashed its
+        # AOV build at 256 x 256 (a segmentation fault); every size from 1 x 1 to 16 x 4 runs it
+        # equally fast (docs/performance.md), so packets get 4 x 4 unless told otherwise.
+        if local_size is None and self.features["LANES"] > 1:
+            local_size = PACKET_LOCAL_SIZE
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
@@ -305,7 +320,7 @@ class Renderer:
         aov_sums = state.aov_sums if state.aov_sums is not None else np.zeros(1, layout.AOV_SUMS)
         aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
                                hostbuf=np.ascontiguousarray(aov_sums, dtype=layout.AOV_SUMS))
-        kernel = self._kernel(state.aov_sums is not None)
+        kernel, lanes = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
 
         end = state.samples + samples
@@ -324,7 +339,7 @@ class Renderer:
                 for first_row in range(0, tile_height, rows):
                     band = min(rows, tile_height - first_row)
                     start = time.perf_counter()
-                    kernel(self.queue, self._global_size(tile_width, band), self.local_size, params_buffer,
+                    kernel(self.queue, self._global_size(tile_width, band, lanes), self.local_size, params_buffer,
                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer,
                            global_offset=(0, first_row))
                     self.queue.finish()
@@ -364,15 +379,18 @@ class Renderer:
                                            f"the limit of {MAX_SPP}")
 
     def _kernel(self, sample_aovs):
-        """The colour-only kernel, or the one that also accumulates the sample-level AOVs."""
+        """(kernel, camera paths per work-item): the colour-only kernel, or the one that also
+        accumulates the sample-level AOVs."""
         if not sample_aovs:
-            return self.kernel
+            return self.kernel, self.features["LANES"]
         if self._aov_kernel is None:
             program = build_program(self.context, {**self.features, "AOVS": 1})
             self._aov_kernel = cl.Kernel(program, "render_pass")
-        return self._aov_kernel
+        return self._aov_kernel, self.features["LANES"]
 
-    def _global_size(self, width, height):
+    def _global_size(self, width, height, lanes=1):
+        """Work-items for a tile of width x height pixels, `lanes` adjacent pixels of a row each."""
+        width = -(-width // lanes)
         if self.local_size is None:
             return (width, height)
         lx, ly = self.local_size

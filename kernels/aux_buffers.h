@@ -8,26 +8,37 @@
 #include "camera.h"
 #include "scene.h"
 
-// geometry: xyz the unit shading normal facing the camera (world space), w the planar depth
-// (distance along the camera axis: 1 / depth is affine in the image over a plane, which the
-// outline pass uses to tell a slope from a jump); all 0 where the ray escapes.
-// object: the shape index of the hit (TriangleInfo.info.y), -1 where the ray escapes.
-// (x, y) is the pixel in the full image, `slot` its index in this tile's buffers.
-void write_aux(const Scene* scene, int x, int y, int slot, __global float4* aux_geometry,
-               __global int* aux_object) {
+// What the pixel centres of the lanes' pixels (x, y) see: geometry xyz the unit shading normal
+// facing the camera (world space), w the planar depth (distance along the camera axis: 1 / depth
+// is affine in the image over a plane, which the outline pass uses to tell a slope from a jump);
+// all 0 where the ray escapes. object: the shape index of the hit (TriangleInfo.info.y), -1 where
+// the ray escapes.
+typedef struct { lane_float3 normal; lane_float depth; lane_int object; } AuxRecord;
+
+AuxRecord aux_record(const Scene* scene, lane_int x, int y) {
     __constant Camera* camera = &scene->params->camera;
     Ray ray = camera_ray(camera, x, y, scene->params->frame.x, scene->params->frame.y,
-                         (float2)(0.5f, 0.5f));
-    float4 geometry = (float4)(0.0f);
-    int object = -1;
-    Hit hit;
-    if (intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit)) {
+                         make_lane_float2((lane_float)(0.5f), (lane_float)(0.5f)));
+    AuxRecord record = {l3_splat(0.0f), 0.0f, -1};
+    LaneHit hit;
+    lane_int found = closest_hits(scene, ray.origin, ray.direction, INFINITY, LANE_TRUE, &hit);
+    if (lane_any(found)) {
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        geometry = (float4)(sp.ns, dot(sp.p - ray.origin, camera->forward.xyz));
-        object = sp.object;
+        record.normal = l3_select(record.normal, sp.ns, found);
+        record.depth = select(record.depth, l3_dot(l3_sub(sp.p, ray.origin), l3_uniform(camera->forward.xyz)), found);
+        record.object = select(record.object, sp.object, found);
     }
-    aux_geometry[slot] = geometry;
-    aux_object[slot] = object;
+    return record;
 }
+
+#if LANES == 1
+// The record of pixel (x, y), at `slot` in this tile's buffers.
+void write_aux(const Scene* scene, int x, int y, int slot, __global float4* aux_geometry,
+               __global int* aux_object) {
+    AuxRecord record = aux_record(scene, x, y);
+    aux_geometry[slot] = (float4)(record.normal, record.depth);
+    aux_object[slot] = record.object;
+}
+#endif
 
 #endif

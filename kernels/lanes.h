@@ -21,6 +21,7 @@ typedef float2 lane_float2;
 typedef float3 lane_float3;
 #define lane_uint_to_float(x) ((float)(x))
 #define lane_float_to_int(x) ((int)(x))
+#define lane_int_to_float(x) ((float)(x))
 #define as_lane_float(x) as_float(x)
 #define as_lane_int(x) as_int(x)
 // Whether any lane's mask (a comparison's result) is set.
@@ -33,6 +34,8 @@ typedef float3 lane_float3;
 #define make_lane_float2(x, y) ((float2)((x), (y)))
 #define make_lane_float3(x, y, z) ((float3)((x), (y), (z)))
 #define l3_splat(s) ((float3)(s))
+// The same float3 in every lane.
+#define l3_uniform(v) (v)
 #define l3_add(a, b) ((a) + (b))
 #define l3_sub(a, b) ((a) - (b))
 #define l3_mul(a, b) ((a) * (b))
@@ -59,6 +62,7 @@ typedef struct { float8 x, y; } lane_float2;
 typedef struct { float8 x, y, z; } lane_float3;
 #define lane_uint_to_float(x) convert_float8(x)
 #define lane_float_to_int(x) convert_int8(x)
+#define lane_int_to_float(x) convert_float8(x)
 #define as_lane_float(x) as_float8(x)
 #define as_lane_int(x) as_int8(x)
 #define lane_any(m) any(m)
@@ -66,6 +70,7 @@ typedef struct { float8 x, y, z; } lane_float3;
 lane_float2 make_lane_float2(float8 x, float8 y) { lane_float2 v = {x, y}; return v; }
 lane_float3 make_lane_float3(float8 x, float8 y, float8 z) { lane_float3 v = {x, y, z}; return v; }
 lane_float3 l3_splat(float s) { return make_lane_float3((float8)(s), (float8)(s), (float8)(s)); }
+lane_float3 l3_uniform(float3 v) { return make_lane_float3((float8)(v.x), (float8)(v.y), (float8)(v.z)); }
 lane_float3 l3_add(lane_float3 a, lane_float3 b) { return make_lane_float3(a.x + b.x, a.y + b.y, a.z + b.z); }
 lane_float3 l3_sub(lane_float3 a, lane_float3 b) { return make_lane_float3(a.x - b.x, a.y - b.y, a.z - b.z); }
 lane_float3 l3_mul(lane_float3 a, lane_float3 b) { return make_lane_float3(a.x * b.x, a.y * b.y, a.z * b.z); }

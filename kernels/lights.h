@@ -10,6 +10,7 @@
 #include "scene.h"
 
 #include "sphere.h"
+#include "triangle_lights.h"
 
 typedef struct {
     float3 wi;        // unit direction towards the light
@@ -75,12 +76,6 @@ float3 environment_radiance(const Scene* scene, float3 dir) {
 
 float3 sample_environment_direction(const Scene* scene, float2 u) { return sample_uniform_sphere(u); }
 #endif
-
-// ----- area lights: triangles ---------------------------------------------------------------
-// Solid-angle pdf of reaching a point on an emitting triangle, given the distance and cosine.
-float triangle_emitter_pdf_w(__global const Emitter* e, float dist, float cos_light) {
-    return cos_light > 0.0f ? dist * dist / (cos_light * e->p0.w) : 0.0f;
-}
 
 // ----- area lights: spheres ------------------------------------------------------------------
 // Seen from outside, a sphere fills a cone of directions; it is sampled uniformly inside that
@@ -151,7 +146,7 @@ float3 sample_sphere_emitter(__global const Emitter* e, float3 p, float2 u, floa
 // from p (the MIS weight of emission that a BSDF or phase sample hits).
 float area_emitter_pdf_w(__global const Emitter* e, float3 p, float3 q, float cos_light) {
     if (e->kind.x == EMITTER_SPHERE) return sphere_emitter_pdf_w(e, p, q, cos_light);
-    return triangle_emitter_pdf_w(e, length(q - p), cos_light);
+    return triangle_emitter_pdf_w(e->p0.w, length(q - p), cos_light);
 }
 
 // ----- point and directional lights ----------------------------------------------------------
@@ -199,22 +194,12 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     __global const Emitter* e = scene->emitters + index;
     int kind = e->kind.x;
     if (kind == EMITTER_TRIANGLE) {
-        float2 b = sample_triangle(u);
-        float3 n_light = normalize(cross(e->e1.xyz, e->e2.xyz));
-        float3 q = e->p0.xyz + b.x * e->e1.xyz + b.y * e->e2.xyz;
-        // q is off the light's plane by up to its rounding error, which far from the origin
-        // exceeds the shadow ray's relative margin: move it off the plane towards p by that
-        // bound (as spawned rays are, scene.h), so the shadow ray stops before the light.
-        float3 magnitude = fabs(e->p0.xyz) + fabs(e->e1.xyz) + fabs(e->e2.xyz);
-        q = offset_ray_origin(q, dot(p - q, n_light) > 0.0f ? n_light : -n_light,
-                              SURFACE_ERROR_EPS * dot(fabs(n_light), magnitude));
-        float3 d = q - p;
-        float dist = length(d);
+        float dist, pdf_w;
+        float3 wi = sample_triangle_emitter(scene, index, p, u, &dist, &pdf_w);
         if (!(dist > 0.0f)) return ls;
-        ls.wi = d / dist;
+        ls.wi = wi;
         ls.dist = dist;
-        float cos_light = -dot(ls.wi, n_light);
-        ls.pdf_w = pmf * triangle_emitter_pdf_w(e, dist, cos_light);
+        ls.pdf_w = pmf * pdf_w;
         ls.radiance = ls.pdf_w > 0.0f ? e->radiance.xyz : (float3)(0.0f);
     } else if (kind == EMITTER_SPHERE) {
         float pdf_w;

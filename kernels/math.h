@@ -18,7 +18,7 @@
 #define INLINE
 #endif
 
-float max_component(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
+lane_float max_component(lane_float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 
 float min_component(float3 v) { return fmin(v.x, fmin(v.y, v.z)); }
 
@@ -29,7 +29,8 @@ float channel(float3 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : v.z); }
 
 float luminance(float3 c) { return dot(c, (float3)(0.2126f, 0.7152f, 0.0722f)); }
 
-bool is_black(float3 c) { return c.x == 0.0f && c.y == 0.0f && c.z == 0.0f; }
+// A comparison's result (lanes.h).
+lane_int is_black(lane_float3 c) { return (c.x == 0.0f) & (c.y == 0.0f) & (c.z == 0.0f); }
 
 // Branchless orthonormal basis around a unit vector (Duff et al. 2017, "Building an Orthonormal
 // Basis, Revisited"): no normalisation, no special case except the sign.

@@ -16,9 +16,9 @@
 
 // SAMPLER_INDEPENDENT, SAMPLER_SOBOL: clrender/layout.py SAMPLERS.
 // index_reversed: the sample index with its bits reversed, the form the index scramble needs
-// (reversed once per path, not once per draw). The key and index are per lane (lanes.h); all
-// lanes draw the same dimension (counter) at each step.
-typedef struct { lane_uint key; uint counter; lane_uint index_reversed; int sampler; } Rng;
+// (reversed once per path, not once per draw). Per lane (lanes.h): the lanes of a work-item
+// draw in step, and their counters differ only where a lane's draw takes fewer numbers.
+typedef struct { lane_uint key; lane_uint counter; lane_uint index_reversed; int sampler; } Rng;
 
 // "lowbias32" integer hash (C. Wellons, 2018): full avalanche with two multiplies.
 lane_uint hash_u32(lane_uint x) {

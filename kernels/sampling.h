@@ -30,12 +30,15 @@ lane_float2 sample_triangle(lane_float2 u) {
     return make_lane_float2(1.0f - su, u.y * su);
 }
 
-// Index i with probability cdf[i+1] - cdf[i]; cdf has n+1 entries, cdf[0] = 0, cdf[n] = 1.
-int sample_discrete_cdf(__global const float* cdf, int n, float u) {
-    int lo = 0, hi = n;  // invariant: cdf[lo] <= u < cdf[hi]
-    while (hi - lo > 1) {
-        int mid = (lo + hi) >> 1;
-        if (cdf[mid] <= u) lo = mid; else hi = mid;
+// Index i with probability cdf[i+1] - cdf[i]; cdf has n+1 entries, cdf[0] = 0, cdf[n] = 1: the
+// last i < n with cdf[i] <= u. The searched length halves whatever u is, so every lane runs the
+// same number of steps and only a select depends on u.
+lane_int sample_discrete_cdf(__global const float* cdf, int n, lane_float u) {
+    lane_int lo = 0;   // invariant: the answer lies in [lo, lo + len), lo + len <= n
+    for (int len = n; len > 1;) {
+        int step = len >> 1;
+        lo = select(lo, lo + step, LANE_LOAD(cdf, lo + step, ) <= u);
+        len -= step;
     }
     return lo;
 }
@@ -45,10 +48,11 @@ int sample_discrete_cdf(__global const float* cdf, int n, float u) {
 // places a sample. It keeps log2(p * 2^24) of u's 24 bits for an item of probability p: an item
 // chosen less than once in 10^5 gets its numbers on a grid of under 170 steps (as in Mitsuba's
 // sample reuse); such items are tiny emitters among very many.
-int sample_discrete_cdf_reuse(__global const float* cdf, int n, float u, float* rescaled) {
-    int i = sample_discrete_cdf(cdf, n, u);
+lane_int sample_discrete_cdf_reuse(__global const float* cdf, int n, lane_float u, lane_float* rescaled) {
+    lane_int i = sample_discrete_cdf(cdf, n, u);
+    lane_float low = LANE_LOAD(cdf, i, ), high = LANE_LOAD(cdf, i + 1, );
     // clamped: rounding can reach 1, and so can a u beyond a cdf[n] rounded below 1
-    *rescaled = clamp((u - cdf[i]) / fmax(cdf[i + 1] - cdf[i], 1e-30f), 0.0f, 0x1.fffffep-1f);
+    *rescaled = clamp((u - low) / fmax(high - low, 1e-30f), 0.0f, 0x1.fffffep-1f);
     return i;
 }
 

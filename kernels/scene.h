@@ -50,6 +50,66 @@ bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
     return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit);
 }
 
+// The nearest hits of the lanes' rays that are `active` (one traversal per lane: the tree is
+// walked by the scalar traverse_bvh); returns the lanes that hit something. A lane without a hit
+// gets prim 0 (a valid slot to read, never used).
+lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float t_max,
+                      lane_int active, LaneHit* hit) {
+#if LANES == 1
+    return active && intersect_scene(scene, origin, dir, t_max, hit);
+#else
+    float o[3][8], d[3][8], t[8], b1[8], b2[8], from_centre[3][8];
+    int live[8], prim[8], sphere[8];
+    vstore8(origin.x, 0, o[0]); vstore8(origin.y, 0, o[1]); vstore8(origin.z, 0, o[2]);
+    vstore8(dir.x, 0, d[0]); vstore8(dir.y, 0, d[1]); vstore8(dir.z, 0, d[2]);
+    vstore8(t_max, 0, t);
+    vstore8(active, 0, live);
+    for (int i = 0; i < 8; ++i) {
+        Hit h;
+        h.t = t[i];
+        h.prim = -1;
+        h.b1 = h.b2 = 0.0f;
+        h.sphere = false;
+        h.from_centre = (float3)(0.0f);
+        if (live[i]) intersect_scene(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i], &h);
+        t[i] = h.t;
+        b1[i] = h.b1;
+        b2[i] = h.b2;
+        prim[i] = h.prim;
+        sphere[i] = h.sphere ? -1 : 0;
+        from_centre[0][i] = h.from_centre.x;
+        from_centre[1][i] = h.from_centre.y;
+        from_centre[2][i] = h.from_centre.z;
+    }
+    lane_int found = vload8(0, prim) >= 0;
+    hit->t = vload8(0, t);
+    hit->b1 = vload8(0, b1);
+    hit->b2 = vload8(0, b2);
+    hit->prim = max(vload8(0, prim), (int8)(0));   // not max(int8, int): Oclgrind computes that wrong
+    hit->sphere = vload8(0, sphere);
+    hit->from_centre = make_lane_float3(vload8(0, from_centre[0]), vload8(0, from_centre[1]), vload8(0, from_centre[2]));
+    return found;
+#endif
+}
+
+// Whether anything lies between the lanes' origins and t_max along their rays (shadow rays),
+// for the `active` lanes; 0 in the others.
+lane_int any_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float t_max, lane_int active) {
+#if LANES == 1
+    return active && occluded(scene, origin, dir, t_max);
+#else
+    float o[3][8], d[3][8], t[8];
+    int live[8], blocked[8];
+    vstore8(origin.x, 0, o[0]); vstore8(origin.y, 0, o[1]); vstore8(origin.z, 0, o[2]);
+    vstore8(dir.x, 0, d[0]); vstore8(dir.y, 0, d[1]); vstore8(dir.z, 0, d[2]);
+    vstore8(t_max, 0, t);
+    vstore8(active, 0, live);
+    for (int i = 0; i < 8; ++i)
+        blocked[i] = live[i] && occluded(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i]) ? -1 : 0;
+    return vload8(0, blocked);
+#endif
+}
+
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
 INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_float3 dir) {

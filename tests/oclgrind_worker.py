@@ -55,7 +55,8 @@ def add(a, b):
 def run_combination(case, device):
     features = case["features"]
     scene, method = feature_scene(features, RESOLUTION)
-    info = render(scene, device, method, aovs=SAMPLE_AOVS if features["AOVS"] else ())
+    packets = features["LANES"] > 1
+    info = render(scene, device, method, aovs=SAMPLE_AOVS if features["AOVS"] else (), packets=packets)
     # Run-time switches, on a quarter of the pixels: ray marching's other next-event path (one
     # light sample per segment instead of per step), and hero-only free-flight sampling.
     small, _ = feature_scene(features, (4, 4))

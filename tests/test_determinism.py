@@ -33,9 +33,11 @@ def test_launches_of_row_bands_give_identical_image(device, monkeypatch):
     for local_size in (None, (4, 4)):   # 30 rows: the last band of 4 overruns the image by 2
         whole = clrender.Renderer(scene, device, local_size=local_size).render(spp=3, seed=4, samples_per_pass=3)
         launches = []
-        banded = clrender.Renderer(scene, device, local_size=local_size, pass_seconds=1e-9).render(
-            spp=3, seed=4, progress=lambda *a: launches.append(a))
-        rows = 1 if local_size is None else 4
+        banded_renderer = clrender.Renderer(scene, device, local_size=local_size, pass_seconds=1e-9)
+        banded = banded_renderer.render(spp=3, seed=4, progress=lambda *a: launches.append(a))
+        # Bands are whole work-group rows: of the size asked for, else of the renderer's own
+        # (packets have 4 x 4 groups by default).
+        rows = 1 if banded_renderer.local_size is None else banded_renderer.local_size[1]
         assert len(launches) == 4 + 2 * -(-30 // rows), local_size   # 8 rows in bands, then 2 samples
         done = [a[0] for a in launches]   # samples done, in fractions of a sample after each band
         assert done[:4] == [8 / 30, 16 / 30, 24 / 30, 1] and done == sorted(done) and done[-1] == 3

@@ -1,0 +1,161 @@
+// Path tracing of LANES paths at once (lanes.h: 8 on CPUs), each lane a camera path: path.h's
+// estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
+// roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
+// diffuse and smooth dielectric surfaces, triangle emitters, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
+// lane traces the path that path.h traces for its pixel (the images agree to float rounding).
+#ifndef CLRENDER_PATH_PACKETS_H
+#define CLRENDER_PATH_PACKETS_H
+#include "lanes.h"
+#include "math.h"
+#include "rng.h"
+#include "sampling.h"
+#include "camera.h"
+#include "scene.h"
+#include "triangle_lights.h"
+#include "materials/diffuse.h"
+#include "materials/dielectric_smooth.h"
+
+// Emission of the surfaces hit (front faces of emitting triangles), weighted against the
+// light-sampling density of reaching them from the previous vertex (path.h, emitted_radiance).
+lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 prev_p,
+                                   lane_float3 dir, lane_float prev_pdf_w, lane_int prev_delta) {
+    lane_int emits = sp->front_face & (sp->emitter >= 0);
+    if (!lane_any(emits)) return l3_splat(0.0f);
+    lane_int emitter = max(sp->emitter, (lane_int)(0));   // (Oclgrind gets integer max(vector, scalar) wrong)
+    lane_float3 le = LANE_LOAD3(scene->materials, sp->material, .emission);
+    lane_float light_pdf_w = emitter_selection_pmf(scene, emitter) *
+        triangle_emitter_pdf_w(LANE_LOAD(scene->emitters, emitter, .p0.w), l3_length(l3_sub(sp->p, prev_p)),
+                               -l3_dot(dir, sp->ng));
+    lane_float weight = select(power_heuristic(prev_pdf_w, light_pdf_w), (lane_float)(1.0f), prev_delta);
+    return l3_select(l3_splat(0.0f), l3_scale(le, weight), emits);
+}
+
+// Next-event estimation at the diffuse vertices of `lanes` (path.h, direct_light), from the 2D
+// draw u: an emitter picked by power, a point on it, a shadow ray.
+lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
+                               lane_float2 u, lane_int lanes) {
+    int count = scene->params->config.w;
+    lane_float3 radiance = l3_splat(0.0f);
+    if (count == 0 || !lane_any(lanes)) return radiance;
+    lane_float u_on_emitter;
+    lane_int index = sample_discrete_cdf_reuse(scene->emitter_cdf, count, u.x, &u_on_emitter);
+    lane_float dist, pdf_w;
+    lane_float3 wi = sample_triangle_emitter(scene, index, sp->p, make_lane_float2(u_on_emitter, u.y), &dist, &pdf_w);
+    lane_float light_pdf_w = emitter_selection_pmf(scene, index) * pdf_w;
+    lane_float3 le = LANE_LOAD3(scene->emitters, index, .radiance);
+    lane_float3 f = eval_diffuse(albedo, sp, wi);
+    lane_int lit = lanes & (dist > 0.0f) & (light_pdf_w > 0.0f) & !is_black(le) & !is_black(f);
+    if (!lane_any(lit)) return radiance;
+    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
+    lit &= !any_hits(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit);
+    lane_float weight = power_heuristic(light_pdf_w, sample_diffuse_pdf(sp, wi));
+    return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
+}
+
+// The scattering of the lanes' vertices: the diffuse lobe, or the smooth dielectric's pair of
+// delta lobes (picked with u_lobe, path.h's rnl) where `dielectric`.
+BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
+                             lane_int dielectric, lane_float u_lobe, lane_float2 u, lane_int lanes) {
+    BsdfSample bs = bsdf_sample_none();
+    bs.wi = sample_diffuse(sp, u);
+    bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
+    // For cosine sampling f * cos / pdf is the albedo itself.
+    bs.weight = l3_select(l3_splat(0.0f), color, bs.pdf_w > 0.0f);
+#if DIELECTRIC
+    lane_int glass = lanes & dielectric;
+    if (lane_any(glass)) {
+        lane_float ior = LANE_LOAD(scene->materials, sp->material, .params.x);
+        lane_float exterior = LANE_LOAD(scene->materials, sp->material, .params.y);
+        lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
+        lane_float eta = select(exterior / ior, ior / exterior, sp->front_face);  // bsdf.h, material_eta
+        BsdfSample delta = sample_dielectric_delta(color, eta, n, sp->ng, wo, u_lobe);
+        bs.wi = l3_select(bs.wi, delta.wi, glass);
+        bs.weight = l3_select(bs.weight, delta.weight, glass);
+        bs.pdf_w = select(bs.pdf_w, delta.pdf_w, glass);
+        bs.eta = select(bs.eta, delta.eta, glass);
+        bs.delta = glass;
+    }
+#endif
+    return bs;
+}
+
+// The sample-level AOVs of the lanes' paths (aovs.h, AovSample): those of the first non-delta
+// vertex; a path that escapes or ends before one records zeros, as aovs.h's do without an
+// environment.
+typedef struct {
+    lane_float3 albedo;
+    lane_float3 normal;
+    lane_float3 emission;
+    lane_int found;
+} AovLanes;
+
+// aovs.h, aov_record_surface, at the diffuse vertices of `lanes` that record nothing yet.
+void aov_record_surfaces(const Scene* scene, AovLanes* aov, const SurfacePoint* sp, lane_float3 color,
+                         lane_float3 throughput, lane_float eta_scale, lane_int lanes) {
+    lanes &= !aov->found;
+    if (!AOVS || !lane_any(lanes)) return;
+    lane_int emits = sp->front_face & (sp->emitter >= 0);
+    lane_float3 emission = LANE_LOAD3(scene->materials, sp->material, .emission);
+    lane_float3 colour = l3_select(color, l3_scale(emission, 1.0f / fmax(max_component(emission), 1.0f)), emits);
+    lane_float3 filter = make_lane_float3(clamp(throughput.x * eta_scale, 0.0f, 1.0f),
+                                          clamp(throughput.y * eta_scale, 0.0f, 1.0f),
+                                          clamp(throughput.z * eta_scale, 0.0f, 1.0f));
+    aov->albedo = l3_select(aov->albedo, l3_mul(filter, colour), lanes);
+    aov->normal = l3_select(aov->normal, sp->ns, lanes);
+    aov->emission = l3_select(aov->emission, l3_select(l3_splat(0.0f), l3_mul(throughput, emission), emits), lanes);
+    aov->found |= lanes;
+}
+
+// The radiance of the lanes' camera paths (0 in lanes not `alive` at the start); with AOVS,
+// *aov receives their sample-level AOVs.
+lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, AovLanes* aov) {
+    int max_depth = scene->params->config.x;
+    int rr_depth = scene->params->config.y;
+    lane_float3 radiance = l3_splat(0.0f);
+    lane_float3 throughput = l3_splat(1.0f);
+    lane_float3 prev_p = ray.origin;
+    lane_float prev_pdf_w = 0.0f;
+    lane_int prev_delta = LANE_TRUE;   // the camera ray sees emitters with full weight
+    lane_float eta_scale = 1.0f;       // path.h: roulette on the throughput without eta^2
+    for (int depth = 1; depth <= max_depth; ++depth) {
+        LaneHit hit;
+        alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
+        if (!lane_any(alive)) break;
+        SurfacePoint sp = surface_point(scene, &hit, ray.direction);
+        lane_float3 color = LANE_LOAD3(scene->materials, sp.material, .color);
+        lane_int dielectric = LANE_LOAD_INT(scene->materials, sp.material, .kind.x) == MATERIAL_DIELECTRIC;
+        aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !dielectric);
+        lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
+        radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
+        if (depth == max_depth) break;
+        // A diffuse vertex draws its light sample, a dielectric one its lobe (rng_float, the first
+        // coordinate of the same dimension); the independent sampler's 2D draw takes two numbers
+        // where rng_float takes one, so the dielectric lanes give one back.
+        lane_float2 u_light = rng_float2(rng);
+        if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), dielectric);
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, u_light, alive & !dielectric);
+        // Selected, not added everywhere: the throughput of a finished lane may be anything.
+        radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
+        lane_float3 wo = l3_neg(ray.direction);
+        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, dielectric, u_light.x, rng_float2(rng), alive);
+        alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight);
+        throughput = l3_mul(throughput, bs.weight);
+        prev_pdf_w = bs.pdf_w;
+        prev_delta = bs.delta;
+        prev_p = sp.p;
+        eta_scale *= bs.eta * bs.eta;
+        ray.origin = spawn_ray_origin(&sp, bs.wi);
+        ray.direction = bs.wi;
+        if (depth >= rr_depth) {
+            // path.h, survive_roulette
+            lane_float survive = fmin(max_component(throughput) * eta_scale, 0.95f);
+            alive &= rng_float(rng) < survive;
+            throughput = l3_div(throughput, survive);
+        }
+        if (!lane_any(alive)) break;
+    }
+    return radiance;
+}
+
+#endif
