@@ -81,14 +81,14 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
 
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
-    features, every material some shape uses two-sided diffuse (emissive included) or smooth
-    dielectric, no light but emitting triangles (no emitting spheres, point, directional or
-    environment lights)."""
+    features, every material some shape uses diffuse (emissive included) or smooth dielectric,
+    no light but emitting triangles (no emitting spheres, point, directional or environment
+    lights)."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     for shape in scene.shapes:
         material = scene.materials[shape.material]
-        if material.type not in ("diffuse", "emissive", "dielectric") or not material.two_sided:
+        if material.type not in ("diffuse", "emissive", "dielectric"):
             return False
         if material.type == "dielectric" and not _is_smooth(material):
             return False

@@ -13,6 +13,7 @@
 #include "camera.h"
 #include "scene.h"
 #include "triangle_lights.h"
+#include "materials/material.h"
 #include "materials/diffuse.h"
 #include "materials/dielectric_smooth.h"
 
@@ -23,7 +24,7 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
     lane_int emits = sp->front_face & (sp->emitter >= 0);
     if (!lane_any(emits)) return l3_splat(0.0f);
     lane_int emitter = max(sp->emitter, (lane_int)(0));   // (Oclgrind gets integer max(vector, scalar) wrong)
-    lane_float3 le = LANE_LOAD3(scene->materials, sp->material, .emission);
+    lane_float3 le = material_emission_at(scene->materials, sp->material);
     lane_float light_pdf_w = emitter_selection_pmf(scene, emitter) *
         triangle_emitter_pdf_w(LANE_LOAD(scene->emitters, emitter, .p0.w), l3_length(l3_sub(sp->p, prev_p)),
                                -l3_dot(dir, sp->ng));
@@ -65,8 +66,8 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
 #if DIELECTRIC
     lane_int glass = lanes & dielectric;
     if (lane_any(glass)) {
-        lane_float ior = LANE_LOAD(scene->materials, sp->material, .params.x);
-        lane_float exterior = LANE_LOAD(scene->materials, sp->material, .params.y);
+        lane_float ior = material_ior_at(scene->materials, sp->material);
+        lane_float exterior = material_exterior_ior_at(scene->materials, sp->material);
         lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
         lane_float eta = select(exterior / ior, ior / exterior, sp->front_face);  // bsdf.h, material_eta
         BsdfSample delta = sample_dielectric_delta(color, eta, n, sp->ng, wo, u_lobe);
@@ -96,7 +97,7 @@ void aov_record_surfaces(const Scene* scene, AovLanes* aov, const SurfacePoint* 
     lanes &= !aov->found;
     if (!AOVS || !lane_any(lanes)) return;
     lane_int emits = sp->front_face & (sp->emitter >= 0);
-    lane_float3 emission = LANE_LOAD3(scene->materials, sp->material, .emission);
+    lane_float3 emission = material_emission_at(scene->materials, sp->material);
     lane_float3 colour = l3_select(color, l3_scale(emission, 1.0f / fmax(max_component(emission), 1.0f)), emits);
     lane_float3 filter = make_lane_float3(clamp(throughput.x * eta_scale, 0.0f, 1.0f),
                                           clamp(throughput.y * eta_scale, 0.0f, 1.0f),
@@ -123,8 +124,11 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        lane_float3 color = LANE_LOAD3(scene->materials, sp.material, .color);
-        lane_int dielectric = LANE_LOAD_INT(scene->materials, sp.material, .kind.x) == MATERIAL_DIELECTRIC;
+        lane_int dielectric = material_kind_at(scene->materials, sp.material) == MATERIAL_DIELECTRIC;
+        // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
+        // reaches it, and the path ends there.
+        lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
+        lane_float3 color = l3_select(material_color_at(scene->materials, sp.material), l3_splat(0.0f), black_back);
         aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !dielectric);
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
@@ -139,7 +143,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
         lane_float3 wo = l3_neg(ray.direction);
         BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, dielectric, u_light.x, rng_float2(rng), alive);
-        alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight);
+        alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
         prev_pdf_w = bs.pdf_w;
         prev_delta = bs.delta;

@@ -132,7 +132,10 @@ def test_features_follow_the_volume_method_and_combinations_stay_valid():
             clrender.Renderer(scene, step=step)
     combinations = list(all_feature_combinations())
     assert all(c["MEDIA"] == 1 for c in combinations if c["GRID_MEDIA"])
-    assert len(combinations) == 96   # kept small: every one is compiled by test_compile.py (AOVS doubled it)
+    # Kept small: every one is compiled by test_compile.py (AOVS doubled it; packets add the 4 of
+    # DIELECTRIC x AOVS without the other features).
+    assert len(combinations) == 96 + 4
+    assert all(not (c["MEDIA"] or c["TOON"] or c["ENVIRONMENT"]) for c in combinations if c["LANES"] > 1)
 
 
 def test_medium_records_point_into_the_shared_buffers():

@@ -82,6 +82,36 @@ def test_accessors_read_the_lanes_named_in_layout(context, queue):
         assert out.tolist() == expected.tolist(), struct
 
 
+def test_lane_accessors_read_the_same_lanes(context, queue):
+    # materials/material.h's *_at accessors (the packet kernel's, over lanes.h) against the
+    # scalar accessors of the same fields, at one lane.
+    fields = ("kind", "one_sided", "color", "emission", "ior", "exterior_ior")
+    record = np.zeros(1, layout.MATERIAL)
+    raw = record.view(np.uint8)
+    for member in record.dtype.names:   # distinct small values, exact as float and as int
+        base = record[member]
+        record[member] = (np.arange(base[0].size).reshape(base[0].shape) + 100 * (record.dtype.names.index(member) + 1)).astype(base.dtype)
+    body = []
+    for pattern in ("material_{}(&copy)", "material_{}_at(records, 0)"):   # scalar half, lane half
+        for name in fields:
+            call, count = pattern.format(name), layout.MATERIAL_FIELDS[name][2]
+            body += [f"    out[k++] = (float)({call});"] if count == 1 else [
+                f"    out[k++] = (float)({call}.{lane});" for lane in "xyz"[:count]]
+    source = kernel_source("materials/material.h") + "\n".join([
+        "__kernel void read_fields(__global const Material* records, __global float* out) {",
+        "    Material copy = records[0];", "    int k = 0;", *body, "}"])
+    out = np.full(len(body), np.nan, np.float32)
+    mf = cl.mem_flags
+    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+    cl.Program(context, source).build().read_fields(
+        queue, (1,), None, cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=raw), out_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    half = len(body) // 2
+    assert out[:half].tolist() == out[half:].tolist() and not np.any(np.isnan(out))
+
+
+
+
 def test_only_the_accessor_headers_read_packed_lanes():
     # Lanes of Material and Medium are read by name everywhere else (the Emitter and RenderParams
     # records are not covered here).

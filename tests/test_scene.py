@@ -117,7 +117,7 @@ def test_transform_moves_and_mirrors_keep_normals_outward():
 def test_features_follow_what_the_scene_contains():
     cornell_box = clrender.load_scene("scenes/cornell_box.json")
     assert scene_features(cornell_box) == {
-        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0}
+        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "LANES": 1}
     assert scene_features(cornell_box, sample_aovs=True)["AOVS"] == 1   # asked by the render, not the scene
     with_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1}]))
     assert scene_features(with_env)["ENVIRONMENT"] == 1
@@ -126,7 +126,7 @@ def test_features_follow_what_the_scene_contains():
     with_sun = clrender.load_scene_dict(base_scene(lights=[{"type": "directional", "direction": [0, -1, 0],
                                                            "irradiance": 3}]))
     assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0,
-                                         "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0}
+                                         "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "LANES": 1}
     glass = [{"name": "glass", "type": "dielectric", "ior": 1.5}]
     unused_glass = clrender.load_scene_dict(base_scene(materials=base_scene()["materials"] + glass))
     assert scene_features(unused_glass)["DIELECTRIC"] == 0

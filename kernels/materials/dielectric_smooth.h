@@ -67,7 +67,7 @@ BsdfSample sample_dielectric_delta(lane_float3 tint, lane_float eta, lane_float3
     // f < 1 where not reflected, so refraction about n exists; about ng it may not.
     lane_float3 wt = bs.wi;
     lane_int refracts = refract(wo, n, eta, &wt);
-    lane_int wrong_side = !reflected & refracts & (l3_dot(wt, ng) >= 0.0f);
+    lane_int wrong_side = (!reflected) & refracts & (l3_dot(wt, ng) >= 0.0f);
     if (lane_any(wrong_side)) refracts = select(refracts, refract(wo, ng, eta, &wt), wrong_side);
     reflected = reflected | !refracts;
     lane_float3 wr = reflect(wo, n);

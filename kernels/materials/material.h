@@ -3,6 +3,7 @@
 // their meaning is documented; tests/test_layout.py checks every accessor against that table.
 #ifndef CLRENDER_MATERIAL_H
 #define CLRENDER_MATERIAL_H
+#include "lanes.h"
 #include "types.h"
 
 int material_kind(const Material* m) { return m->kind.x; }
@@ -25,6 +26,26 @@ float material_toon_rim_width(const Material* m) { return m->toon_highlight.w; }
 float3 material_toon_rim_color(const Material* m) { return m->toon_rim.xyz; }
 float material_toon_rim_threshold(const Material* m) { return m->toon_rim.w; }
 float3 material_toon_ambient(const Material* m) { return m->toon_ambient.xyz; }
+
+// The same fields of materials[index], for each lane's index (lanes.h).
+lane_int material_kind_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD_INT(materials, index, .kind.x);
+}
+lane_int material_one_sided_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD_INT(materials, index, .kind.y);
+}
+lane_float3 material_color_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD3(materials, index, .color);
+}
+lane_float3 material_emission_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD3(materials, index, .emission);
+}
+lane_float material_ior_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD(materials, index, .params.x);
+}
+lane_float material_exterior_ior_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD(materials, index, .params.y);
+}
 
 // An index-matched boundary (an interface, or a dielectric with the same index on both sides):
 // only separates media and transmits its colour, not a path vertex.
