@@ -30,7 +30,7 @@ def cpu_seconds(function):
 
 
 def default_scenes():
-    found = [sorted(glob.glob(str(PEERS / f"{name}-*" / "scene.json")))[-1:]
+    found = [sorted(glob.glob(str(PEERS / f"{name}-*" / "scene.json")), key=os.path.getmtime)[-1:]
              for name in ("cornell_box", "glass_sphere", "tir_prism")]
     return [path for paths in found for path in paths] or [str(Path(__file__).resolve().parent.parent / "scenes" / "cornell_box.json")]
 
