@@ -11,31 +11,12 @@
 #include "path.h"
 #include "aux_buffers.h"
 
-KERNEL void render_pass(__constant RenderParams* params,
-                        __global const WideBvhNode* nodes,
-                        __global const Triangle* triangles,
-                        __global const TriangleShading* shading,
-                        __global const TriangleInfo* info,
-                        __global const Material* materials,
-                        __global const Medium* media,
-                        __global const Emitter* emitters,
-                        __global const float* emitter_cdf,
-                        __global const float4* env_texels,
-                        __global const float* env_cdf,
-                        __global const float* specular_albedo,
-                        __global const float* grid_data,
-                        __global const float* majorant_data,
-                        __global float4* accumulator,
-                        __global int* discarded_samples,
-                        __global float4* aux_geometry,
-                        __global int* aux_object,
-                        __global AovSums* aov_sums) {
+KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int tx = get_global_id(0), ty = get_global_id(1);
     if (tx >= params->tile.z || ty >= params->tile.w) return;
     int x = params->tile.x + tx, y = params->tile.y + ty;
     int width = params->frame.x, height = params->frame.y;
-    Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
-                   emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data};
+    Scene scene = SCENE_OF_RENDER_PASS_ARGUMENTS;
     int pixel = y * width + x;            // keys the random numbers
     int slot = ty * params->tile.z + tx;  // in this tile's buffers
     if (params->frame.z == 0) write_aux(&scene, x, y, slot, aux_geometry, aux_object);

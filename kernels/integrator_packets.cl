@@ -15,25 +15,7 @@
 #error "integrator_packets.cl is built with LANES 8"
 #endif
 
-KERNEL void render_pass(__constant RenderParams* params,
-                        __global const WideBvhNode* nodes,
-                        __global const Triangle* triangles,
-                        __global const TriangleShading* shading,
-                        __global const TriangleInfo* info,
-                        __global const Material* materials,
-                        __global const Medium* media,
-                        __global const Emitter* emitters,
-                        __global const float* emitter_cdf,
-                        __global const float4* env_texels,
-                        __global const float* env_cdf,
-                        __global const float* specular_albedo,
-                        __global const float* grid_data,
-                        __global const float* majorant_data,
-                        __global float4* accumulator,
-                        __global int* discarded_samples,
-                        __global float4* aux_geometry,
-                        __global int* aux_object,
-                        __global AovSums* aov_sums) {
+KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int first_column = get_global_id(0) * 8, ty = get_global_id(1);
     int tile_width = params->tile.z;
     if (first_column >= tile_width || ty >= params->tile.w) return;
@@ -42,8 +24,7 @@ KERNEL void render_pass(__constant RenderParams* params,
     int8 x = params->tile.x + tx;
     int y = params->tile.y + ty;
     int width = params->frame.x, height = params->frame.y;
-    Scene scene = {params, nodes, triangles, shading, info, materials, media, emitters,
-                   emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data};
+    Scene scene = SCENE_OF_RENDER_PASS_ARGUMENTS;
     uint8 pixel = convert_uint8(y * width + x);   // keys the random numbers
     int slot = ty * tile_width + first_column;    // of lane 0 in this tile's buffers
     int lanes = min(8, tile_width - first_column);

@@ -23,6 +23,19 @@ typedef struct {
     __global const float* majorant_data; // (max, min) per majorant block (medium_majorant_offset)
 } Scene;
 
+// The arguments of render_pass, in the order the host passes them (render.py: RenderParams,
+// Renderer.ARRAYS, then the per-pixel buffers), for both of its forms (integrator.cl,
+// integrator_packets.cl), and the Scene they make.
+#define RENDER_PASS_ARGUMENTS __constant RenderParams* params, __global const WideBvhNode* nodes, \
+    __global const Triangle* triangles, __global const TriangleShading* shading, \
+    __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media, \
+    __global const Emitter* emitters, __global const float* emitter_cdf, __global const float4* env_texels, \
+    __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data, \
+    __global const float* majorant_data, __global float4* accumulator, __global int* discarded_samples, \
+    __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums
+#define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, triangles, shading, info, materials, media, emitters, \
+    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data}
+
 // Per lane (lanes.h).
 typedef struct {
     lane_float3 p;     // position, from barycentrics (more accurate than origin + t * dir)
@@ -93,11 +106,9 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
 }
 
 // Whether anything lies between the lanes' origins and t_max along their rays (shadow rays),
-// for the `active` lanes; 0 in the others.
+// for the `active` lanes; 0 in the others. (One path asks occluded() itself.)
+#if LANES > 1
 lane_int any_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float t_max, lane_int active) {
-#if LANES == 1
-    return active && occluded(scene, origin, dir, t_max);
-#else
     float o[3][8], d[3][8], t[8];
     int live[8], blocked[8];
     vstore8(origin.x, 0, o[0]); vstore8(origin.y, 0, o[1]); vstore8(origin.z, 0, o[2]);
@@ -107,8 +118,8 @@ lane_int any_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_
     for (int i = 0; i < 8; ++i)
         blocked[i] = live[i] && occluded(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i]) ? -1 : 0;
     return vload8(0, blocked);
-#endif
 }
+#endif
 
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
