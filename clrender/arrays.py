@@ -1,4 +1,5 @@
 """A scene flattened into the arrays the kernel reads (dtypes from layout.py)."""
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -7,6 +8,7 @@ from . import layout, limits, meshes
 from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
 from .errors import SceneError
+from .origins import at_source
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -85,7 +87,7 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info = _gather_triangles(scene, scale)
     keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
-    _check_no_shape_vanishes(scene, info, keep)
+    _skip_shapes_without_area(scene, info, keep)
     v0, v1, v2, normals, info = v0[keep], v1[keep], v2[keep], normals[keep], info[keep]
     centres, radii, sphere_info = _gather_spheres(scene, scale)
 
@@ -158,18 +160,43 @@ def _has_float32_area(v0, v1, v2):
     return np.isfinite(length2) & (length2 >= np.finfo(np.float32).tiny)
 
 
-def _check_no_shape_vanishes(scene, info, keep):
-    """A shape all of whose triangles lost their area is a mistake (a radius of 1e-30 among
-    metres, a scene too flat), not something to drop silently."""
+class SkippedShapeWarning(UserWarning):
+    """A shape none of whose triangles has an area (corners collinear or coinciding) is skipped."""
+
+
+def _skip_shapes_without_area(scene, info, keep):
+    """Shapes that lost all their triangles (none in `keep`): one without an area of its own, a
+    line or a point as some exporters write them, is skipped with a warning, as Mitsuba loads it
+    and never hits it; one that has an area at its own size but none at the scene's scale is a
+    mistake (a radius of 1e-30 among metres, a scene too flat), not something to drop silently."""
     total = np.bincount(info[:, 1], minlength=len(scene.shapes))
     kept = np.bincount(info[keep, 1], minlength=len(scene.shapes))
     for index in np.flatnonzero((total > 0) & (kept == 0)):
+        shape = scene.shapes[index]
+        if not _has_area_of_its_own(shape.mesh):
+            where, message = at_source(scene.origins, f"shapes[{index}]",
+                                       f"no triangle of {shape.name!r} has an area (their corners are "
+                                       "collinear or coincide): skipped, as it cannot be seen")
+            warnings.warn(f"{where}: {message}", SkippedShapeWarning, stacklevel=3)
+            continue
         sizes = [float(np.max(hi - lo)) for lo, hi in (meshes.bounds(s.mesh) for s in scene.shapes)]
         largest = int(np.argmax(sizes))
-        raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {scene.shapes[index].name!r} "
+        raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {shape.name!r} "
                                              f"are degenerate at the scene's scale (no area in float32; "
                                              f"the scene spans {scene_extent(scene):.3g} units, "
                                              f"shapes[{largest}] {scene.shapes[largest].name!r} {sizes[largest]:.3g})")
+
+
+def _has_area_of_its_own(mesh):
+    """Whether a triangle of `mesh` keeps an area in float32 with the mesh moved to the origin
+    and scaled to a unit size: false for corners that are collinear or coincide (to float32
+    rounding), true for a mesh that is merely tiny or far away."""
+    lo, hi = meshes.bounds(mesh)
+    size = float(np.max(hi - lo))
+    if not size > 0:
+        return False
+    corners = (mesh.vertices[mesh.faces] - lo) / size
+    return bool(np.any(_has_float32_area(corners[:, 0], corners[:, 1], corners[:, 2])))
 
 
 def primitive_slots(order, v0, v1, v2, normals, centres, radii):

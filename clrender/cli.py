@@ -305,8 +305,6 @@ def _output_paths(output, scene_paths, layers=()):
 
 
 def _render_local(args, scene_path, output, aovs, parameters):
-    from tqdm import tqdm
-
     from .image import save_image
     from .render import Renderer, RenderInterrupted
 
@@ -315,16 +313,8 @@ def _render_local(args, scene_path, output, aovs, parameters):
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering, sampler=args.sampler)
     for note in renderer.notes:
         print(f"clrender: note: {note}", file=sys.stderr)
-    spp = args.spp or (None if args.time else scene.render.spp)
-    bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
-
-    def progress(done, total, seconds):
-        bar.update(done - bar.n)
-        width, height = scene.camera.resolution
-        bar.set_postfix_str(f"{done * width * height / max(seconds, 1e-9) / 1e6:.2f} M samples/s")
-
     try:
-        result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
+        result = renderer.render(spp=args.spp, seed=args.seed, max_depth=args.max_depth, progress=not args.quiet,
                                  time_limit=args.time, aovs=aovs, denoise=args.denoise,
                                  denoise_prefilter=args.denoise_prefilter,
                                  denoise_keep_emission=args.denoise_keep_emission)
@@ -332,7 +322,6 @@ def _render_local(args, scene_path, output, aovs, parameters):
     except RenderInterrupted as interrupted:
         result = interrupted.result
         status = 128 + interrupted.signal
-    bar.close()
     save_image(result.image, output, exposure=args.exposure, layers=_layers(args, aovs, result))
     _report(output, result, renderer.device.name.strip(), status)
     return status

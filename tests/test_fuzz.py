@@ -19,6 +19,7 @@ import os
 import re
 import struct
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,7 @@ from hypothesis import strategies as st
 
 import clrender
 import mitsuba_scenes
+from clrender.arrays import SkippedShapeWarning
 from clrender.errors import SceneError
 
 _REQUESTED = int(os.environ.get("CLRENDER_FUZZ_EXAMPLES", "0"))
@@ -57,11 +59,16 @@ class Renders:
         event("rendered")
         scene.camera.resolution = (4, 4)
         try:
-            result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
         except SceneError as e:   # found at upload: degenerate shapes, sizes, scaled values
             assert names_its_place(e), e
             event("SceneError at upload")
             return
+        for warning in caught:   # a shape none of whose triangles has an area
+            assert warning.category is SkippedShapeWarning, warning.message
+            event("shape without area skipped")
         assert np.all(np.isfinite(result.image)), result.image
         if result.discarded_samples:   # reported to the user; counted here to watch the rate
             event("rendered with non-finite samples discarded")

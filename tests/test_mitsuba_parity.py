@@ -139,6 +139,52 @@ def test_camera_rays_through_pixel_centres_and_corners_match(tmp_path, fov, size
         assert np.allclose(offset, np.dot(offset, d) * d, atol=1e-5)
 
 
+def stretch_or_shear(kind, amount):
+    linear = np.eye(3)
+    if kind == "stretch":
+        linear[0, 0] += amount
+    else:
+        linear[0, 1] = amount
+    return linear
+
+
+@pytest.mark.parametrize("kind,amount,loads", [
+    ("stretch", 4e-4, True), ("stretch", 6e-4, False),   # |L L^T - I| 8e-4 and 1.2e-3
+    ("shear", 9e-4, True), ("shear", 1.2e-3, False)])
+def test_camera_to_world_tolerance_and_corner_shift_are_mitsubas(tmp_path, kind, amount, loads):
+    # Both load a to_world within 1e-3 of a rotation and refuse one beyond; where they load, the
+    # warning's shift is the distance between Mitsuba's rays through the image's corners and ours.
+    size = (1000, 600)   # wide enough for a warning (shifts of 0.2 and 0.45 pixels)
+    matrix = np.eye(4)
+    matrix[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]] @ stretch_or_shear(kind, amount)
+    to_world = f'<matrix value="{" ".join(f"{v:.17g}" for v in matrix.ravel())}"/>'
+    path = tmp_path / "camera.xml"
+    path.write_text(sensor_xml('<float name="fov" value="50"/>', size, to_world))
+    try:
+        sensor = mi.load_file(str(path)).sensors()[0]
+    except RuntimeError as e:
+        assert not loads and "Scale factors in the camera-to-world transformation" in str(e)
+    else:
+        assert loads
+    if not loads:
+        with pytest.raises(clrender.MitsubaXmlError, match="scales or shears"):
+            read_scene(path)
+        return
+    translation = read_scene(path)
+    ours = clrender.load_scene_dict({"camera": translation.scene["camera"]}).camera
+    forward, right, up = ours.basis()
+    width, height = size
+    shifts = []
+    for px, py in [(0, 0), (width, 0), (0, height), (width, height)]:
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(px / width, py / height), mi.Point2f(0.5, 0.5))
+        d = np.array(ray.d) / np.dot(np.array(ray.d), forward)   # on our image plane
+        x = (np.dot(d, right) / np.dot(right, right) + 1) / 2 * width
+        y = (1 - np.dot(d, up) / np.dot(up, up)) / 2 * height
+        shifts.append(np.hypot(x - px, y - py))
+    warned = [w for w in translation.warnings if "rotation to" in w]
+    assert len(warned) == 1 and f"pass {max(shifts):.2g} pixels from Mitsuba's" in warned[0]
+
+
 @pytest.mark.parametrize("placement", ["to_world", "use_grid_bbox", "both"])
 def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
     density = mitsuba_scenes.cloud_density((5, 4, 3))

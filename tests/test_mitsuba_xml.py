@@ -11,6 +11,7 @@ import trimesh
 
 import clrender
 from clrender import cie, grids, limits, meshes, mitsuba
+from clrender.arrays import build_scene_arrays
 from clrender.mitsuba import MitsubaXmlError, MitsubaXmlWarning
 
 SENSOR = """<sensor type="perspective">
@@ -127,8 +128,9 @@ def test_malformed_xml_and_versions(tmp_path):
     (tmp_path / "bad.xml").write_text('<scene version="3.0.0">\n<shape type="sphere">\n</scene>')
     with pytest.raises(MitsubaXmlError, match=r"bad.xml:3: malformed XML: mismatched tag"):
         clrender.load_scene(tmp_path / "bad.xml")
-    with pytest.raises(MitsubaXmlError, match=r"scene version 0.6.0: only Mitsuba 3 scenes"):
-        clrender.load_scene(write(tmp_path, "", version="0.6.0"))
+    for version in ("0.6.0", "1.0.0", "4.0.0"):
+        with pytest.raises(MitsubaXmlError, match=rf"scene version {version}: only versions 2.x and 3.x"):
+            clrender.load_scene(write(tmp_path, "", version=version))
     (tmp_path / "noversion.xml").write_text("<scene/>")
     with pytest.raises(MitsubaXmlError, match="needs a version attribute"):
         clrender.load_scene(tmp_path / "noversion.xml")
@@ -137,6 +139,14 @@ def test_malformed_xml_and_versions(tmp_path):
         clrender.load_scene(tmp_path / "notscene.xml")
     with pytest.raises(MitsubaXmlError, match="scene file not found"):
         clrender.load_scene(tmp_path / "missing.xml")
+
+
+def test_version_2_scenes_read_as_mitsuba_3_reads_them(tmp_path):
+    # Mitsuba 3 reads 2.x files unchanged (it upgrades only older ones), also when included.
+    (tmp_path / "ball.xml").write_text('<scene version="2.1.0"><shape type="sphere"/></scene>')
+    body = '<include filename="ball.xml"/>'
+    assert translate(tmp_path, body)[0] == mitsuba.read_scene(write(tmp_path, body, version="2.0.0")).scene
+    assert clrender.load_scene(write(tmp_path, body, version="2.0.0")).shapes[0].mesh.radius == 1.0
 
 
 def test_validation_errors_point_at_the_xml_element(tmp_path):
@@ -160,6 +170,18 @@ def test_errors_found_at_upload_point_at_the_xml_element(tmp_path, context):
     info = subprocess.run([sys.executable, "-m", "clrender.cli", "info", str(tmp_path / "scene.xml")],
                           capture_output=True, text=True)
     assert info.returncode == 3 and "scene.xml:" in info.stderr and "Traceback" not in info.stderr
+
+
+def test_meshes_without_area_are_skipped_with_a_warning_at_the_xml_element(tmp_path):
+    (tmp_path / "line.obj").write_text("v 0 0 0\nv 0 1 0\nv 0 2 0\nf 1 2 3\n")
+    body = '<shape type="obj"><string name="filename" value="line.obj"/></shape>\n<shape type="sphere"/>'
+    scene = clrender.load_scene(write(tmp_path, body))
+    with pytest.warns(clrender.arrays.SkippedShapeWarning) as caught:
+        build_scene_arrays(scene)
+    line = line_of(body, "line.obj")
+    assert [str(w.message) for w in caught] == [
+        f"scene.xml:{line} <shape type='obj'>: no triangle of 'obj_line{line}' has an area (their corners "
+        "are collinear or coincide): skipped, as it cannot be seen (scene field shapes[0])"]
 
 
 # ============================================================================================
@@ -233,8 +255,8 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
 
 @pytest.mark.parametrize("sensor_xml,message", [
     ('<sensor type="orthographic"/>', "unsupported sensor 'orthographic' (supported: perspective)"),
-    (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation"),
-    (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation"),
+    (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation: it scales or shears"),
+    (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation: it mirrors the image"),
     (sensor('<float name="fov" value="30"/><string name="focal_length" value="50mm"/>'), "either fov or focal_length"),
     (sensor('<string name="focal_length" value="wide"/>'), "focal_length must be like '50mm'"),
     (sensor('<float name="fov" value="200"/>'), "fov must be in (0, 180)"),
@@ -270,6 +292,63 @@ def test_sensor_warnings(tmp_path):
     assert scene["camera"]["resolution"] == [768, 576] and any("no <film>" in w for w in warned)
     _, warned = translate(tmp_path, "", sensor=sensor(extra='<float name="near_clip" value="0.01"/>'))
     assert warned == []
+
+
+def linear_to_world(linear):
+    """A sensor's to_world: `linear` (3x3) then a translation, as a 16-number <matrix>."""
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = linear, [0.5, -1, 5]
+    return f'<matrix value="{" ".join(f"{v:.17g}" for v in matrix.ravel())}"/>'
+
+
+def shear(amount):
+    linear = np.eye(3)
+    linear[0, 1] = amount
+    return linear
+
+
+ROTATION = np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0]])   # about y, looking down -x
+
+
+@pytest.mark.parametrize("linear,corner_shift", [
+    (ROTATION, None),
+    (ROTATION @ np.diag([1.0004, 1, 1]), 0.2),        # |L L^T - I| 8e-4: within Mitsuba's 1e-3
+    (ROTATION @ shear(9e-4), 0.45),
+    (ROTATION @ np.diag([1.0001, 1, 1]), None),       # 0.05 pixels: no warning
+    (ROTATION @ shear(2e-5) @ np.diag([1, 1.00001, 1]), None),   # as Bitterli's 6-digit matrices
+])
+def test_sensor_to_world_may_be_a_rotation_to_mitsubas_tolerance(tmp_path, linear, corner_shift):
+    film = '<film type="hdrfilm"><integer name="width" value="1000"/><integer name="height" value="500"/><rfilter type="box"/></film>'
+    scene, warned = translate(tmp_path, "", sensor=sensor('<float name="fov" value="40"/>', linear_to_world(linear), film))
+    camera = scene["camera"]
+    assert np.allclose(camera["position"], [0.5, -1, 5])
+    forward = linear @ [0, 0, 1]
+    assert np.allclose(np.subtract(camera["look_at"], camera["position"]), forward / np.linalg.norm(forward))
+    assert np.allclose(camera["up"], linear @ [0, 1, 0])
+    shifts = [w for w in warned if "rotation to" in w]
+    if corner_shift is None:
+        assert shifts == []
+    else:   # the corners of a 1000-pixel-wide film move by 500 x the stretch or shear
+        assert len(shifts) == 1 and f"pass {corner_shift:.2g} pixels from Mitsuba's" in shifts[0]
+
+
+@pytest.mark.parametrize("linear,message", [
+    (ROTATION @ np.diag([1.0006, 1, 1]), "it scales or shears (|L L^T - I| = 0.0012"),   # Mitsuba refuses it too
+    (ROTATION @ shear(1.2e-3), "it scales or shears (|L L^T - I| = 0.0012"),
+    (ROTATION @ shear(0.1), "it scales or shears"),
+    (ROTATION @ np.diag([1, 1, -1]), "it mirrors the image"),    # Mitsuba renders it mirrored
+])
+def test_sensor_to_world_that_scales_shears_or_mirrors_is_an_error(tmp_path, linear, message):
+    text = error_of(tmp_path, "", sensor=sensor('<float name="fov" value="40"/>', linear_to_world(linear)))
+    assert "scene.xml:3 <sensor type='perspective'>: the sensor's to_world must be a rotation and translation" in text
+    assert message in text
+
+
+def test_focus_distance_is_accepted_on_a_pinhole_camera(tmp_path):
+    with_focus = translate(tmp_path, "", sensor=sensor(extra='<float name="focus_distance" value="3"/>'))
+    assert with_focus == translate(tmp_path, "", sensor=sensor())
+    assert "must be <float> or <integer>" in error_of(
+        tmp_path, "", sensor=sensor(extra='<string name="focus_distance" value="near"/>'))
 
 
 @pytest.mark.parametrize("sampler,spp,seed,kind", [

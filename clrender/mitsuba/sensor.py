@@ -4,7 +4,8 @@
 |---|---|---|
 | `perspective` | `fov` + `fov_axis` (x, y, diagonal, smaller, larger; x) | `camera.fov`, the vertical field of view |
 | | `focal_length` (50mm, 35 mm film's diagonal, when neither is given) | the same, from the diagonal fov |
-| | `to_world` (a rotation and translation) | `camera.position`, `look_at` (+z), `up` (+y) |
+| | `to_world`: a rotation (to within ROTATION_TOLERANCE, as Mitsuba) and translation | `camera.position`, `look_at` (+z), `up` (+y); a mirror is an error |
+| | `focus_distance` | accepted: a pinhole camera is sharp at every distance |
 | | `near_clip` (0.01), `far_clip` (10000) | not clipped: other values are a warning |
 | | nested `film`, `sampler` | `camera.resolution`; `render.spp`, `seed`, `sampler` |
 | | nested `medium` | `camera.medium` and the scene's `medium` |
@@ -18,9 +19,12 @@ import numpy as np
 from .film import read_film
 from .medium import read_medium
 from .sampler import read_sampler
-from .transforms import is_rigid
+from .transforms import ROTATION_TOLERANCE, rotation_error
 
 DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP = 0.01, 10000.0
+# A to_world that is a rotation only to within ROTATION_TOLERANCE moves the image's corners by up
+# to this many pixels from Mitsuba's before a warning says so (Bitterli's 6-digit matrices: < 0.05).
+MAX_CORNER_SHIFT = 0.1
 
 
 def read_sensor(plugin, reader):
@@ -38,10 +42,13 @@ def read_sensor(plugin, reader):
     render.update(spp=spp, seed=seed, sampler=sampler)
     matrix = plugin.transform("to_world")
     matrix = np.eye(4) if matrix is None else matrix
-    if not is_rigid(matrix):
-        raise plugin.error("the sensor's to_world must be a rotation and translation (Mitsuba "
-                           "rejects scale factors; mirroring or shearing the image is not supported)")
+    _check_rotation(plugin, matrix)
     fov_y = _vertical_fov(plugin, width / height)
+    shift = _corner_shift(matrix, fov_y, width, height)
+    if shift > MAX_CORNER_SHIFT:
+        reader.warn(f"{plugin.element.where()}: to_world is a rotation to {rotation_error(matrix):.2g} only: "
+                    f"clrender's camera keeps its view direction and up, so rays at the image's corners "
+                    f"pass {shift:.2g} pixels from Mitsuba's")
     for name, default in (("near_clip", DEFAULT_NEAR_CLIP), ("far_clip", DEFAULT_FAR_CLIP)):
         value = plugin.number(name, default)
         if value != default:
@@ -50,6 +57,7 @@ def read_sensor(plugin, reader):
     for name in ("principal_point_offset_x", "principal_point_offset_y"):
         if plugin.number(name, 0.0) != 0.0:
             raise plugin.error(f"{name} is not supported (off-centre projections)")
+    plugin.number("focus_distance")                  # a pinhole camera is sharp at every distance
     plugin.accept("shutter_open", "shutter_close")   # no effect on a static scene
     plugin.finish()
     position = matrix[:3, 3]
@@ -67,6 +75,37 @@ def read_sensor(plugin, reader):
         if media:
             reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
     reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}")
+
+
+def _check_rotation(plugin, matrix):
+    """Mitsuba's camera refuses a to_world that scales or shears (beyond ROTATION_TOLERANCE); it
+    renders a mirrored one mirrored, which clrender's camera cannot."""
+    if np.linalg.det(matrix[:3, :3]) <= 0:
+        raise plugin.error("the sensor's to_world must be a rotation and translation: it mirrors the "
+                           "image, which clrender's camera cannot")
+    error = rotation_error(matrix)
+    if error > ROTATION_TOLERANCE:
+        raise plugin.error(f"the sensor's to_world must be a rotation and translation: it scales or "
+                           f"shears (|L L^T - I| = {error:.2g} for its linear part L; Mitsuba too refuses "
+                           f"more than {ROTATION_TOLERANCE:g})")
+
+
+def _corner_shift(matrix, fov_y, width, height):
+    """How far, in pixels, Mitsuba's rays through the image's corners (the linear part L of
+    to_world applied to camera directions) pass from clrender's, whose orthonormal frame keeps
+    the view direction L z and the up vector L y: 0 for a rotation."""
+    linear = matrix[:3, :3]
+    forward = linear @ [0.0, 0.0, 1.0]
+    forward /= np.linalg.norm(forward)
+    left = np.cross(linear @ [0.0, 1.0, 0.0], forward)   # Mitsuba's camera x: left, up x forward
+    left /= np.linalg.norm(left)
+    frame = np.column_stack([left, np.cross(forward, left), forward])
+    tan_y = np.tan(np.radians(fov_y) / 2)
+    tan_x = tan_y * width / height
+    corners = np.array([[x, y, 1.0] for x in (-tan_x, tan_x) for y in (-tan_y, tan_y)])
+    theirs = corners @ linear.T @ frame   # in clrender's camera frame
+    film = theirs[:, :2] / theirs[:, 2:]
+    return float(np.max(np.linalg.norm((film - corners[:, :2]) / [2 * tan_x / width, 2 * tan_y / height], axis=1)))
 
 
 def _vertical_fov(plugin, aspect):
