@@ -23,7 +23,7 @@ from .transforms import ROTATION_TOLERANCE, rotation_error
 
 DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP = 0.01, 10000.0
 # A to_world that is a rotation only to within ROTATION_TOLERANCE moves the image's corners by up
-# to this many pixels from Mitsuba's before a warning says so (Bitterli's 6-digit matrices: < 0.05).
+# to this many pixels from Mitsuba's before a warning says so (Bitterli's 6-digit matrices: 0.007).
 MAX_CORNER_SHIFT = 0.1
 
 
