@@ -259,6 +259,7 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation: it mirrors the image"),
     (sensor('<float name="fov" value="30"/><string name="focal_length" value="50mm"/>'), "either fov or focal_length"),
     (sensor('<string name="focal_length" value="wide"/>'), "focal_length must be like '50mm'"),
+    (sensor('<string name="focal_length" value="1.2.3mm"/>'), "focal_length must be like '50mm'"),
     (sensor('<float name="fov" value="200"/>'), "fov must be in (0, 180)"),
     (sensor('<float name="fov" value="30"/><string name="fov_axis" value="z"/>'), "unknown fov_axis 'z'"),
     (sensor(extra='<float name="principal_point_offset_x" value="0.1"/>'), "principal_point_offset_x is not supported"),

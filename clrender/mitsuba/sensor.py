@@ -115,7 +115,7 @@ def _vertical_fov(plugin, aspect):
         raise plugin.error("give either fov or focal_length")
     if plugin.has("focal_length"):
         text = plugin.string("focal_length")
-        match = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm)?\s*", text)
+        match = re.fullmatch(r"\s*((?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(mm)?\s*", text)
         if not match or not float(match.group(1)) > 0:
             raise plugin.error(f"focal_length must be like '50mm', got {text!r}")
         tan_half = np.hypot(36.0, 24.0) / (2 * float(match.group(1)))   # along `axis`
