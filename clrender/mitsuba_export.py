@@ -109,7 +109,7 @@ def _shape(scene, shape, index, asset_dir):
                "radius": float(geometry.radius), "flip_normals": bool(geometry.flipped)}
     else:
         path = asset_dir / f"shape_{index}.ply"
-        write_ply(path, geometry.vertices, geometry.faces, geometry.normals)
+        write_ply(path, geometry.vertices, geometry.faces, geometry.normals, geometry.uvs)
         out = {"type": "ply", "filename": str(path.resolve()), "face_normals": geometry.normals is None}
     out["bsdf"] = _bsdf(material)
     if any(material.emission > 0):
@@ -155,18 +155,22 @@ def _light(light, index):
             "irradiance": _rgb(light.radiance)}
 
 
-def write_ply(path, vertices, faces, normals=None):
-    """A binary little-endian PLY of float32 vertices (and normals), int32 triangles."""
+def write_ply(path, vertices, faces, normals=None, uvs=None):
+    """A binary little-endian PLY of float32 vertices (and normals, texture coordinates u, v:
+    Mitsuba reads them unflipped, as clrender keeps them), int32 triangles."""
     import numpy as np
 
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    columns = [vertices]
     if normals is not None:
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
+        columns.append(normals)
+    if uvs is not None:
+        fields += [("u", "<f4"), ("v", "<f4")]
+        columns.append(uvs)
     vertex = np.zeros(len(vertices), fields)
-    for k, name in enumerate("xyz"):
-        vertex[name] = vertices[:, k]
-        if normals is not None:
-            vertex["n" + name] = normals[:, k]
+    for (name, _), values in zip(fields, np.concatenate(columns, axis=1).T):
+        vertex[name] = values
     face = np.zeros(len(faces), [("n", "u1"), ("i", "<i4", (3,))])
     face["n"] = 3
     face["i"] = faces

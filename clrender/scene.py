@@ -722,8 +722,9 @@ def _read_mesh_file(node, base_dir):
         raise SceneError(node.at("file"), f"unsupported mesh format {path.suffix!r}; valid: {', '.join(MESH_SUFFIXES)}")
     if not path.is_file():
         raise SceneError(node.at("file"), f"file not found: {path}")
+    flip_tex_coords = node.boolean("flip_tex_coords", meshes.FLIP_TEX_COORDS.get(path.suffix.lower(), True))
     try:
-        return meshes.load_mesh_file(path, smooth=node.boolean("smooth", False))
+        return meshes.load_mesh_file(path, node.boolean("smooth", False), flip_tex_coords)
     except Exception as e:  # trimesh raises many types for malformed files
         raise SceneError(node.at("file"), f"cannot load mesh {path}: {e}") from None
 
