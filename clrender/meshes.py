@@ -2,8 +2,9 @@
 transforms and texture coordinates.
 
 Texture coordinates follow Mitsuba 3: uv (0, 0) is the top-left corner of an image, u to the
-right, v down (a file's v is flipped, v -> 1 - v, where Mitsuba's `flip_tex_coords` says so)."""
-from dataclasses import dataclass
+right, v down (a file's v is flipped, v -> 1 - v, where Mitsuba's `flip_tex_coords` says so).
+Primitives carry Mitsuba's uv mapping of the same shape (see each)."""
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,19 @@ class Sphere:
     center: np.ndarray     # (3,) float64, world space
     radius: float          # > 0
     flipped: bool = False  # the front face (normals, one-sided emission) is inside
+    # Object-to-world rotation (orthonormal; a mirror has determinant -1): the frame of the
+    # texture coordinates (sphere_uv), Mitsuba's to_world without its scale and translation.
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+
+def sphere_uv(sphere, points):
+    """Mitsuba's texture coordinates of points (N, 3) on a sphere: in its object frame,
+    u = phi / 2 pi (phi = atan2(y, x) in [0, 2 pi)) and v = theta / pi (theta from +z)."""
+    local = (np.asarray(points, dtype=float) - sphere.center) @ sphere.rotation / sphere.radius
+    phi = np.arctan2(local[:, 1], local[:, 0])
+    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+    theta = np.arccos(np.clip(local[:, 2] / np.linalg.norm(local, axis=1), -1, 1))
+    return np.stack([phi / (2 * np.pi), theta / np.pi], axis=1)
 
 
 def bounds(geometry):
@@ -81,7 +95,8 @@ def apply_transform(mesh, matrix):
         if scale is None:
             raise ValueError("scales a sphere unevenly (that makes an ellipsoid): add \"mesh\": true "
                              "to tessellate it")
-        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped)
+        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped,
+                      linear @ mesh.rotation / scale)
     vertices = mesh.vertices @ linear.T + matrix[:3, 3]
     faces = mesh.faces
     if np.linalg.det(linear) < 0:
@@ -95,7 +110,7 @@ def apply_transform(mesh, matrix):
 def flip(mesh):
     """Reverse the winding (and the shading normals): the other side becomes the front."""
     if isinstance(mesh, Sphere):
-        return Sphere(mesh.center, mesh.radius, not mesh.flipped)
+        return Sphere(mesh.center, mesh.radius, not mesh.flipped, mesh.rotation)
     return Mesh(mesh.vertices, mesh.faces[:, ::-1].copy(),
                 None if mesh.normals is None else -mesh.normals, mesh.uvs)
 
@@ -106,7 +121,8 @@ def _normalized(v):
 
 
 def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
-    """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets."""
+    """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets. No
+    texture coordinates (an analytic Sphere has Mitsuba's)."""
     import trimesh
 
     unit = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
@@ -115,40 +131,54 @@ def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
 
 
 def rectangle():
-    """The square [-1, 1]^2 in the plane z = 0, facing +z."""
+    """The square [-1, 1]^2 in the plane z = 0, facing +z; uv = ((x + 1) / 2, (y + 1) / 2), as
+    Mitsuba's rectangle (exact: the map is linear)."""
     v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=float)
-    return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), None)
+    return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), None, (v[:, :2] + 1) / 2)
 
 
 def disk(segments=128):
     """The unit disk in the plane z = 0, facing +z: a fan of `segments` triangles whose polygon
-    has the disk's area (pi), so an emitting disk has the exact power."""
-    angles = 2 * np.pi * np.arange(segments) / segments
+    has the disk's area (pi), so an emitting disk has the exact power.
+
+    Mitsuba's disk is analytic, with uv = (r, phi / 2 pi), phi in [0, 2 pi) from +x towards +y.
+    The fan carries those values at its vertices and interpolates them linearly. u is r at the
+    rim (the rim's radius, slightly above 1) and 0 at the centre: exact along the edges from the
+    centre, at most a factor 1 / cos(pi / segments) too large inside (3e-4 at 128 segments).
+    v cannot be exact: the centre has no angle. Each triangle has its own centre vertex with
+    v at the triangle's middle angle, so v is exact on the rim and on the line to the middle of
+    the triangle's rim edge, and off by up to half the triangle's angle, 1 / (2 segments),
+    towards the centre. The last triangle ends at a copy of the first rim vertex with v = 1, so v
+    never interpolates across the seam at phi = 0."""
+    angles = 2 * np.pi * np.arange(segments + 1) / segments
     radius = np.sqrt(2 * np.pi / (segments * np.sin(2 * np.pi / segments)))
-    rim = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(segments)], axis=1)
-    vertices = np.concatenate([np.zeros((1, 3)), rim])
+    rim = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(segments + 1)], axis=1)
+    rim[segments] = rim[0]   # the seam's copy: the same point exactly
+    vertices = np.concatenate([np.zeros((segments, 3)), rim])
     index = np.arange(segments)
-    faces = np.stack([np.zeros(segments, int), 1 + index, 1 + (index + 1) % segments], axis=1)
-    return Mesh(vertices, faces, None)
+    faces = np.stack([index, segments + index, segments + index + 1], axis=1)
+    uvs = np.concatenate([np.stack([np.zeros(segments), (index + 0.5) / segments], axis=1),
+                          np.stack([np.full(segments + 1, radius), angles / (2 * np.pi)], axis=1)])
+    return Mesh(vertices, faces, None, uvs)
+
+
+# Mitsuba's cube (src/shapes/cube.cpp, read back with mi.traverse): per face four corners, uv
+# (0, 1), (1, 1), (1, 0), (0, 0), triangles (0, 1, 2) and (3, 0, 2), faces -y, +y, +x, +z, -x, -z.
+_CUBE_CORNERS = np.array([
+    [1, -1, -1], [1, -1, 1], [-1, -1, 1], [-1, -1, -1],
+    [1, 1, -1], [-1, 1, -1], [-1, 1, 1], [1, 1, 1],
+    [1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1],
+    [1, -1, 1], [1, 1, 1], [-1, 1, 1], [-1, -1, 1],
+    [-1, -1, 1], [-1, 1, 1], [-1, 1, -1], [-1, -1, -1],
+    [1, 1, -1], [1, -1, -1], [-1, -1, -1], [-1, 1, -1]], dtype=float)
 
 
 def box():
-    """The cube [-1, 1]^3 with outward-facing flat faces."""
-    faces = []
-    vertices = []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            u, w = (axis + 1) % 3, (axis + 2) % 3
-            corners = []
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                p = np.zeros(3)
-                p[axis], p[u], p[w] = sign, a, b
-                corners.append(p)
-            base = len(vertices)
-            vertices += corners
-            quad = [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-            faces += quad if sign > 0 else [f[::-1] for f in quad]
-    return Mesh(np.array(vertices), np.array(faces), None)
+    """The cube [-1, 1]^3 with outward-facing flat faces: Mitsuba's cube, vertex for vertex
+    (order, winding and texture coordinates)."""
+    faces = (4 * np.arange(6)[:, None, None] + np.array([[0, 1, 2], [3, 0, 2]])).reshape(-1, 3)
+    uvs = np.tile([[0, 1], [1, 1], [1, 0], [0, 0]], (6, 1)).astype(float)
+    return Mesh(_CUBE_CORNERS.copy(), faces, None, uvs)
 
 
 # Mitsuba's default of `flip_tex_coords` (v -> 1 - v) per file format: its obj shape flips, its ply

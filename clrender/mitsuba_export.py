@@ -105,8 +105,7 @@ def _shape(scene, shape, index, asset_dir):
     material = scene.materials[shape.material]
     geometry = shape.mesh
     if hasattr(geometry, "radius"):   # an analytic sphere (meshes.Sphere)
-        out = {"type": "sphere", "center": [float(c) for c in geometry.center],
-               "radius": float(geometry.radius), "flip_normals": bool(geometry.flipped)}
+        out = {"type": "sphere", "to_world": _sphere_to_world(geometry), "flip_normals": bool(geometry.flipped)}
     else:
         path = asset_dir / f"shape_{index}.ply"
         write_ply(path, geometry.vertices, geometry.faces, geometry.normals, geometry.uvs)
@@ -118,6 +117,17 @@ def _shape(scene, shape, index, asset_dir):
         if medium >= 0:
             out[side] = {"type": "ref", "id": f"medium_{medium}"}
     return out
+
+
+def _sphere_to_world(sphere):
+    """Mitsuba's to_world of the unit sphere turned (its texture coordinates turn with it),
+    scaled and moved onto `sphere`."""
+    import numpy as np
+
+    matrix = np.eye(4)
+    matrix[:3, :3] = sphere.rotation * sphere.radius
+    matrix[:3, 3] = sphere.center
+    return matrix.tolist()
 
 
 def _medium(medium, index, asset_dir):
