@@ -20,7 +20,7 @@ class Mesh:
 
 @dataclass
 class MeshData:
-    """A mesh as a file gives it (obj_reader.py, ply_reader.py, trimesh), before
+    """A mesh as a file gives it (obj_reader.py, ply_reader.py, serialized.py, trimesh), before
     load_mesh_file checks it and decides its texture coordinates and shading normals."""
     positions: np.ndarray   # (V, 3) float64
     faces: np.ndarray       # (F, 3) int64
@@ -182,17 +182,18 @@ def box():
 
 
 # Mitsuba's default of `flip_tex_coords` (v -> 1 - v) per file format: its obj shape flips, its ply
-# shape does not. Formats Mitsuba does not read come through trimesh, whose texture coordinates
-# follow OBJ's convention.
-FLIP_TEX_COORDS = {".obj": True, ".ply": False}
+# shape does not, its serialized shape has no such option (and flips nothing). Formats Mitsuba
+# does not read come through trimesh, whose texture coordinates follow OBJ's convention.
+FLIP_TEX_COORDS = {".obj": True, ".ply": False, ".serialized": False}
 
 
-def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None):
-    """Load a mesh file: OBJ and PLY files as Mitsuba 3 reads them (obj_reader.py,
-    ply_reader.py: texture coordinates, the file's normals, UV seams split into separate
-    vertices), glTF/GLB/STL/OFF with trimesh (all meshes of a file merged). `smooth`: shading
-    normals, the file's where it has them (as Mitsuba uses them), else computed; otherwise flat.
-    `flip_tex_coords`: v -> 1 - v, None for Mitsuba's default of the format (FLIP_TEX_COORDS).
+def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None, shape_index=0):
+    """Load a mesh file: OBJ, PLY and Mitsuba serialized files as Mitsuba 3 reads them
+    (obj_reader.py, ply_reader.py, serialized.py: texture coordinates, the file's normals, UV
+    seams split into separate vertices), glTF/GLB/STL/OFF with trimesh (all meshes of a file
+    merged). `smooth`: shading normals, the file's where it has them (as Mitsuba uses them),
+    else computed; otherwise flat. `flip_tex_coords`: v -> 1 - v, None for Mitsuba's default of
+    the format (FLIP_TEX_COORDS). `shape_index`: the shape of a serialized file.
 
     Raises ValueError with a message meant for the user when the file is malformed or holds no
     triangles, a vertex that is not a finite float32 number, or a face naming a vertex that does
@@ -202,6 +203,11 @@ def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None):
         from .obj_reader import read_obj as read
     elif suffix == ".ply":
         from .ply_reader import read_ply as read
+    elif suffix == ".serialized":
+        from .serialized import load_serialized
+
+        def read(path):
+            return load_serialized(path, shape_index)
     else:
         read = _read_with_trimesh
     loaded = read(path)

@@ -1,6 +1,7 @@
 """Mesh files written as their formats define them, for the tests of the readers
 (tests/test_mesh_files.py) and the fuzz tests (tests/test_fuzz.py)."""
 import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -38,3 +39,24 @@ def write_ply_file(path, encoding, vertex, faces, count_type="uchar", index_type
             body += np.array([len(f)], order + PLY_TYPES[count_type]).tobytes() + np.array(f, order + PLY_TYPES[index_type]).tobytes()
     Path(path).write_bytes(("\n".join(header) + "\n").encode() + body)
 
+
+def write_serialized(path, shapes, version=4):
+    """A serialized file of `shapes` (dicts: positions, faces, optional normals, uvs, colors,
+    double, face_normals, name), as Mitsuba's format defines it."""
+    out, offsets = b"", []
+    for shape in shapes:
+        offsets.append(len(out))
+        real = "<f8" if shape.get("double") else "<f4"
+        flags = 0x2000 if shape.get("double") else 0x1000
+        arrays = [np.asarray(shape["positions"], real)]
+        for key, flag in (("normals", 0x1), ("uvs", 0x2), ("colors", 0x8)):
+            if shape.get(key) is not None:
+                flags |= flag
+                arrays.append(np.asarray(shape[key], real))
+        flags |= 0x10 if shape.get("face_normals") else 0
+        body = struct.pack("<I", flags) + ((shape.get("name", "").encode() + b"\0") if version == 4 else b"")
+        body += struct.pack("<QQ", len(shape["positions"]), len(shape["faces"]))
+        body += b"".join(a.tobytes() for a in arrays) + np.asarray(shape["faces"], "<u4").tobytes()
+        out += struct.pack("<HH", 0x041C, version) + zlib.compress(body)
+    out += np.array(offsets, "<u4" if version == 3 else "<u8").tobytes() + struct.pack("<I", len(shapes))
+    Path(path).write_bytes(out)

@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 
 import clrender
 import mitsuba_scenes
-from mesh_writers import write_ply_file
+from mesh_writers import write_ply_file, write_serialized
 from clrender.errors import SceneError
 
 _REQUESTED = int(os.environ.get("CLRENDER_FUZZ_EXAMPLES", "0"))
@@ -313,6 +313,26 @@ def damaged(draw, content):
 
 
 @st.composite
+def serialized_files(draw):
+    """Mitsuba serialized files (versions 3 and 4, any flags, several shapes), often damaged."""
+    shapes = []
+    for _ in range(draw(st.integers(1, 3))):
+        count = draw(st.integers(3, 6))
+        values = draw(st.lists(st.floats(-3, 3, width=32), min_size=11 * count, max_size=11 * count))
+        columns = np.array(values).reshape(count, 11)
+        shapes.append({"positions": columns[:, :3], "double": draw(st.booleans()),
+                       "normals": columns[:, 3:6] if draw(st.booleans()) else None,
+                       "uvs": columns[:, 6:8] if draw(st.booleans()) else None,
+                       "colors": columns[:, 8:] if draw(st.booleans()) else None,
+                       "faces": draw(st.lists(st.lists(st.integers(0, count - 1), min_size=3, max_size=3),
+                                              min_size=1, max_size=4))})
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "mesh.serialized"
+        write_serialized(path, shapes, draw(st.sampled_from([3, 4])))
+        return draw(damaged(path.read_bytes()))
+
+
+@st.composite
 def binary_ply_files(draw):
     """Binary PLY files (either byte order, polygons of any size), often damaged."""
     count = draw(st.integers(3, 6))
@@ -328,9 +348,11 @@ def binary_ply_files(draw):
 
 @st.composite
 def mesh_files(draw):
-    kind = draw(st.sampled_from(["obj", "obj", "stl", "ply", "off", "binary_ply"]))
+    kind = draw(st.sampled_from(["obj", "obj", "stl", "ply", "off", "serialized", "binary_ply"]))
     if kind == "obj":
         return "mesh.obj", draw(obj_files())
+    if kind == "serialized":
+        return "mesh.serialized", draw(serialized_files())
     if kind == "binary_ply":
         return "mesh.ply", draw(binary_ply_files())
     if kind == "stl":   # binary: 80-byte header, a triangle count, 50 bytes per triangle

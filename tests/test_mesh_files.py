@@ -1,9 +1,11 @@
-"""Mesh files (OBJ, PLY) read as Mitsuba 3 reads them: the same vertices in
+"""Mesh files (OBJ, PLY, Mitsuba serialized) read as Mitsuba 3 reads them: the same vertices in
 the same order, triangles, texture coordinates and normals (compared with Mitsuba where it is
 installed), and hostile files refused with an error naming the file, within bounded memory."""
 import glob
 import os
+import struct
 import tracemalloc
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +14,7 @@ import pytest
 import clrender
 from clrender import meshes
 from clrender.mitsuba_export import write_ply
-from mesh_writers import write_ply_file
+from mesh_writers import write_ply_file, write_serialized
 
 try:
     import mitsuba as mi
@@ -44,7 +46,7 @@ def assert_same_as_mitsuba(path, kind, smooth=True, flip_tex_coords=None, **para
     normals (Mitsuba stores float32: tolerances of a few float32 ulps)."""
     if flip_tex_coords is not None:
         parameters["flip_tex_coords"] = flip_tex_coords
-    ours = meshes.load_mesh_file(Path(path), smooth, flip_tex_coords)
+    ours = meshes.load_mesh_file(Path(path), smooth, flip_tex_coords, parameters.get("shape_index", 0))
     positions, faces, uvs, normals = mitsuba_mesh(kind, path, face_normals=not smooth, **parameters)
     scale = max(1.0, float(np.abs(positions).max()))
     np.testing.assert_allclose(ours.vertices, positions, rtol=0, atol=1e-6 * scale)
@@ -254,6 +256,47 @@ def test_exported_ply_files_keep_texture_coordinates(tmp_path):
     np.testing.assert_array_equal(mesh.faces, faces)
 
 
+# --------------------------------------------------------------------------------------------
+# Mitsuba serialized
+# --------------------------------------------------------------------------------------------
+def serialized_shapes():
+    rng = np.random.default_rng(5)
+    positions, normals, uvs = rng.normal(size=(6, 3)), rng.normal(size=(6, 3)), rng.random((6, 2))
+    faces = [[0, 1, 2], [3, 4, 5], [0, 2, 4]]
+    return [dict(positions=positions, faces=faces, normals=normals, uvs=uvs, colors=rng.random((6, 3)), name="first"),
+            dict(positions=2 * positions, faces=faces, uvs=uvs, double=True, name="second"),
+            dict(positions=3 * positions, faces=faces, normals=normals, face_normals=True)]
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("version", [3, 4])
+def test_serialized_files_load_as_mitsuba_loads_them(tmp_path, version):
+    path = tmp_path / "meshes.serialized"
+    write_serialized(path, serialized_shapes(), version)
+    for index in range(3):
+        for smooth in (True, False):
+            assert_same_as_mitsuba(path, "serialized", smooth, shape_index=index)
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("path", real_files("ppg-torus/meshes.serialized") + real_files("mitsuba-matpreview/*.serialized")
+                         + real_files("docs-medium-sss-bunny/common/meshes/*.serialized"))
+def test_real_serialized_files_load_as_mitsuba_loads_them(path):
+    from clrender.serialized import shape_count
+
+    for index in range(shape_count(path)):
+        assert_same_as_mitsuba(path, "serialized", shape_index=index)
+
+
+def test_serialized_texture_coordinates_are_as_stored(tmp_path):
+    path = tmp_path / "meshes.serialized"
+    shapes = serialized_shapes()
+    write_serialized(path, shapes)
+    np.testing.assert_allclose(meshes.load_mesh_file(path, False).uvs, shapes[0]["uvs"], atol=1e-7)
+    flipped = meshes.load_mesh_file(path, False, flip_tex_coords=True).uvs
+    np.testing.assert_allclose(flipped, shapes[0]["uvs"] * [1, -1] + [0, 1], atol=1e-7)
+
+
 def scene_with_mesh(**shape):
     return {"camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
             "materials": [{"name": "white", "type": "diffuse"}],
@@ -264,6 +307,58 @@ def mesh_error(tmp_path, **shape):
     with pytest.raises(clrender.SceneError) as error:
         clrender.load_scene_dict(scene_with_mesh(**shape), base_dir=tmp_path)
     return str(error.value)
+
+
+def test_serialized_shape_index_picks_the_shape(tmp_path):
+    write_serialized(tmp_path / "m.serialized", serialized_shapes())
+    scene = clrender.load_scene_dict(scene_with_mesh(file="m.serialized", shape_index=1), base_dir=tmp_path)
+    np.testing.assert_allclose(scene.shapes[0].mesh.vertices, 2 * serialized_shapes()[0]["positions"])
+    text = mesh_error(tmp_path, file="m.serialized", shape_index=3)
+    assert "shape_index 3 is out of range: the file has 3 shapes (0..2)" in text and "m.serialized" in text
+    assert mesh_error(tmp_path, file="m.serialized", shape_index=-1).startswith("shapes[0].shape_index: must be >= 0")
+    (tmp_path / "m.obj").write_text(OBJ)
+    assert mesh_error(tmp_path, file="m.obj", shape_index=0) == "shapes[0].shape_index: unknown field"
+
+
+def hostile_serialized(tmp_path, change):
+    """A serialized file of the test shapes damaged by `change(bytes) -> bytes`."""
+    path = tmp_path / "hostile.serialized"
+    write_serialized(path, serialized_shapes(), version=3)
+    path.write_bytes(change(path.read_bytes()))
+    return path
+
+
+def huge_counts(data):
+    """The first shape claiming 2^40 vertices and triangles (its stream re-compressed)."""
+    body = bytearray(zlib.decompressobj().decompress(data[4:]))
+    body[4:20] = struct.pack("<QQ", 1 << 40, 1 << 26)   # after the flags (version 3: no name)
+    return data[:4] + zlib.compress(bytes(body)) + data[-16:]
+
+
+@pytest.mark.parametrize("change, shape_index, message", [
+    (lambda d: d[:len(d) // 3], 0, "the shape's data ends early"),
+    (lambda d: d[:60], 0, "the shape's data ends early"),
+    (lambda d: d[:2], 0, "not a Mitsuba serialized mesh"),
+    (lambda d: d[:40] + bytes(b ^ 0x5A for b in d[40:80]) + d[80:], 0, "corrupt compressed data"),
+    (lambda d: b"\x1c\x04\x05\x00" + d[4:], 0, "unsupported serialized format version 5"),
+    (lambda d: b"PK" + d[2:], 0, "not a Mitsuba serialized mesh (bad format tag)"),
+    (lambda d: d[:-4] + struct.pack("<I", 1 << 30), 1, "the end-of-file dictionary lists 1073741824 shapes"),
+    (lambda d: d[:-8] + struct.pack("<I", 1 << 31) + d[-4:], 2, "a shape offset (2147483648) lies outside the file"),
+    (lambda d: d[:-8] + struct.pack("<I", 7) + d[-4:], 2, "no shape at offset 7 (bad format tag)"),
+    (lambda d: d, 9, "shape_index 9 is out of range"),
+    (huge_counts, 0, "more than its"),
+], ids=["truncated", "truncated-header", "tiny", "corrupt-zlib", "version", "tag", "dictionary", "offset",
+        "offset-into-data", "index", "huge-counts"])
+def test_hostile_serialized_files_are_clean_errors_in_bounded_memory(tmp_path, change, shape_index, message):
+    path = hostile_serialized(tmp_path, change)
+    tracemalloc.start()
+    try:
+        text = mesh_error(tmp_path, file=path.name, shape_index=shape_index)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert text.startswith(f"shapes[0].file: cannot load mesh {path}: ") and message in text, text
+    assert peak < 8 * 2**20
 
 
 @pytest.mark.parametrize("change, message", [
