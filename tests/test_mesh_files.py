@@ -5,6 +5,7 @@ import glob
 import os
 import struct
 import tracemalloc
+import warnings
 import zlib
 from pathlib import Path
 
@@ -393,6 +394,45 @@ def test_hostile_ply_files_are_clean_errors_in_bounded_memory(tmp_path, change, 
 def test_ply_faces_must_name_existing_vertices(tmp_path, encoding, faces, message):
     write_ply_file(tmp_path / "bad.ply", encoding, ply_vertex(), faces)
     assert message in mesh_error(tmp_path, file="bad.ply")
+
+
+# --------------------------------------------------------------------------------------------
+# Mitsuba XML scenes
+# --------------------------------------------------------------------------------------------
+XML_SHAPES = [
+    '<shape type="obj"><string name="filename" value="m.obj"/><boolean name="flip_tex_coords" value="false"/>'
+    '<transform name="to_world"><rotate y="1" angle="30"/><scale x="2"/></transform></shape>',
+    '<shape type="ply"><string name="filename" value="m.ply"/><boolean name="flip_tex_coords" value="true"/>'
+    '<boolean name="face_normals" value="true"/></shape>',
+    '<shape type="serialized"><string name="filename" value="m.serialized"/><integer name="shape_index" value="1"/>'
+    '<transform name="to_world"><translate x="1" y="2" z="3"/><scale value="0.5"/></transform></shape>',
+]
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("shape", XML_SHAPES, ids=["obj", "ply", "serialized"])
+def test_xml_mesh_shapes_load_as_mitsuba_loads_them(tmp_path, shape):
+    """World-space vertices, texture coordinates and normals of obj, ply and serialized shapes
+    with their options and to_world, from the same XML file."""
+    (tmp_path / "m.obj").write_text(OBJ)
+    write_ply_file(tmp_path / "m.ply", "binary_little_endian", ply_vertex(), PLY_FACES)
+    write_serialized(tmp_path / "m.serialized", serialized_shapes())
+    path = tmp_path / "scene.xml"
+    sensor = ('<sensor type="perspective"><transform name="to_world"><lookat origin="0, 0, 9" target="0, 0, 0"/>'
+              '</transform></sensor>')
+    path.write_text(f'<scene version="3.0.0">{sensor}{shape}</scene>')
+    mi.set_variant("scalar_rgb")
+    theirs = mi.traverse(mi.load_file(str(path)).shapes()[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)   # no film
+        ours = clrender.load_scene(path).shapes[0].mesh
+    np.testing.assert_allclose(ours.vertices, np.array(theirs["vertex_positions"]).reshape(-1, 3), atol=1e-5)
+    np.testing.assert_array_equal(ours.faces, np.array(theirs["faces"]).reshape(-1, 3))
+    np.testing.assert_allclose(ours.uvs, np.array(theirs["vertex_texcoords"]).reshape(-1, 2), atol=1e-6)
+    normals = np.array(theirs["vertex_normals"]).reshape(-1, 3)
+    assert (ours.normals is None) == (normals.size == 0)
+    if ours.normals is not None:
+        np.testing.assert_allclose(ours.normals, normals, atol=2e-5)
 
 
 # --------------------------------------------------------------------------------------------
