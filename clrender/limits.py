@@ -26,6 +26,8 @@ MAX_RESOLUTION = 16384     # pixels per image side
 MAX_EXPOSURE = 64.0        # stops: 2^64 keeps any float32 radiance's tone mapping finite in float64
 MAX_TRIANGLES = 2**28      # triangle, node and emitter indices are int32 with room for the BVH
 MAX_TRANSFORM_CONDITION = 1e12   # largest / smallest stretch of a transform: beyond, it is singular
+MAX_IMAGE_VALUES = 2**29   # width x height x channels of an image file read (textures, environment
+                           # maps): 2 GiB as float32, e.g. 16384 x 8192 RGBA; checked before reading
 
 MIN_MARCH_STEP = 1e-3       # ray marching's step, in voxels: below, a march takes millions of steps
 MAX_LOCAL_WORKERS = 1024   # processes of a local Dask cluster, each with its own device context

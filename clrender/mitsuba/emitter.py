@@ -12,6 +12,7 @@ One environment per scene, as in Mitsuba.
 """
 import numpy as np
 
+from ..errors import FileError
 from ..image import load_image
 from .transforms import is_rigid
 from .values import fmt
@@ -86,8 +87,8 @@ def _read_envmap(plugin, reader):
     path = plugin.file("filename", reader.files)
     try:
         image = load_image(path).astype(np.float64)
-    except Exception as e:   # OpenEXR and imageio raise many types for malformed files
-        raise plugin.error(f"cannot load image {path}: {e}") from None
+    except FileError as e:
+        raise plugin.error(e.message) from None
     if image.shape[0] < 3 or image.shape[1] < 2:
         raise plugin.error("an environment map needs at least 2 x 3 pixels")
     scale = plugin.number("scale", 1.0)
