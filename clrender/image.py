@@ -267,6 +267,8 @@ def _read_pixels(path):
         kind = {"uint8": "uint8", "uint16": "uint16"}.get(str(spec.format), "float")
         first, last = min(chosen), max(chosen) + 1   # OpenImageIO reads a contiguous range
         pixels = _read(image, spec, kind, first, last)
+    if chosen == list(range(first, last)):
+        return pixels
     return np.ascontiguousarray(pixels[..., [c - first for c in chosen]])
 
 

@@ -96,8 +96,14 @@ def check_settings(**given):
 
 def float32_values(values, where, error=ArgumentError):
     """Raise unless every value of an array stays finite in float32 (a derived quantity such as
-    sigma * scale, or a vertex read from a file)."""
-    values = np.asarray(values, dtype=float)
+    sigma * scale, or a vertex read from a file). Returns the values as float64, or as they are
+    when they are float32 already (a large image is checked without a copy)."""
+    values = np.asarray(values)
+    if values.dtype != np.float32:
+        values = values.astype(float)
+    if np.isfinite(values).all() and (values.dtype == np.float32 or not values.size
+                                      or np.abs(values).max() <= FLOAT32_MAX):
+        return values
     bad = ~np.isfinite(values) | (np.abs(values) > FLOAT32_MAX)
     if np.any(bad):
         worst = values[bad].flat[0]

@@ -789,4 +789,4 @@ def _environment_image(node, image, key, scale):
     if np.any(image < 0):
         raise SceneError(node.at(key), "image must be non-negative")
     limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
-    return Light("environment", np.ones(3) * scale, image=image * scale)
+    return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale))
