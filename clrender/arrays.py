@@ -454,19 +454,31 @@ def environment_mean_radiance(light):
     height, width, _ = light.image.shape
     cos_theta = np.cos(np.linspace(0, np.pi, height + 1))
     row_solid_angle = (cos_theta[:-1] - cos_theta[1:]) * (2 * np.pi / width)
-    return np.einsum("hwc,h->c", light.image.astype(float), row_solid_angle) / (4 * np.pi)
+    return row_solid_angle @ light.image.sum(axis=1, dtype=np.float64) / (4 * np.pi)
 
 
 def _environment_tables(image):
     """Texels and the sampling CDFs of a lat-long image: luminance x sin(theta) per texel.
 
-    Returns (texels, [marginal | conditional rows], mean radiance over the sphere)."""
+    Returns (texels, [marginal | conditional rows], mean radiance over the sphere). Computed a
+    band of rows at a time, in float64, stored in float32: a large map needs no full-size
+    float64 temporaries."""
     height, width, _ = image.shape
     sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
-    weights = np.maximum(image @ LUMINANCE, 0) * sin_theta[:, None]
-    rows = np.stack([_cdf(row) for row in weights])
-    marginal = _cdf(weights.sum(axis=1))
+    cdf = np.empty(height + 1 + height * (width + 1), np.float32)
+    rows = cdf[height + 1:].reshape(height, width + 1)
+    row_sums = np.empty(height)
+    band = max(1, (1 << 20) // width)
+    for first in range(0, height, band):
+        part = slice(first, first + band)
+        weights = np.maximum(image[part] @ LUMINANCE, 0) * sin_theta[part, None]
+        row_sums[part] = weights.sum(axis=1)
+        weights[~(row_sums[part] > 0)] = 1.0   # a black row: uniform (it is never chosen)
+        rows[part, 0] = 0.0
+        rows[part, 1:] = np.cumsum(weights, axis=1) / weights.sum(axis=1, keepdims=True)
+        rows[part, -1] = 1.0
+    cdf[:height + 1] = _cdf(row_sums)
     texels = np.zeros((height * width, 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
-    mean = float((image.mean(axis=2) * sin_theta[:, None]).sum() / (sin_theta.sum() * width))
-    return texels, np.concatenate([marginal, rows.ravel()]).astype(np.float32), mean
+    mean = float(image.sum(axis=(1, 2), dtype=np.float64) @ sin_theta / (3 * sin_theta.sum() * width))
+    return texels, cdf, mean

@@ -22,7 +22,7 @@ MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
 SAMPLERS = ("sobol", "independent")   # clrender/layout.py SAMPLERS, kernels/rng.h
 MAX_TOON_BANDS = 32
-MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
+MESH_SUFFIXES = (".obj", ".ply", ".serialized", ".gltf", ".glb", ".stl", ".off")
 
 
 def _norm(v):
@@ -697,8 +697,12 @@ def _read_mesh_file(node, base_dir):
         raise SceneError(node.at("file"), f"unsupported mesh format {path.suffix!r}; valid: {', '.join(MESH_SUFFIXES)}")
     if not path.is_file():
         raise SceneError(node.at("file"), f"file not found: {path}")
+    shape_index = 0
+    if path.suffix.lower() == ".serialized":
+        shape_index = node.number("shape_index", 0, low=0, integer=True)
+    flip_tex_coords = node.boolean("flip_tex_coords", meshes.FLIP_TEX_COORDS.get(path.suffix.lower(), True))
     try:
-        return meshes.load_mesh_file(path, smooth=node.boolean("smooth", False))
+        return meshes.load_mesh_file(path, node.boolean("smooth", False), flip_tex_coords, shape_index)
     except Exception as e:  # trimesh raises many types for malformed files
         raise SceneError(node.at("file"), f"cannot load mesh {path}: {e}") from None
 
@@ -785,4 +789,4 @@ def _environment_image(node, image, key, scale):
     if np.any(image < 0):
         raise SceneError(node.at(key), "image must be non-negative")
     limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
-    return Light("environment", np.ones(3) * scale, image=image * scale)
+    return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale))

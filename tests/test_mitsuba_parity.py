@@ -210,12 +210,15 @@ def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
         assert abs(theirs.eval_1(interaction) - value) < 2e-5 * max(1.0, value), point
 
 
-def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path):
+@pytest.mark.parametrize("suffix", [".exr", ".hdr"])
+def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path, suffix):
     image = mitsuba_scenes.sky_image(12, 7)
     image[3, 5] = (9.0, 0.1, 2.0)   # a sharp texel shows any misplacement
-    clrender.save_image(image, tmp_path / "sky.exr")
+    path = tmp_path / f"sky{suffix}"
+    write_float_image(image, path)
+    image = clrender.load_image(path)   # Radiance HDR rounds to 8-bit mantissas: Mitsuba reads the same
     rotation = '<rotate y="1" angle="70"/><rotate x="1" angle="25"/>'
-    xml = (f'<emitter version="3.0.0" type="envmap"><string name="filename" value="{tmp_path / "sky.exr"}"/>'
+    xml = (f'<emitter version="3.0.0" type="envmap"><string name="filename" value="{path}"/>'
            f'<transform name="to_world">{rotation}</transform></emitter>')
     emitter = mi.load_string(xml)
     matrix = np.array(mi.traverse(emitter)["to_world"].matrix)
@@ -237,6 +240,16 @@ def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path
     ours = resampled[np.minimum((v * 56).astype(int), 55), np.minimum((u * 96).astype(int), 95)]
     error = np.abs(ours - theirs).max(axis=1) / theirs.max(axis=1)
     assert np.median(error) < 0.02
+
+
+def write_float_image(image, path):
+    """A float RGB image written with OpenImageIO (any format it writes: .exr, .hdr)."""
+    import OpenImageIO as oiio
+
+    output = oiio.ImageOutput.create(str(path))
+    assert output.open(str(path), oiio.ImageSpec(image.shape[1], image.shape[0], 3, "float"))
+    assert output.write_image(np.ascontiguousarray(image, dtype=np.float32))
+    output.close()
 
 
 def test_conductor_presets_are_mitsubas_normal_reflectance():

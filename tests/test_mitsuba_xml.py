@@ -495,8 +495,35 @@ def test_sphere_to_world_applies_after_center_and_radius(tmp_path):
     assert sphere.radius == pytest.approx(1.0)
 
 
+def test_mesh_file_shapes_pass_their_options(tmp_path):
+    from mesh_writers import write_serialized
+
+    (tmp_path / "ball.obj").write_text(trimesh.creation.icosphere(1).export(file_type="obj"))
+    (tmp_path / "box.ply").write_bytes(trimesh.creation.box().export(file_type="ply"))
+    triangle = {"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}
+    write_serialized(tmp_path / "parts.serialized", [triangle, dict(triangle, positions=[[0, 0, 0], [2, 0, 0], [0, 2, 0]])])
+    body = """<shape type="obj"><string name="filename" value="ball.obj"/><boolean name="flip_tex_coords" value="false"/></shape>
+    <shape type="ply"><string name="filename" value="box.ply"/><boolean name="flip_tex_coords" value="true"/></shape>
+    <shape type="serialized"><string name="filename" value="parts.serialized"/><integer name="shape_index" value="1"/>
+        <boolean name="face_normals" value="true"/><transform name="to_world"><translate z="1"/></transform></shape>
+    <shape type="serialized"><string name="filename" value="parts.serialized"/></shape>"""
+    shapes = translate(tmp_path, body)[0]["shapes"]
+    assert shapes[0]["flip_tex_coords"] is False and shapes[1]["flip_tex_coords"] is True
+    assert {k: shapes[2][k] for k in ("type", "smooth", "shape_index")} == {"type": "mesh", "smooth": False, "shape_index": 1}
+    assert shapes[3]["shape_index"] == 0 and shapes[3]["smooth"] is True and "flip_tex_coords" not in shapes[3]
+    scene = clrender.load_scene(tmp_path / "scene.xml")
+    np.testing.assert_array_equal(scene.shapes[2].mesh.vertices, [[0, 0, 1], [2, 0, 1], [0, 2, 1]])
+    np.testing.assert_array_equal(scene.shapes[3].mesh.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+
+
 @pytest.mark.parametrize("body,message", [
-    ('<shape type="cylinder"/>', "unsupported shape 'cylinder' (supported: rectangle, cube, sphere, disk, obj, ply)"),
+    ('<shape type="cylinder"/>', "unsupported shape 'cylinder' (supported: rectangle, cube, sphere, disk, obj, ply, serialized)"),
+    ('<shape type="serialized"><string name="filename" value="parts.serialized"/>'
+     '<boolean name="flip_tex_coords" value="true"/></shape>', "a serialized shape has no flip_tex_coords: Mitsuba 3 refuses it"),
+    ('<shape type="serialized"><string name="filename" value="parts.serialized"/>'
+     '<integer name="shape_index" value="2"/></shape>', "shape_index 2 is out of range: the file has 1 shape (0..0)"),
+    ('<shape type="ply"><string name="filename" value="parts.serialized"/></shape>',
+     "a 'ply' shape's file must end in .ply (clrender reads mesh files by their suffix), got 'parts.serialized'"),
     ('<shape type="obj"/>', "parameter 'filename' is required"),
     ('<shape type="obj"><string name="filename" value="none.obj"/></shape>', "file not found: none.obj"),
     ('<shape type="sphere"><transform name="to_world"><scale x="2"/></transform></shape>', "non-uniform scales on spheres"),
@@ -519,6 +546,9 @@ def test_sphere_to_world_applies_after_center_and_radius(tmp_path):
     ('<shape type="rectangle"><medium type="homogeneous"/></shape>', "<medium> inside"),
 ])
 def test_shape_errors(tmp_path, body, message):
+    from mesh_writers import write_serialized
+
+    write_serialized(tmp_path / "parts.serialized", [{"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}])
     assert message in error_of(tmp_path, body)
 
 
@@ -566,6 +596,41 @@ def test_envmap_is_resampled_with_a_warning(tmp_path):
     assert np.isclose(light["image"].mean(), 2 * image.mean(), rtol=0.05)
     column = light["image"][24, 40 + 4]     # clrender's u = 0.5 + 0.5 / 10 looks down +z (Mitsuba's u 0.05 ...)
     assert np.all(column > 0)
+
+
+def direct_resample(image, rotation, width, height):
+    """resample_envmap's definition computed texel by texel in float64: the sin(theta)-weighted
+    mean of Mitsuba's lookups at the centres of the texel's quarters."""
+    out = np.zeros((height, width, image.shape[2]))
+    for j in range(height):
+        for i in range(width):
+            total = weight = 0.0
+            for dv in (0.25, 0.75):
+                theta = (j + dv) / height * np.pi
+                for du in (0.25, 0.75):
+                    phi = 2 * np.pi * ((i + du) / width - 0.5)
+                    world = np.array([[np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)]])
+                    total = total + mitsuba.mitsuba_envmap_lookup(image, world @ rotation)[0] * np.sin(theta)
+                    weight += np.sin(theta)
+            out[j, i] = total / weight
+    return out
+
+
+@pytest.mark.parametrize("rotation", [
+    meshes.transform_matrix(), meshes.transform_matrix(rotate=[0, 70, 0]), meshes.transform_matrix(rotate=[0, -200, 0]),
+    meshes.transform_matrix(rotate=[180, 30, 0]), meshes.transform_matrix(scale=[-1, 1, 1]),
+    meshes.transform_matrix(rotate=[25, 70, 0]), meshes.transform_matrix(rotate=[-90, 0, 10])],
+    ids=["identity", "about y", "about y beyond a turn", "y down", "mirror", "tilted", "z up"])
+@pytest.mark.parametrize("factor", [1, 2, 3])
+def test_envmap_resampling_is_its_definition(rotation, factor):
+    """The separable filter (rotations about y) and the banded float32 lookups (any rotation)
+    give the texel-by-texel definition, at the resolution of the image and finer."""
+    image = np.random.default_rng(4).uniform(0, 3, (7, 12, 3)).astype(np.float32)
+    image[3, 5] = (40.0, 0.1, 9.0)   # a sharp texel shows any misplaced tap
+    ours = mitsuba.resample_envmap(image, rotation[:3, :3], 12 * factor, 7 * factor)
+    assert ours.dtype == np.float32 and ours.shape == (7 * factor, 12 * factor, 3)
+    np.testing.assert_allclose(ours, direct_resample(image.astype(float), rotation[:3, :3], 12 * factor, 7 * factor),
+                               rtol=0, atol=1e-5 * 40)
 
 
 def test_envmap_lookup_convention():

@@ -7,7 +7,8 @@ and media.
 | `cube` | | `box`: [-1, 1]^3, outwards |
 | `disk` | | `disk`: radius 1 in z = 0, facing +z |
 | `sphere` | `center` (0), `radius` (1); to_world a rotation, translation and uniform scale | analytic `sphere` |
-| `obj`, `ply` | `filename`, `face_normals` (false: smooth); `flip_tex_coords` accepted | `mesh` (`smooth`) |
+| `obj`, `ply` | `filename`, `face_normals` (false: smooth), `flip_tex_coords` (obj true, ply false) | `mesh` (`smooth`, `flip_tex_coords`) |
+| `serialized` | `filename`, `shape_index` (0), `face_normals` (false: smooth); no `flip_tex_coords` (Mitsuba refuses it) | `mesh` (`smooth`, `shape_index`) |
 | all | `to_world` | `transform` |
 | | `flip_normals` (false) | `flip_normals` |
 | | nested or referenced `bsdf` (bsdf.py; none: diffuse 0.5, black if emitting) | `material` |
@@ -25,7 +26,8 @@ from .transforms import matrix_rows, rotation_scale
 from .values import fmt
 from .xml import MitsubaXmlError
 
-SHAPES = ("rectangle", "cube", "sphere", "disk", "obj", "ply")
+SHAPES = ("rectangle", "cube", "sphere", "disk", "obj", "ply", "serialized")
+MESH_FILES = ("obj", "ply", "serialized")
 
 
 def read_shape(plugin, reader):
@@ -35,12 +37,9 @@ def read_shape(plugin, reader):
     index = len(reader.out.scene["shapes"])
     shape = {"name": plugin.id or f"{kind}_line{plugin.element.line}"}
     matrix = plugin.transform("to_world")
-    if kind in ("obj", "ply"):
-        shape["type"] = "mesh"
-        shape["file"] = str(plugin.file("filename", reader.files))
-        shape["smooth"] = not plugin.boolean("face_normals", False)
-        plugin.accept("flip_tex_coords")   # no textures
-        summary = f"mesh {Path(shape['file']).name}"
+    if kind in MESH_FILES:
+        shape.update(_mesh_file(plugin, reader))
+        summary = f"mesh {Path(shape['file']).name}" + (f" shape {shape['shape_index']}" if "shape_index" in shape else "")
     elif kind == "sphere":
         shape["type"] = "sphere"
         shape["center"] = plugin.point("center", np.zeros(3)).tolist()
@@ -76,6 +75,24 @@ def read_shape(plugin, reader):
     reader.out.scene["shapes"].append(shape)
     reader.note(plugin, f"shapes[{index}]", f"{summary}, material '{shape['material']}'"
                 + (f", emits {fmt(emission)}" if emission is not None else ""))
+
+
+def _mesh_file(plugin, reader):
+    """The `mesh` fields of an obj, ply or serialized shape. clrender picks a file's reader by
+    its suffix, so the suffix must name the plugin's format."""
+    path = plugin.file("filename", reader.files)
+    if path.suffix.lower() != f".{plugin.type}":
+        raise plugin.error(f"a '{plugin.type}' shape's file must end in .{plugin.type} (clrender reads mesh "
+                           f"files by their suffix), got {path.name!r}")
+    mesh = {"type": "mesh", "file": str(path), "smooth": not plugin.boolean("face_normals", False)}
+    if plugin.type == "serialized":
+        if plugin.has("flip_tex_coords"):
+            raise plugin.error("a serialized shape has no flip_tex_coords: Mitsuba 3 refuses it (it keeps the "
+                               "file's texture coordinates as stored)")
+        mesh["shape_index"] = plugin.integer("shape_index", 0)
+    elif plugin.has("flip_tex_coords"):
+        mesh["flip_tex_coords"] = plugin.boolean("flip_tex_coords")
+    return mesh
 
 
 def _read_shape_media(plugin, reader, shape):
