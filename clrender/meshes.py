@@ -1,7 +1,7 @@
 """Shape geometry: triangle meshes (primitives, files loaded with trimesh) and analytic spheres,
 and their transforms."""
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +12,7 @@ class Mesh:
     vertices: np.ndarray   # (V, 3) float64, world space
     faces: np.ndarray      # (F, 3) int64
     normals: np.ndarray    # (V, 3) float64 unit shading normals, or None for flat shading
+    uvs: np.ndarray = None # (V, 2) float64 texture coordinates (Mitsuba's convention), or None
 
 
 @dataclass
@@ -20,6 +21,8 @@ class Sphere:
     center: np.ndarray     # (3,) float64, world space
     radius: float          # > 0
     flipped: bool = False  # the front face (normals, one-sided emission) is inside
+    # Orthonormal object-to-world rotation (a mirror where det < 0): the frame of its uv.
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 def bounds(geometry):
@@ -68,7 +71,8 @@ def apply_transform(mesh, matrix):
         if scale is None:
             raise ValueError("scales a sphere unevenly (that makes an ellipsoid): add \"mesh\": true "
                              "to tessellate it")
-        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped)
+        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped,
+                      linear / scale @ mesh.rotation)
     vertices = mesh.vertices @ linear.T + matrix[:3, 3]
     faces = mesh.faces
     if np.linalg.det(linear) < 0:
@@ -76,15 +80,15 @@ def apply_transform(mesh, matrix):
     normals = None
     if mesh.normals is not None:
         normals = _normalized(mesh.normals @ np.linalg.inv(linear))
-    return Mesh(vertices, faces, normals)
+    return Mesh(vertices, faces, normals, mesh.uvs)
 
 
 def flip(mesh):
     """Reverse the winding (and the shading normals): the other side becomes the front."""
     if isinstance(mesh, Sphere):
-        return Sphere(mesh.center, mesh.radius, not mesh.flipped)
+        return Sphere(mesh.center, mesh.radius, not mesh.flipped, mesh.rotation)
     return Mesh(mesh.vertices, mesh.faces[:, ::-1].copy(),
-                None if mesh.normals is None else -mesh.normals)
+                None if mesh.normals is None else -mesh.normals, mesh.uvs)
 
 
 def _normalized(v):
