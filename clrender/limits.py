@@ -133,7 +133,8 @@ PIXEL_BYTES = 16 + 16 + 4   # accumulator float4, aux geometry float4, aux objec
 ARRAY_ORIGINS = {"nodes": "shapes", "triangles": "shapes", "shading": "shapes", "info": "shapes",
                  "emitters": "shapes", "emitter_cdf": "shapes", "materials": "materials",
                  "specular_albedo": "materials", "media": "media", "grid_data": "media",
-                 "majorant_data": "media", "env_texels": "lights", "env_cdf": "lights"}
+                 "majorant_data": "media", "env_texels": "lights", "env_cdf": "lights", "uvs": "shapes",
+                 "textures": "textures", "texels": "textures"}
 
 
 def check_image_fits(resolution, device):

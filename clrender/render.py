@@ -293,7 +293,8 @@ class Renderer:
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
     ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
-              "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data")
+              "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
+              "uvs", "textures", "texels")
 
     def update_array(self, name, array):
         """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an

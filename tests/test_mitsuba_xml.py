@@ -114,8 +114,12 @@ def test_references_share_one_material_and_one_medium(tmp_path):
     ('<shape type="sphere"><boolean name="flip_normals" value="yes"/></shape>', "not a boolean"),
     ('<shape type="sphere"><float name="sharpness" value="2"/></shape>', "parameter 'sharpness' of"),
     ('<shape type="sphere"><string name="radius" value="2"/></shape>', "must be <float> or <integer>, got <string>"),
+    ('<shape type="sphere"><bsdf type="dielectric"><texture type="checkerboard" name="int_ior"/></bsdf></shape>',
+     "got <texture> type 'checkerboard' (not supported here)"),
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>',
-     "got <texture> type 'bitmap' (not supported here)"),
+     "parameter 'filename' is required"),
+    ('<shape type="sphere"><bsdf type="diffuse"><texture type="marble" name="reflectance"/></bsdf></shape>',
+     "unsupported texture 'marble'"),
     ('<shape type="sphere"><sampler type="independent"/></shape>', "<sampler> inside"),
 ])
 def test_structural_errors_name_file_line_and_element(tmp_path, body, message):

@@ -45,7 +45,8 @@ SCENES = [{"kind": "scene", "path": os.path.relpath(p, ROOT)}
           for p in sorted(glob.glob(os.path.join(ROOT, "scenes", "*.json")))]
 # tests.cl compiles different kernels for these (see its #if blocks).
 TEST_KERNELS = [{"kind": "test_kernels", "features": f} for f in
-                ({}, {"ENVIRONMENT": 2, "DIELECTRIC": 1}, {"MEDIA": 1, "GRID_MEDIA": 1}, {"MEDIA": 1, "GRID_MEDIA": 2})]
+                ({}, {"ENVIRONMENT": 2, "DIELECTRIC": 1}, {"MEDIA": 1, "GRID_MEDIA": 1}, {"MEDIA": 1, "GRID_MEDIA": 2},
+                 {"TEXTURES": 1})]
 # A kernel with an out-of-bounds read and a branch on an uninitialised value: proves that
 # diagnostics reach the test.
 CANARY = {"kind": "canary"}

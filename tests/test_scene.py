@@ -117,7 +117,8 @@ def test_transform_moves_and_mirrors_keep_normals_outward():
 def test_features_follow_what_the_scene_contains():
     cornell_box = clrender.load_scene("scenes/cornell_box.json")
     assert scene_features(cornell_box) == {
-        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "LANES": 1}
+        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "TEXTURES": 0,
+        "LANES": 1}
     assert scene_features(cornell_box, sample_aovs=True)["AOVS"] == 1   # asked by the render, not the scene
     with_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1}]))
     assert scene_features(with_env)["ENVIRONMENT"] == 1
@@ -125,8 +126,8 @@ def test_features_follow_what_the_scene_contains():
     assert scene_features(black_env)["ENVIRONMENT"] == 0   # no emitter to read
     with_sun = clrender.load_scene_dict(base_scene(lights=[{"type": "directional", "direction": [0, -1, 0],
                                                            "irradiance": 3}]))
-    assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0,
-                                         "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "LANES": 1}
+    assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0,
+                                         "GRID_MEDIA": 0, "AOVS": 0, "TEXTURES": 0, "LANES": 1}
     glass = [{"name": "glass", "type": "dielectric", "ior": 1.5}]
     unused_glass = clrender.load_scene_dict(base_scene(materials=base_scene()["materials"] + glass))
     assert scene_features(unused_glass)["DIELECTRIC"] == 0
@@ -136,6 +137,12 @@ def test_features_follow_what_the_scene_contains():
     mirror = base_scene(materials=base_scene()["materials"] + [{"name": "m", "type": "conductor"}])
     mirror["shapes"][0]["material"] = "m"
     assert scene_features(clrender.load_scene_dict(mirror))["DIELECTRIC"] == 1
+    checks = [{"name": "c", "type": "checkerboard"}]
+    unused_texture = base_scene(materials=base_scene()["materials"] + [
+        {"name": "t", "type": "diffuse", "albedo": {"texture": "c"}}], textures=checks)
+    assert scene_features(clrender.load_scene_dict(unused_texture))["TEXTURES"] == 0
+    unused_texture["shapes"][0]["material"] = "t"
+    assert scene_features(clrender.load_scene_dict(unused_texture))["TEXTURES"] == 1
 
 
 def test_degenerate_triangles_are_dropped_and_counted(tmp_path):

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import FileError
 from ..image import load_image
+from .texture import color_or_texture
 from .transforms import is_rigid
 from .values import fmt
 
@@ -62,9 +63,9 @@ def read_emitter(plugin, reader):
 def read_area_emitter(plugin, reader):
     if plugin.type != "area":
         raise plugin.error(f"only 'area' emitters can be attached to shapes, got '{plugin.type}'")
-    radiance = plugin.color("radiance", 1.0, reader.out.warnings, emitter=True)
+    radiance = color_or_texture(plugin, "radiance", 1.0, reader, emitter=True)
     plugin.finish()
-    return [float(v) for v in radiance]
+    return radiance
 
 
 def _describe_light(light):

@@ -22,6 +22,7 @@ import numpy as np
 from .bsdf import read_bsdf
 from .emitter import read_area_emitter
 from .medium import read_medium
+from .texture import is_textured
 from .transforms import matrix_rows, rotation_scale
 from .values import fmt
 from .xml import MitsubaXmlError
@@ -74,7 +75,11 @@ def read_shape(plugin, reader):
     plugin.finish()
     reader.out.scene["shapes"].append(shape)
     reader.note(plugin, f"shapes[{index}]", f"{summary}, material '{shape['material']}'"
-                + (f", emits {fmt(emission)}" if emission is not None else ""))
+                + (f", emits {_describe_emission(emission)}" if emission is not None else ""))
+
+
+def _describe_emission(emission):
+    return f"texture '{emission['texture']}'" if is_textured(emission) else fmt(emission)
 
 
 def _mesh_file(plugin, reader):
@@ -110,7 +115,7 @@ def _read_shape_media(plugin, reader, shape):
 def _material(plugin, reader, emission, emitter_where):
     """The name of the scene material for (BSDF, area emission), made once per distinct pair.
     A shape without a BSDF is diffuse 0.5, or black when it emits (as in Mitsuba)."""
-    key = (id(plugin.element) if plugin else None, None if emission is None else tuple(emission))
+    key = (id(plugin.element) if plugin else None, repr(emission))
     if key in reader.material_names:
         return reader.material_names[key]
     if plugin is None:
@@ -124,7 +129,7 @@ def _material(plugin, reader, emission, emitter_where):
         if material["type"] != "diffuse":
             raise MitsubaXmlError(emitter_where, f"an area emitter on a '{plugin.type}' BSDF is not "
                                                  "supported (only on diffuse BSDFs or none)")
-        material["emission"] = list(emission)
+        material["emission"] = emission
         base += "_emitting" if plugin else ""
     name, suffix = base, 1
     taken = {m["name"] for m in reader.out.scene["materials"]}
