@@ -37,5 +37,6 @@ def tone_map(image, exposure=0.0, curve="clamp"):
     if curve not in CURVES:
         raise ArgumentError("tonemap", f"unknown tone map {limits.show(curve)}; valid: {', '.join(TONE_MAPS)}")
     exposure = limits.setting("exposure", exposure)
-    scaled = np.nan_to_num(np.asarray(image, np.float32), nan=0.0, posinf=1.0) * np.float32(2.0 ** exposure)
-    return tonemap(CURVES[curve](scaled))
+    with np.errstate(over="ignore"):   # -inf comes in as the lowest float32: it may overflow, to black
+        scaled = np.nan_to_num(np.asarray(image, np.float32), nan=0.0, posinf=1.0) * np.float32(2.0 ** exposure)
+        return tonemap(CURVES[curve](scaled))

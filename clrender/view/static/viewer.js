@@ -80,12 +80,14 @@ function fitCanvas() {
 function showStatus() {
   const header = state.frame && state.frame.header;
   if (!header) return;
-  const noise = header.noise === null ? "–" : `${(100 * header.noise).toFixed(2)} %`;
+  // With the Sobol sampler the variance AOV bounds the noise from above (frames.py).
+  const bound = header.noise_bound ? "≤ " : "";
+  const noise = header.noise === null ? "–" : `${bound}${(100 * header.noise).toFixed(2)} %`;
   let text = `${header.layer} · ${header.samples} / ${header.target} spp · ` +
     `${(header.samples_per_second / 1e6).toFixed(2)} M samples/s · noise ${noise}`;
   if (header.noise !== null && header.noise > 0.01 && !header.done) {
     const needed = Math.ceil(header.samples * (header.noise / 0.01) ** 2);
-    text += ` (≈ ${needed} spp to 1 %)`;
+    text += ` (${bound || "≈ "}${needed} spp to 1 %)`;
   }
   text += header.done ? " · done" : ` · rendering ${header.seconds.toFixed(1)} s`;
   $("status").textContent = text;
