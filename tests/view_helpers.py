@@ -1,8 +1,11 @@
-"""Shared by tests/test_view.py and tests/test_view_browser.py: a small Cornell box, frame
-decoding, the images a viewer should show."""
+"""Shared by tests/test_view.py, tests/test_view_browser.py and tools/view_screenshot.py: a
+small Cornell box, frame decoding, the images a viewer should show, headless Chromium."""
+import contextlib
 import json
 import os
+import shutil
 import struct
+import tempfile
 
 import numpy as np
 
@@ -34,3 +37,32 @@ def rendered(scene, device, spp, seed=None):
     """The RenderResult of `spp` samples with every AOV: what a viewer's snapshot of `spp`
     samples must hold (the viewer accumulates the AOVs too)."""
     return clrender.Renderer(scene, device).render(spp=spp, seed=seed, aovs=clrender.AOV_NAMES)
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+# Chromium as root in a container, quiet towards the (closed) network.
+CHROMIUM_FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                  "--disable-dev-shm-usage")
+
+
+@contextlib.contextmanager
+def headless_chromium(width=900, height=700):
+    """A selenium driver of headless Chromium (Debian's chromium and chromium-driver) with a
+    fresh profile, removed afterwards."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    profile = tempfile.mkdtemp(prefix="clrender-chromium-")
+    for flag in CHROMIUM_FLAGS + (f"--window-size={width},{height}", f"--user-data-dir={profile}"):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+    driver.set_page_load_timeout(30)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+        shutil.rmtree(profile, ignore_errors=True)

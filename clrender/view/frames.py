@@ -35,8 +35,8 @@ def relative_noise(image, variance):
     per-pixel variances of the mean / sum of squared values), from the variance AOV; None before
     the second sample (the variance is unknown, inf) or for a black image. The variance AOV is
     that of a mean of independent samples: with the Sobol sampler, whose samples are stratified,
-    the true error is lower (a third of the estimate on the Cornell box at 16 spp) and this is
-    an upper bound (frame_header's noise_bound)."""
+    the true error is lower (about a quarter of the estimate on the Cornell box at 16 spp) and
+    this is an upper bound (frame_header's noise_bound)."""
     if not np.all(np.isfinite(variance)):
         return None
     energy = float(np.sum(np.square(image, dtype=np.float64)))
