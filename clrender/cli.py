@@ -210,6 +210,7 @@ def _load_scene(path, parameters):
     for message in translation.warnings:
         print(f"clrender: warning: {message}", file=sys.stderr)
     scene = mitsuba_xml.scene_from_translation(translation)
+    scene.path = path   # as load_scene sets it (the viewer saves next to it)
     return scene, translation.notes
 
 

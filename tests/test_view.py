@@ -6,7 +6,10 @@ import dataclasses
 import gc
 import json
 import math
+import re
+import signal
 import socket
+import subprocess
 import sys
 import threading
 import time
@@ -30,7 +33,7 @@ from clrender.view.output import output_paths
 from clrender.view.session import RenderSession
 from clrender.view.tonemap import TONE_MAPS, tone_map
 from conftest import TEST_DEVICE, camera
-from view_helpers import CORNELL, cornell_box, decode_frame, rendered
+from view_helpers import CORNELL, REPO, cornell_box, decode_frame, rendered
 
 aiohttp = pytest.importorskip("aiohttp")
 
@@ -403,3 +406,34 @@ def test_without_aiohttp_the_viewer_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "aiohttp", None)
     with pytest.raises(clrender.MissingDependency, match=r"clrender\[view\]"):
         clrender.view(cornell_box(8), open_browser=False, block=False)
+
+
+# --- the command ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("args,code,message", [
+    (["scenes/cornell_box.json", "--port", "70000"], 2, "--port: must be a port number"),
+    (["scenes/cornell_box.json", "-o", "out.gif"], 2, "--output: the viewer saves .exr and .png"),
+    (["scenes/missing.json"], 3, "scene file not found"),
+    (["scenes/cornell_box.json", "-D", "spp=4"], 2, "-D: parameters apply to Mitsuba XML scenes only"),
+])
+def test_the_command_refuses_bad_arguments_before_serving(args, code, message):
+    result = subprocess.run([sys.executable, "-m", "clrender.cli", "view", *args, "--no-browser"], cwd=REPO,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == code and message in result.stderr and "Traceback" not in result.stderr
+
+
+def test_the_command_serves_a_mitsuba_scene_until_sigterm(tmp_path):
+    command = subprocess.Popen([sys.executable, "-m", "clrender.cli", "view", "scenes/cornell_box.xml",
+                                "-D", "resolution=24", "--no-browser", "-o", str(tmp_path / "x")],
+                               cwd=REPO, stderr=subprocess.PIPE, text=True)
+    try:
+        url = re.search(r"http://\S+/", command.stderr.readline()).group(0)
+        hello, frame = asyncio.run(talk(url, until=lambda r: isinstance(r, tuple)))
+        assert hello["scene"] == "cornell_box.xml" and hello["paths"][1] == str(tmp_path / "x.png")
+        assert frame[1].shape == (24, 24, 3)
+        command.send_signal(signal.SIGTERM)
+        assert command.wait(30) == 128 + signal.SIGTERM
+    finally:
+        if command.poll() is None:
+            command.kill()
+    assert "Traceback" not in command.stderr.read()

@@ -53,6 +53,10 @@ class Viewer:
         self.url = None
         self._failure = None
         self._thread = None
+        # Set when the server's thread ends. Waited on instead of joining the thread: a join that
+        # Ctrl-C interrupts can leave Thread.is_alive() False for a thread still running
+        # (CPython 3.11), and a daemon thread left in C++ code at exit aborts the process.
+        self._ended = threading.Event()
 
     def start(self):
         """Listen (ArgumentError if the port cannot be had), then render; returns self."""
@@ -73,15 +77,17 @@ class Viewer:
         except Exception as error:   # a bug: raised again by wait(), or by start() before listening
             self._failure = error
             ready.put(error)
+        finally:
+            self._ended.set()
 
     @property
     def running(self):
-        return self._thread is not None and self._thread.is_alive()
+        return self._thread is not None and not self._ended.is_set()
 
     def wait(self):
         """Block until the viewer stops; raise the render's error if that stopped it."""
-        while self.running:
-            self._thread.join(0.2)   # short waits: Ctrl-C and SIGTERM get through
+        while self._thread is not None and not self._ended.wait(0.2):   # short waits: signals get through
+            pass
         error = self.session.error or self._failure
         if error is not None:
             raise error
@@ -90,7 +96,7 @@ class Viewer:
         """Stop rendering (the launch in flight finishes) and serving; the device is let go."""
         if self.running:
             self.server.request_stop()
-            self._thread.join()
+            self._ended.wait()
 
     def result(self):
         """The RenderResult of the last pass (every AOV in result.aovs), or None before the first."""
