@@ -335,11 +335,12 @@ def test_protocol_frames_layers_errors_and_save(viewer, tmp_path, device):
     hello, *_ = asyncio.run(talk(viewer.url, until=lambda r: is_frame(r, samples=4)))
     assert hello["type"] == "hello" and hello["width"] == 16 and "normal" in hello["layers"]
     assert hello["paths"] == [str(tmp_path / "saved.exr"), str(tmp_path / "saved.png")]
-    replies = asyncio.run(talk(viewer.url, "{not json", {"type": "layer", "layer": "shadow"},
+    replies = asyncio.run(talk(viewer.url, "{not json", {"type": "layer", "layer": "shadow"}, {"type": ["fly"]},
                                {"type": "layer", "layer": "normal"},
                                until=lambda r: is_frame(r, layer="normal")))
     errors = [r["message"] for r in replies if isinstance(r, dict) and r["type"] == "error"]
-    assert len(errors) == 2 and "layer: unknown layer 'shadow'" in errors[1]
+    assert len(errors) == 3 and "layer: unknown layer 'shadow'" in errors[1]
+    assert errors[2].startswith("type: unknown message ['fly']; valid: layer, save, stop, orbit")
     header, pixels = replies[-1]
     expected = rendered(cornell_box(16), device, header["samples"])
     np.testing.assert_array_equal(pixels, ldr_layer("normal", expected.aovs["normal"]))

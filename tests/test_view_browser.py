@@ -185,6 +185,19 @@ def test_save_writes_an_exr_with_layers_and_the_png_shown(page, viewer, outputs,
     np.testing.assert_array_equal(iio.imread(outputs / "shot.png"), tone_map(expected.image, 1.0))
 
 
+def test_the_notebook_output_shows_the_live_page(browser, viewer, tmp_path):
+    # What Jupyter does with the Viewer a cell returns: its _repr_html_ in the output area.
+    cell = tmp_path / "output.html"
+    cell.write_text(f"<!doctype html><html><body>{viewer._repr_html_()}</body></html>")
+    browser.get(cell.as_uri())
+    browser.switch_to.frame(browser.find_element("tag name", "iframe"))
+    try:
+        wait(browser, lambda: browser.execute_script("return document.body.dataset.samples") == str(SPP))
+        assert canvas(browser).shape == (SIZE, SIZE, 3)
+    finally:
+        browser.switch_to.default_content()
+
+
 def test_a_request_without_the_token_gets_403(browser, viewer):
     origin = viewer.url[:viewer.url.index(viewer.server.token)]
     browser.get(origin)

@@ -14,6 +14,7 @@ from ..errors import ArgumentError
 POLE_MARGIN_DEGREES = 1.0
 # A dolly keeps the distance to the target within these factors of the scene's own camera's.
 DOLLY_RANGE = (1e-3, 1e3)
+MOVES = ("orbit", "pan", "zoom", "reset")   # the message types `move` reads
 # Bounds of one message's values: a drag turns, pans or zooms a bounded amount.
 MAX_TURN = 2 * math.pi       # radians
 MAX_PAN = 10.0               # image widths or heights
@@ -80,7 +81,7 @@ def move(camera, home, message):
         distance = np.linalg.norm(np.asarray(camera.position, float) - camera.look_at)
         low, high = (home_distance * bound for bound in DOLLY_RANGE)
         return dolly(camera, min(max(distance * factor, low), high) / distance)
-    raise ArgumentError("type", f"unknown camera move {limits.show(kind)}; valid: orbit, pan, zoom, reset")
+    raise ArgumentError("type", f"unknown camera move {limits.show(kind)}; valid: {', '.join(MOVES)}")
 
 
 def _value(message, name, bound):

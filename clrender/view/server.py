@@ -23,6 +23,7 @@ from aiohttp import WSMsgType, web
 
 from .. import limits
 from ..errors import ArgumentError, ClrenderError
+from .camera import MOVES
 from .frames import Views, layer_names
 from .output import save_view
 from .tonemap import TONE_MAPS
@@ -190,7 +191,8 @@ class ViewServer:
             if views is None or page.sent == (views, layer):
                 continue
             message = await self._loop.run_in_executor(self._worker, views.message, layer)
-            await page.socket.send_bytes(message)
+            if not await _send(page.socket.send_bytes, message):
+                return
             page.sent = (views, layer)
 
     async def _handle(self, page, text):
@@ -207,8 +209,11 @@ class ViewServer:
                 self.stop()
             elif kind == "save":
                 await self._save(page, message)
-            else:
+            elif kind in MOVES:
                 self.session.move(message)
+            else:
+                raise ArgumentError("type", f"unknown message {limits.show(kind)}; valid: layer, save, stop, "
+                                            + ", ".join(MOVES))
         except (ValueError, ClrenderError) as e:   # json's errors, ArgumentError, a file not written
             await _send_error(page, e)
 
@@ -228,10 +233,18 @@ class ViewServer:
             raise ArgumentError("save", "nothing rendered yet")
         paths = await self._loop.run_in_executor(self._worker, save_view, views, self.paths, layer, exposure,
                                                  curve, self.denoiser)
-        await page.socket.send_json({"type": "saved", "paths": paths, "samples": views.snapshot.state.samples})
+        await _send(page.socket.send_json, {"type": "saved", "paths": paths, "samples": views.snapshot.state.samples})
+
+
+async def _send(send, data):
+    """send(data) on a page's socket; False if the page has gone meanwhile."""
+    try:
+        await send(data)
+    except ConnectionError:
+        return False
+    return True
 
 
 async def _send_error(page, error):
-    if not page.socket.closed:
-        await page.socket.send_json({"type": "error", "message": str(error)})
+    await _send(page.socket.send_json, {"type": "error", "message": str(error)})
 
