@@ -311,7 +311,12 @@ def test_every_request_without_the_token_is_forbidden(viewer):
 
 
 async def talk(url, *messages, until=None):
-    """Connect, send `messages`, and return the replies up to the first that `until` accepts."""
+    """Connect, send `messages`, and return the replies up to the first that `until` accepts
+    (within 60 s)."""
+    return await asyncio.wait_for(_talk(url, messages, until), 60)
+
+
+async def _talk(url, messages, until):
     replies = []
     async with aiohttp.ClientSession() as session:
         async with session.ws_connect(url + "socket") as ws:
@@ -352,6 +357,33 @@ def test_protocol_frames_layers_errors_and_save(viewer, tmp_path, device):
     np.testing.assert_array_equal(layers[""], final.image)
     assert set(layers) >= {"", "albedo", "normal", "depth", "variance"}
     np.testing.assert_array_equal(iio.imread(tmp_path / "saved.png"), tone_map(final.image, 1.0, "reinhard"))
+
+
+def test_a_frame_that_cannot_be_made_is_an_error_on_the_page_which_goes_on(viewer, monkeypatch):
+    layer = Views.layer
+
+    def failing(self, name):
+        if name == "albedo":
+            raise clrender.DeviceError("Open Image Denoise failed: out of luck")
+        return layer(self, name)
+    monkeypatch.setattr(Views, "layer", failing)
+
+    async def next_message(ws, kind):
+        while (message := await ws.receive()).type != kind:
+            pass
+        return message
+
+    async def switch():
+        async with aiohttp.ClientSession() as session:
+            async with session.ws_connect(viewer.url + "socket") as ws:
+                await next_message(ws, aiohttp.WSMsgType.TEXT)   # hello
+                await ws.send_json({"type": "layer", "layer": "albedo"})
+                error = json.loads((await next_message(ws, aiohttp.WSMsgType.TEXT)).data)
+                await ws.send_json({"type": "layer", "layer": "depth"})
+                return error, decode_frame((await next_message(ws, aiohttp.WSMsgType.BINARY)).data)
+    error, (header, _) = asyncio.run(asyncio.wait_for(switch(), 30))
+    assert error == {"type": "error", "message": "Open Image Denoise failed: out of luck"}
+    assert header["layer"] == "depth"
 
 
 def test_the_last_page_closing_stops_the_viewer(tmp_path):

@@ -190,10 +190,14 @@ class ViewServer:
             views, layer = self._views, page.layer
             if views is None or page.sent == (views, layer):
                 continue
-            message = await self._loop.run_in_executor(self._worker, views.message, layer)
+            page.sent = (views, layer)
+            try:
+                message = await self._loop.run_in_executor(self._worker, views.message, layer)
+            except ClrenderError as e:   # e.g. Open Image Denoise failing: said on the page, which goes on
+                await _send_error(page, e)
+                continue
             if not await _send(page.socket.send_bytes, message):
                 return
-            page.sent = (views, layer)
 
     async def _handle(self, page, text):
         """One message of the page; a bad one is answered with an error, never fatal."""
