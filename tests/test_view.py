@@ -359,6 +359,14 @@ def test_protocol_frames_layers_errors_and_save(viewer, tmp_path, device):
     np.testing.assert_array_equal(iio.imread(tmp_path / "saved.png"), tone_map(final.image, 1.0, "reinhard"))
 
 
+def test_the_denoised_layer_is_the_denoised_render(viewer, device):
+    pytest.importorskip("pyoidn")
+    replies = asyncio.run(talk(viewer.url, {"type": "layer", "layer": "denoised"},
+                               until=lambda r: is_frame(r, layer="denoised", samples=4)))
+    expected = clrender.Renderer(cornell_box(16), device).render(spp=4, denoise=True).image
+    np.testing.assert_array_equal(replies[-1][1], expected)
+
+
 def test_a_frame_that_cannot_be_made_is_an_error_on_the_page_which_goes_on(viewer, monkeypatch):
     layer = Views.layer
 
