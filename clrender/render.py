@@ -1,9 +1,8 @@
 """Progressive rendering: short kernel launches that each add a few samples per pixel of a tile
 (the whole image unless distributed.py splits it) to running per-pixel sums."""
-import dataclasses
 import signal
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pyopencl as cl
@@ -271,7 +270,7 @@ class Renderer:
             basis = np.concatenate(camera.basis())
         if not np.all(np.isfinite(basis)) or not np.all(np.isfinite(camera.position)):
             raise ArgumentError("camera", "its position, look_at and up must be finite and span a view")
-        scene = dataclasses.replace(self.scene, camera=camera)
+        scene = replace(self.scene, camera=camera)
         if scene.media:
             self.arrays.camera_medium = moved_camera_medium(scene, self.arrays.length_scale)
         self.scene = scene
@@ -318,8 +317,8 @@ class Renderer:
         `state` and return the new Accumulation; the arguments are those of `render`, with
         `progress(samples_done, samples_end, seconds)`. Ctrl-C raises RenderInterrupted with the
         Accumulation of the launches completed; any other exception raised by `progress` stops
-        the render between two launches and propagates (the viewer cancels passes so). The sample-level AOVs are accumulated too when
-        `state` holds their sums."""
+        the render between two launches and propagates (the viewer cancels passes so). The
+        sample-level AOVs are accumulated too when `state` holds their sums."""
         self._check_accumulation(state, samples)
         limits.check_settings(seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
