@@ -6,7 +6,6 @@ import dataclasses
 import gc
 import json
 import math
-import re
 import signal
 import socket
 import subprocess
@@ -33,7 +32,7 @@ from clrender.view.output import output_paths
 from clrender.view.session import RenderSession
 from clrender.view.tonemap import TONE_MAPS, tone_map
 from conftest import TEST_DEVICE, camera
-from view_helpers import CORNELL, REPO, cornell_box, decode_frame, rendered
+from view_helpers import CORNELL, REPO, cornell_box, decode_frame, rendered, start_command
 
 aiohttp = pytest.importorskip("aiohttp")
 
@@ -464,11 +463,8 @@ def test_the_command_refuses_bad_arguments_before_serving(args, code, message):
 
 
 def test_the_command_serves_a_mitsuba_scene_until_sigterm(tmp_path):
-    command = subprocess.Popen([sys.executable, "-m", "clrender.cli", "view", "scenes/cornell_box.xml",
-                                "-D", "resolution=24", "--no-browser", "-o", str(tmp_path / "x")],
-                               cwd=REPO, stderr=subprocess.PIPE, text=True)
+    command, url = start_command("scenes/cornell_box.xml", "-D", "resolution=24", "-o", str(tmp_path / "x"))
     try:
-        url = re.search(r"http://\S+/", command.stderr.readline()).group(0)
         hello, frame = asyncio.run(talk(url, until=lambda r: isinstance(r, tuple)))
         assert hello["scene"] == "cornell_box.xml" and hello["paths"][1] == str(tmp_path / "x.png")
         assert frame[1].shape == (24, 24, 3)

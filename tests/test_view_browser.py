@@ -6,10 +6,7 @@ import base64
 import dataclasses
 import io
 import math
-import re
 import signal
-import subprocess
-import sys
 
 import imageio.v3 as iio
 import numpy as np
@@ -19,7 +16,7 @@ import clrender
 from clrender.image import ldr_layer
 from clrender.view.tonemap import tone_map
 from conftest import TEST_DEVICE
-from view_helpers import CHROMEDRIVER, CHROMIUM, REPO, cornell_box, headless_chromium, rendered
+from view_helpers import CHROMEDRIVER, CHROMIUM, cornell_box, headless_chromium, rendered, start_command
 
 pytest.importorskip("aiohttp")
 pytest.importorskip("selenium.webdriver", reason="selenium is not installed (pip install -e '.[test]')")
@@ -206,11 +203,8 @@ def test_a_request_without_the_token_gets_403(browser, viewer):
 
 
 def test_the_command_exits_cleanly_on_sigint(browser, tmp_path):
-    command = subprocess.Popen([sys.executable, "-m", "clrender.cli", "view", "scenes/cornell_box.json",
-                                "--no-browser", "--spp", "100000", "-o", str(tmp_path / "out.exr")],
-                               cwd=REPO, stderr=subprocess.PIPE, text=True)
+    command, url = start_command("scenes/cornell_box.json", "--spp", "100000", "-o", str(tmp_path / "out.exr"))
     try:
-        url = re.search(r"http://\S+/", command.stderr.readline()).group(0)
         browser.get(url)
         wait(browser, lambda: browser.execute_script("return document.body.dataset.frames") is not None)
         command.send_signal(signal.SIGINT)

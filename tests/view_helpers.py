@@ -3,8 +3,11 @@ small Cornell box, frame decoding, the images a viewer should show, headless Chr
 import contextlib
 import json
 import os
+import re
 import shutil
 import struct
+import subprocess
+import sys
 import tempfile
 
 import numpy as np
@@ -22,6 +25,19 @@ def cornell_box(size=64, **render):
     data["camera"]["resolution"] = [size, size]
     data["render"].update(render)
     return clrender.load_scene_dict(data)
+
+
+def start_command(*args):
+    """`clrender view ARGS --no-browser` as a process, and the URL it serves (warnings, e.g. a
+    driver's compiler output, may come first on stderr)."""
+    command = subprocess.Popen([sys.executable, "-m", "clrender.cli", "view", *args, "--no-browser"], cwd=REPO,
+                               stderr=subprocess.PIPE, text=True)
+    for line in command.stderr:
+        found = re.search(r"view at (http://\S+/)", line)
+        if found:
+            return command, found.group(1)
+    command.wait()
+    raise AssertionError(f"clrender view exited with {command.returncode} before serving")
 
 
 def decode_frame(message):
