@@ -477,6 +477,19 @@ def _medium_at_camera(scene, position, v0, v1, v2, centres, radii, info):
     return interior if np.dot(normal, direction) > 0 else exterior
 
 
+def moved_camera_medium(scene, scale):
+    """SceneArrays.camera_medium for `scene`'s camera after it moved (Renderer.set_camera): the
+    scene's camera_medium if set, else found as build_scene_arrays finds it, from the shapes
+    gathered again at the arrays' length `scale`."""
+    if scene.camera_medium is not None:
+        return scene.camera_medium
+    v0, v1, v2, _, info = _gather_triangles(scene, scale)
+    keep = _has_float32_area(v0, v1, v2)
+    centres, radii, sphere_info = _gather_spheres(scene, scale)
+    return _medium_at_camera(scene, scene.camera.position * scale, v0[keep], v1[keep], v2[keep], centres, radii,
+                             np.concatenate([info[keep], sphere_info]))
+
+
 def _toon_fields(record, toon):
     """The toon_* fields of one Material record (meaning in layout.MATERIAL_FIELDS)."""
     for name, value in (("toon_shadow_color", toon.shadow_color), ("toon_shadow_factor", toon.shadow_factor),

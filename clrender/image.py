@@ -107,6 +107,19 @@ def save_image(image, path, exposure=0.0, layers=None):
             _write_ldr(ldr_layer(name, layer, exposure), layer_path(path, name))
 
 
+def save_display_image(pixels, path):
+    """Save 8-bit display pixels (H, W, 3) uint8 as they are (already tone-mapped, e.g. what the
+    viewer shows) to an 8-bit format; raises as save_image does."""
+    path = Path(path)
+    pixels = np.asarray(pixels)
+    if pixels.dtype != np.uint8 or pixels.ndim != 3 or pixels.shape[2] != 3:
+        raise ArgumentError("pixels", f"expected HxWx3 uint8 pixels, got {pixels.dtype} of shape {pixels.shape}")
+    check_output_path(path)
+    if path.suffix.lower() not in LDR_SUFFIXES:
+        raise ArgumentError("path", f"display pixels go to an 8-bit format ({', '.join(LDR_SUFFIXES)}), not {path}")
+    _write_ldr(pixels, path)
+
+
 def layer_path(path, name):
     """Where an 8-bit output puts a layer: image.png -> image.albedo.png."""
     path = Path(path)

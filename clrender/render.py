@@ -4,7 +4,7 @@ import signal
 import sys
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pyopencl as cl
@@ -13,13 +13,13 @@ from . import layout, limits
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
-from .arrays import build_scene_arrays
+from .arrays import build_scene_arrays, moved_camera_medium
 from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
 from .errors import ArgumentError
 from .features import scene_features
 from .origins import errors_at_source
-from .scene import as_scene
+from .scene import Camera, as_scene
 
 
 @dataclass
@@ -306,6 +306,25 @@ class Renderer:
         setattr(self.arrays, name, array)
         self._buffers[index] = self._upload(array)
 
+    def set_camera(self, camera):
+        """Render from `camera` (a scene.Camera of the same resolution) from now on. The scene
+        stays on the device: only the RenderParams of later launches change, and in a scene with
+        media the medium around the camera is found again. The length scale stays the one chosen
+        for the scene (arrays.device_length_scale), a float32 safeguard, not a part of the image."""
+        if not isinstance(camera, Camera):
+            raise ArgumentError("camera", f"must be a clrender.scene.Camera, got {type(camera).__name__}")
+        if tuple(camera.resolution) != tuple(self.scene.camera.resolution):
+            raise ArgumentError("camera.resolution", f"must stay {self.scene.camera.resolution} (the buffers' size), "
+                                                     f"got {camera.resolution}")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            basis = np.concatenate(camera.basis())
+        if not np.all(np.isfinite(basis)) or not np.all(np.isfinite(camera.position)):
+            raise ArgumentError("camera", "its position, look_at and up must be finite and span a view")
+        scene = replace(self.scene, camera=camera)
+        if scene.media:
+            self.arrays.camera_medium = moved_camera_medium(scene, self.arrays.length_scale)
+        self.scene = scene
+
     def _upload(self, array):
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         data = array if array.size else np.zeros(1, array.dtype)
@@ -350,8 +369,9 @@ class Renderer:
         """Add samples state.samples ... state.samples + samples - 1 to the sums of the tile of
         `state` and return the new Accumulation; the arguments are those of `render`, with
         `progress(samples_done, samples_end, seconds)`. Ctrl-C raises RenderInterrupted with the
-        Accumulation of the launches completed. The sample-level AOVs are accumulated too when
-        `state` holds their sums."""
+        Accumulation of the launches completed; any other exception raised by `progress` stops
+        the render between two launches and propagates (the viewer cancels passes so). The
+        sample-level AOVs are accumulated too when `state` holds their sums."""
         self._check_accumulation(state, samples)
         limits.check_settings(seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
