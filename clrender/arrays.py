@@ -483,9 +483,9 @@ def moved_camera_medium(scene, scale):
     gathered again at the arrays' length `scale`."""
     if scene.camera_medium is not None:
         return scene.camera_medium
-    v0, v1, v2, _, info = _gather_triangles(scene, scale)
+    v0, v1, v2, _, info, _ = _gather_triangles(scene, scale)
     keep = _has_float32_area(v0, v1, v2)
-    centres, radii, sphere_info = _gather_spheres(scene, scale)
+    centres, radii, _, sphere_info = _gather_spheres(scene, scale)
     return _medium_at_camera(scene, scene.camera.position * scale, v0[keep], v1[keep], v2[keep], centres, radii,
                              np.concatenate([info[keep], sphere_info]))
 
