@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, limits, meshes, textures
+from . import layout, limits, meshes, plastic, textures
 from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
 from .errors import SceneError
@@ -132,9 +132,10 @@ def build_scene_arrays(scene):
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
-    materials = _material_array(scene.materials)
+    materials = _material_array(scene.materials, scene.textures)
     used = {shape.material for shape in scene.shapes}
-    compensated = {i for i, m in enumerate(scene.materials) if m.energy_compensation}
+    # Plastic's coat tables are its model, not a compensation.
+    compensated = {i for i, m in enumerate(scene.materials) if m.energy_compensation or m.type == "plastic"}
     table_size, table_materials = _assign_albedo_tables(materials, used & compensated)
 
     camera_medium = scene.camera_medium
@@ -358,7 +359,7 @@ def _info_array(info):
     return out
 
 
-def _material_array(materials):
+def _material_array(materials, textures=()):
     out = np.zeros(len(materials), layout.MATERIAL)
     layout.clear_texture_references(out)
     for i, m in enumerate(materials):
@@ -374,6 +375,8 @@ def _material_array(materials):
         _set(record, "emission", m.emission)
         if kind == "interface":   # the transmittance of the boundary
             _set(record, "color", m.tint if m.index_matched else 1.0)
+        elif kind == "plastic":
+            plastic.set_fields(record, m, textures)
         elif kind in ("dielectric", "conductor"):
             _set(record, "color", m.tint)
             _set(record, "ior", m.ior)
@@ -398,9 +401,12 @@ def _get(material, name):
 
 
 def needs_albedo_table(material):
-    """Whether a Material record is a rough specular lobe, compensated by tables; mirrors
-    material_is_delta in kernels/materials/bsdf.h (float32 alpha against MICROFACET_MIN_ALPHA)."""
+    """Whether a Material record is a rough specular lobe, compensated by tables, or a plastic with
+    a rough coat (clrender/plastic.py); mirrors material_is_delta in kernels/materials/bsdf.h
+    (float32 alpha against MICROFACET_MIN_ALPHA)."""
     kind = int(_get(material, "kind"))
+    if kind == layout.MATERIAL_KINDS["plastic"]:
+        return plastic.table_rows(material) > 0
     if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
         return False
     return bool(_get(material, "alpha") >= np.float32(1e-3))
@@ -416,10 +422,18 @@ def _assign_albedo_tables(materials, used):
         _set(materials[i], "albedo_tables", -1)
         if i in used and needs_albedo_table(materials[i]):
             _set(materials[i], "albedo_tables", size)
-            sides = 2 if _get(materials[i], "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
-            size += sides * layout.ALBEDO_TABLE_SIZE
+            size += _table_floats(materials[i])
             owners.append(i)
     return size, owners
+
+
+def _table_floats(material):
+    """The floats of Scene.specular_albedo a material's tables take: a dielectric has two sides
+    (wo outside and inside)."""
+    kind = _get(material, "kind")
+    if kind == layout.MATERIAL_KINDS["plastic"]:
+        return plastic.table_floats(material)
+    return (2 if kind == layout.MATERIAL_KINDS["dielectric"] else 1) * layout.ALBEDO_TABLE_SIZE
 
 
 def _medium_array(media, scale=1.0):

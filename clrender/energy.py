@@ -7,7 +7,7 @@ only on (kind, ior, exterior ior, alpha) and are cached for the session.
 import numpy as np
 import pyopencl as cl
 
-from . import layout
+from . import layout, plastic
 
 _cache = {}  # (device, kind, ior, exterior_ior, alpha) -> float32 (sides, ALBEDO_TABLE_SIZE)
 
@@ -23,14 +23,18 @@ def _table_key(queue, material):
 
 
 def fill_albedo_tables(queue, program, arrays):
-    """Fill arrays.specular_albedo for the materials in arrays.table_materials."""
-    if not arrays.table_materials:
+    """Fill arrays.specular_albedo for the materials in arrays.table_materials (plastic's coat
+    tables: clrender/plastic.py)."""
+    materials = arrays.materials
+    is_plastic = lambda index: _field(materials[index], "kind") == layout.MATERIAL_KINDS["plastic"]  # noqa: E731
+    plastic.fill_coat_tables(queue, program, arrays, [i for i in arrays.table_materials if is_plastic(i)])
+    owners = [i for i in arrays.table_materials if not is_plastic(i)]
+    if not owners:
         return
     size = layout.ALBEDO_TABLE_SIZE
     context = queue.context
-    materials = arrays.materials
     pending = []
-    for index in arrays.table_materials:
+    for index in owners:
         m = materials[index]
         key = _table_key(queue, m)
         if key not in _cache:
@@ -48,7 +52,7 @@ def fill_albedo_tables(queue, program, arrays):
             offset = int(_field(materials[index], "albedo_tables"))
             sides = 2 if _field(materials[index], "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
             _cache[key] = out[offset:offset + sides * size].reshape(sides, size).copy()
-    for index in arrays.table_materials:
+    for index in owners:
         m = materials[index]
         key = _table_key(queue, m)
         offset = int(_field(m, "albedo_tables"))

@@ -20,8 +20,8 @@ FEATURE_VALUES = {
     "ENVIRONMENT": tuple(ENVIRONMENT_MODES.values()),
     "MEDIA": (0, 1),
     "TOON": (0, 1),
-    # Specular materials: smooth and rough dielectrics and conductors (one feature for both:
-    # they share the microfacet code, and every feature doubles the combinations to build).
+    # Specular materials: smooth and rough dielectrics, conductors and plastics (one feature for
+    # all: they share the microfacet code, and every feature doubles the combinations to build).
     "DIELECTRIC": (0, 1),
     # Grid media and how they are integrated: 0 none, 1 null-scattering path integral,
     # 2 ray marching (VOLUME_* in layout.py). Only the chosen method is compiled in.
@@ -41,7 +41,7 @@ FEATURE_VALUES = {
 # What the packet integrator (LANES 8) leaves out: every other feature.
 PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
 
-SPECULAR_MATERIALS = ("dielectric", "conductor")
+SPECULAR_MATERIALS = ("dielectric", "conductor", "plastic")
 
 
 def volume_method(scene, override=None):

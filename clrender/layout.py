@@ -63,8 +63,14 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #   emission: radiance of an emitting material (textured: w).
 #   color (textured): albedo (diffuse), tint (dielectric: transmission, conductor: reflectance),
 #     base colour (toon), transmittance (interface).
-#   alpha (textured): the microfacet width of rough lobes (dielectric, conductor).
-#   ior / exterior_ior: indices of refraction inside and outside (dielectric).
+#   alpha (textured): the microfacet width of rough lobes (dielectric, conductor, plastic).
+#   ior / exterior_ior: indices of refraction inside and outside (dielectric, plastic's coat).
+#   plastic (kernels/materials/plastic.h): color is the diffuse_reflectance of its base;
+#     specular (textured) the specular_reflectance of its coat; nonlinear 1: the base's internal
+#     scattering per channel (Mitsuba's `nonlinear`); specular_sampling_weight: the probability
+#     weight of the coat's lobe, from the reflectances' means (Mitsuba's); coat_alpha_range: the
+#     alphas of the first and last rows of the rough coat's tables (equal: one row; a textured
+#     alpha spans the texture's values, clrender/plastic.py).
 #   opacity (textured): the fraction of light the surface stops (1: opaque); bump_scale.
 #   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
 #     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
@@ -82,6 +88,10 @@ MATERIAL_FIELDS = {
     "alpha": (("slot", 1), 0, 1),
     "ior": (("slot", 2), 0, 1),
     "exterior_ior": (("slot", 2), 1, 1),
+    "nonlinear": (("slot", 2), 2, 1),
+    "specular": (("slot", 3), 0, 3),
+    "specular_sampling_weight": (("slot", 4), 0, 1),
+    "coat_alpha_range": (("slot", 4), 1, 2),
     "opacity": (("slot", 12), 0, 1),
     "bump_scale": (("slot", 12), 1, 1),
     "toon_shadow_color": (("slot", 3), 0, 3),
@@ -97,7 +107,7 @@ MATERIAL_FIELDS = {
     "toon_ambient": (("slot", 9), 0, 3),
 }
 # The fields a texture may drive; each owns lane w of its member for the texture reference.
-TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity")
+TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity", "specular")
 
 # A texture (kernels/textures/texture.h). info: x kind (TEXTURE_KINDS), y first byte of its
 # texels in Scene.texels, z width, w height. format: x channels (1, 3 or 4), y encoding
@@ -173,7 +183,7 @@ STRUCTS = {
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4}
+MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4, "plastic": 5}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
@@ -245,6 +255,13 @@ def pack_media(interior, exterior):
 # the Material field albedo_tables holds the offset of the material's tables, -1 for none.
 ALBEDO_TABLE_SIZE = 64
 
+# The rough coat of plastic (kernels/materials/plastic_coat.h): a row of its tables holds the
+# coat's external transmittance at COAT_TABLE_SIZE values of mu = cos(theta), spaced evenly in
+# [0, 1] (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES), then its internal reflectance; one row per alpha,
+# COAT_ALPHA_ROWS rows evenly spaced over a textured alpha's range.
+COAT_TABLE_SIZE = 64
+COAT_ALPHA_ROWS = 16
+
 # Ray marching's step (kernels/media/raymarch.h): at step 1 a step spans at most one voxel and
 # at most MARCH_STEP_OPTICAL_DEPTH of majorant optical depth; the refinement by optical depth stops
 # at MARCH_MAX_STEPS_PER_VOXEL steps per voxel (the host reports media that reach it).
@@ -261,6 +278,8 @@ def c_constants():
                           ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
+    lines.append(f"#define COAT_TABLE_SIZE {COAT_TABLE_SIZE}")
+    lines.append(f"#define COAT_ALPHA_ROWS {COAT_ALPHA_ROWS}")
     lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")

@@ -15,7 +15,7 @@ from . import grids, limits, meshes, textures
 from .errors import ArgumentError, FileError, SceneError
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
-MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
+MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "plastic")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
@@ -95,6 +95,10 @@ class Material:
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
     roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
+    # plastic (kernels/materials/plastic.h): albedo is its diffuse_reflectance, ior / exterior_ior
+    # and roughness its coat's
+    specular: np.ndarray = field(default_factory=lambda: np.ones(3))  # specular_reflectance
+    nonlinear: bool = False     # internal scattering per channel (Mitsuba's `nonlinear`)
     # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
     # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
     # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
@@ -508,10 +512,26 @@ def _read_material(node, texture_names=()):
         if kind == "dielectric":
             material.ior = node.number("ior", 1.5, low=0, low_open=True)
             material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
+    elif kind == "plastic":
+        material = _read_plastic(node, name, texturable)
     else:  # an index-matched boundary: only separates media
         material = Material(name, kind, albedo=np.zeros(3))
     material.textures = maps
     node.finish()
+    return material
+
+
+def _read_plastic(node, name, texturable):
+    """Mitsuba's plastic and roughplastic, with their defaults (polypropylene in air)."""
+    material = Material(name, "plastic",
+                        albedo=texturable.color("diffuse", "color", [0.5] * 3, high=1),
+                        specular=texturable.color("specular", "specular", [1.0] * 3, high=1),
+                        roughness=_read_roughness(node, texturable),
+                        ior=node.number("ior", 1.49, low=0, low_open=True),
+                        exterior_ior=node.number("exterior_ior", 1.000277, low=0, low_open=True),
+                        nonlinear=node.boolean("nonlinear", False), two_sided=node.boolean("two_sided", True))
+    if np.float32(material.ior) == np.float32(material.exterior_ior):
+        raise SceneError(node.at("ior"), "must differ from exterior_ior (a coat that is no interface)")
     return material
 
 

@@ -52,6 +52,17 @@ class Texture:
         rgb = _as_rgb(_linear(self.pixels, self.srgb))
         return rgb.reshape(-1, 3).mean(axis=0)
 
+    def number_range(self):
+        """The least and the largest number (lookup_number) the texture takes: filtering keeps
+        within its texels' (a checkerboard's colours') values."""
+        if self.type == "checkerboard":
+            values = np.array([self.color0, self.color1], float) @ LUMINANCE
+        elif self.channels == 1:
+            values = _linear(self.pixels, self.srgb)
+        else:
+            values = _as_rgb(_linear(self.pixels, self.srgb)) @ LUMINANCE
+        return float(values.min()), float(values.max())
+
 
 def srgb_to_linear(x):
     """sRGB-encoded values in [0, 1] to linear (IEC 61966-2-1)."""

@@ -65,7 +65,7 @@ INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfaceP
     float pdf_ratio;
     float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
-    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(m, sp, wo, ls.wi) * pdf_ratio);
+    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(scene, m, sp, wo, ls.wi) * pdf_ratio);
     return f * tr * ls.radiance * (weight / ls.pdf_w);
 }
 

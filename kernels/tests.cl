@@ -196,7 +196,7 @@ KERNEL void eval_bsdf_values(__global const Material* material, __global const f
     scene.specular_albedo = albedo;
     SurfacePoint sp = test_surface_point(front_face, ns.xyz);
     out[i] = (float4)(eval_bsdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz),
-                      sample_bsdf_pdf(&m, &sp, wo[i].xyz, wi[i].xyz));
+                      sample_bsdf_pdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz));
 }
 
 #if DIELECTRIC

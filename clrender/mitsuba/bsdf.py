@@ -3,20 +3,24 @@
 | plugin | parameter (Mitsuba's default) | clrender material |
 |---|---|---|
 | `diffuse` | `reflectance` (0.5) | `diffuse`, one-sided (black seen from behind, as Mitsuba's) |
-| `twosided` | one nested `diffuse`, `conductor` or `roughconductor` | the same, `two_sided` |
+| `twosided` | one nested `diffuse`, `conductor`, `roughconductor`, `plastic` or `roughplastic` | the same, `two_sided` |
 | `dielectric` | `int_ior` (bk7), `ext_ior` (air): numbers or IOR_PRESETS names; `specular_transmittance` (1) | `dielectric` (`ior`, `exterior_ior`, `tint`); `specular_reflectance` other than 1 is an error |
 | `roughdielectric` | the same, `distribution` (must be ggx), `alpha` (0.1) or equal `alpha_u`/`alpha_v` | rough `dielectric`, `roughness` sqrt(alpha), single scattering |
 | `conductor` | `specular_reflectance` (1), `material` (none: a perfect mirror; CONDUCTOR_PRESETS) or `eta`/`k` | `conductor`, `tint` = specular_reflectance x reflectance at normal incidence (a warning for presets and eta/k) |
 | `roughconductor` | the same, `distribution` (ggx), `alpha` | rough `conductor`, single scattering |
+| `plastic` | `int_ior` (polypropylene), `ext_ior` (air), `diffuse_reflectance` (0.5), `specular_reflectance` (1), `nonlinear` (false) | `plastic` (`ior`, `exterior_ior`, `diffuse`, `specular`, `nonlinear`), one-sided |
+| `roughplastic` | the same, `distribution` (must be ggx), `alpha` (0.1; a number: Mitsuba takes no texture) or equal `alpha_u`/`alpha_v` | rough `plastic`, `roughness` sqrt(alpha) |
 | `null` | | `interface` |
 | accepted | `sample_visible` (rough lobes) | |
 """
 import numpy as np
 
-from .texture import color_or_texture, is_textured, number_or_texture
+from .texture import _is_texture, color_or_texture, is_textured, number_or_texture
 from .values import fmt, parse_float
 
-BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "twosided", "null")
+BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic", "roughplastic",
+         "twosided", "null")
+TWO_SIDED = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
 
 # Mitsuba's named indices of refraction.
 IOR_PRESETS = {
@@ -64,9 +68,9 @@ def read_bsdf(plugin, reader, two_sided=False):
             raise plugin.error("twosided with different front and back BSDFs is not supported "
                                "(give one nested BSDF)")
         plugin.finish()
-        if inner[0].type not in ("diffuse", "conductor", "roughconductor"):
+        if inner[0].type not in TWO_SIDED:
             raise inner[0].error(f"twosided around '{inner[0].type}' is not supported "
-                                 "(only diffuse, conductor, roughconductor; Mitsuba rejects transmission)")
+                                 f"(only {', '.join(TWO_SIDED)}; Mitsuba rejects transmission)")
         return read_bsdf(inner[0], reader, two_sided=True)
     if kind == "diffuse":
         material = {"type": "diffuse", "albedo": color_or_texture(plugin, "reflectance", 0.5, reader),
@@ -89,6 +93,8 @@ def read_bsdf(plugin, reader, two_sided=False):
                     "tint": reflectance if is_textured(reflectance) else (np.asarray(reflectance) * f0).tolist()}
         if kind == "roughconductor":
             material.update(_roughness(plugin, reader))
+    elif kind in ("plastic", "roughplastic"):
+        material = _plastic(plugin, reader, two_sided)
     elif kind == "null":
         material = {"type": "interface"}
     else:
@@ -107,6 +113,22 @@ def _ior(plugin, name, default):
             raise element.error(f"unknown index of refraction '{value}' (known: {', '.join(IOR_PRESETS)})")
         return IOR_PRESETS[value]
     return parse_float(element)
+
+
+def _plastic(plugin, reader, two_sided):
+    material = {"type": "plastic", "two_sided": two_sided, "ior": _ior(plugin, "int_ior", "polypropylene"),
+                "exterior_ior": _ior(plugin, "ext_ior", "air"),
+                "diffuse": color_or_texture(plugin, "diffuse_reflectance", 0.5, reader),
+                "specular": color_or_texture(plugin, "specular_reflectance", 1.0, reader),
+                "nonlinear": plugin.boolean("nonlinear", False)}
+    if material["ior"] == material["exterior_ior"]:
+        raise plugin.error("int_ior and ext_ior must differ (as Mitsuba requires)")
+    if plugin.type == "roughplastic":
+        if _is_texture(plugin, "alpha"):
+            raise plugin.error("a textured alpha is not supported on roughplastic (Mitsuba takes a number)")
+        # Its tables are its model: no energy compensation to turn off.
+        material.update((k, v) for k, v in _roughness(plugin, reader).items() if k != "energy_compensation")
+    return material
 
 
 def _roughness(plugin, reader):

@@ -14,6 +14,7 @@
 #include "materials/dielectric.h"
 #include "materials/conductor.h"
 #include "materials/energy.h"
+#include "materials/plastic.h"
 
 #if DIELECTRIC
 // Entering or leaving is decided by the geometric normal and the ray (sp->front_face, i.e. the
@@ -69,6 +70,12 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
                  float3 wi) {
     if (is_one_sided_back(m, sp)) return (float3)(0.0f);
 #if DIELECTRIC
+    if (material_kind(m) == MATERIAL_PLASTIC) {
+        float3 n = specular_normal(sp, wo);
+        if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return (float3)(0.0f);
+        Plastic p = plastic_at(scene, m);
+        return eval_plastic(&p, n, wo, wi);
+    }
     if (is_specular_material(m)) {
         // A delta lobe has no finite value for a direction chosen elsewhere (light sampling).
         if (material_is_delta(m)) return (float3)(0.0f);
@@ -83,9 +90,16 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
     return eval_diffuse(material_color(m), sp, wi);
 }
 
-INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
+INLINE float sample_bsdf_pdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                             float3 wi) {
     if (is_one_sided_back(m, sp)) return 0.0f;
 #if DIELECTRIC
+    if (material_kind(m) == MATERIAL_PLASTIC) {
+        float3 n = specular_normal(sp, wo);
+        if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return 0.0f;
+        Plastic p = plastic_at(scene, m);
+        return sample_plastic_pdf(&p, n, wo, wi);
+    }
     if (is_specular_material(m)) {
         if (material_is_delta(m)) return 0.0f;
         float3 n = specular_normal(sp, wo);
@@ -125,15 +139,27 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
     bs.eta = dot(wi, sp->ng) < 0.0f ? eta : 1.0f;
     return bs;
 }
+
+// Plastic (materials/plastic.h), with the random numbers as arguments.
+BsdfSample sample_plastic_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                               float rnl, float2 rn) {
+    float3 n = specular_normal(sp, wo);
+    Plastic p = plastic_at(scene, m);
+    BsdfSample bs = sample_plastic(&p, n, sp->ng, wo, rnl, rn);
+    if (!bs.delta && !sides_agree(dot(bs.wi, sp->ng), dot(bs.wi, n))) return bsdf_sample_none();
+    return bs;
+}
 #endif
 
 INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                        Rng* rng) {
     if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC
-    if (is_specular_material(m)) {
+    if (is_specular_material(m) || material_kind(m) == MATERIAL_PLASTIC) {
         float rnl = rng_float(rng);
-        return sample_specular_bsdf(scene, m, sp, wo, rnl, rng_float2(rng));
+        float2 rn = rng_float2(rng);
+        if (material_kind(m) == MATERIAL_PLASTIC) return sample_plastic_bsdf(scene, m, sp, wo, rnl, rn);
+        return sample_specular_bsdf(scene, m, sp, wo, rnl, rn);
     }
 #endif
     BsdfSample bs = bsdf_sample_none();

@@ -17,6 +17,10 @@ float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
 float material_ior(const Material* m) { return m->slot[2].x; }
 float material_exterior_ior(const Material* m) { return m->slot[2].y; }
+int material_nonlinear(const Material* m) { return (int)m->slot[2].z; }
+float3 material_specular(const Material* m) { return m->slot[3].xyz; }
+float material_specular_sampling_weight(const Material* m) { return m->slot[4].x; }
+float2 material_coat_alpha_range(const Material* m) { return m->slot[4].yz; }
 float material_opacity(const Material* m) { return m->slot[12].x; }
 float material_bump_scale(const Material* m) { return m->slot[12].y; }
 
