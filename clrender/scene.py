@@ -13,6 +13,7 @@ import numpy as np
 
 from . import grids, limits, meshes, textures
 from .errors import ArgumentError, FileError, SceneError
+from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
@@ -94,7 +95,9 @@ class Material:
     tint: np.ndarray = field(default_factory=lambda: np.ones(3))
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
-    roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
+    roughness: float = 0.0      # 0: smooth (delta lobes); microfacet alpha = roughness^2
+    distribution: str = "ggx"   # of rough lobes' normals: layout.MICROFACET_DISTRIBUTIONS
+    masking: str = "height_correlated"   # layout.MASKINGS ("separable": Mitsuba's G1(wo) G1(wi))
     # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
     # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
     # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
@@ -499,7 +502,9 @@ def _read_material(node, texture_names=()):
                             emission=texturable.color("radiance", "emission", allow_scalar=True))
     elif kind in ("dielectric", "conductor"):
         material = Material(name, kind, albedo=np.zeros(3), tint=texturable.color("tint", "color", [1.0] * 3, high=1),
-                            roughness=_read_roughness(node, texturable))
+                            roughness=_read_roughness(node, texturable),
+                            distribution=node.string("distribution", "ggx", choices=MICROFACET_DISTRIBUTIONS),
+                            masking=node.string("masking", "height_correlated", choices=MASKINGS))
         material.energy_compensation = node.boolean("energy_compensation", "alpha" not in maps)
         if material.energy_compensation and "alpha" in maps:
             raise SceneError(node.at("energy_compensation"), "needs a constant roughness, not a texture")
