@@ -383,6 +383,8 @@ def _material_array(materials, textures=()):
             _set(record, "exterior_ior", m.exterior_ior)
             # Squared in float32, as the kernel would: alpha = roughness^2.
             _set(record, "alpha", np.float32(m.roughness) * np.float32(m.roughness))
+            _set(record, "distribution", layout.MICROFACET_DISTRIBUTIONS[m.distribution])
+            _set(record, "masking", layout.MASKINGS[m.masking])
         else:
             _set(record, "color", m.albedo)
         if m.toon is not None:

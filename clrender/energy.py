@@ -2,14 +2,17 @@
 
 Each table is the directional albedo E(mu_o) of a material's single-scattering lobe, computed on
 the device by the kernel code that renders it, so host and kernel cannot disagree. Tables depend
-only on (kind, ior, exterior ior, alpha) and are cached for the session.
+only on the lobe (kind, indices, the microfacet model) and are cached for the session.
 """
 import numpy as np
 import pyopencl as cl
 
 from . import layout, plastic
 
-_cache = {}  # (device, kind, ior, exterior_ior, alpha) -> float32 (sides, ALBEDO_TABLE_SIZE)
+_cache = {}  # (device, *TABLE_FIELDS) -> float32 (sides, ALBEDO_TABLE_SIZE)
+
+# The Material fields a table depends on.
+TABLE_FIELDS = ("kind", "ior", "exterior_ior", "alpha", "distribution", "masking")
 
 
 def _field(material, name):
@@ -17,9 +20,8 @@ def _field(material, name):
 
 
 def _table_key(queue, material):
-    """A table depends on the device and the lobe: kind, ior, exterior ior, alpha."""
-    return (queue.device.int_ptr, *(float(_field(material, name))
-                                    for name in ("kind", "ior", "exterior_ior", "alpha")))
+    """A table depends on the device and the lobe."""
+    return (queue.device.int_ptr, *(float(_field(material, name)) for name in TABLE_FIELDS))
 
 
 def fill_albedo_tables(queue, program, arrays):

@@ -60,6 +60,8 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #   albedo_tables: offset of the material's tables in Scene.specular_albedo (-1: none: smooth, or
 #     `energy_compensation` off; kernels/materials/energy.h).
 #   normal_map, bump_map: texture indices (-1: none) that bend the shading normal.
+#   distribution, masking: the microfacet model of rough lobes (kernels/materials/microfacet.h):
+#     MICROFACET_DISTRIBUTIONS, and MASKINGS (how masking and shadowing combine).
 #   emission: radiance of an emitting material (textured: w).
 #   color (textured): albedo (diffuse), tint (dielectric: transmission, conductor: reflectance),
 #     base colour (toon), transmittance (interface).
@@ -83,6 +85,8 @@ MATERIAL_FIELDS = {
     "albedo_tables": ("kind", 3, 1),
     "normal_map": ("maps", 0, 1),
     "bump_map": ("maps", 1, 1),
+    "distribution": ("maps", 2, 1),
+    "masking": ("maps", 3, 1),
     "emission": ("emission", 0, 3),
     "color": (("slot", 0), 0, 3),
     "alpha": (("slot", 1), 0, 1),
@@ -184,6 +188,10 @@ STRUCTS = {
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
 MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4, "plastic": 5}
+# Rough lobes: the distribution of microfacet normals, and the masking-shadowing term
+# (height-correlated G2, or Mitsuba's separable G1(wo) G1(wi)).
+MICROFACET_DISTRIBUTIONS = {"ggx": 0, "beckmann": 1}
+MASKINGS = {"height_correlated": 0, "separable": 1}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
@@ -272,7 +280,8 @@ MARCH_MAX_STEPS_PER_VOXEL = 64
 def c_constants():
     """The enumerations and sizes above as C #define lines."""
     lines = []
-    for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
+    for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("MICROFACET", MICROFACET_DISTRIBUTIONS),
+                          ("MASKING", MASKINGS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
                           ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("TEXTURE", TEXTURE_KINDS),
                           ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS)):

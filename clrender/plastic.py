@@ -1,7 +1,7 @@
 """Plastic on the host (kernels/materials/plastic.h): the fields of its Material record, and the
 tables of its rough coat (kernels/materials/plastic_coat.h), computed on the device by the
 kernel code that renders, as Mitsuba 3's roughplastic computes them when it loads, and cached
-for the session per (device, ior, exterior ior, alpha range)."""
+for the session per (device, ior, exterior ior, distribution, alpha range)."""
 import numpy as np
 import pyopencl as cl
 
@@ -11,7 +11,7 @@ from .textures import LUMINANCE
 MIN_TABLE_ALPHA = np.float32(1e-4)   # Mitsuba's least microfacet width
 COAT_ROW = layout.COAT_TABLE_SIZE + 1
 
-_cache = {}  # (device, ior, exterior ior, alpha range) -> float32 (rows, COAT_ROW)
+_cache = {}  # (device, ior, exterior ior, distribution, alpha range) -> float32 (rows, COAT_ROW)
 
 
 def _set(record, name, value):
@@ -31,6 +31,8 @@ def set_fields(record, material, textures):
     _set(record, "exterior_ior", material.exterior_ior)
     alpha = np.float32(material.roughness) * np.float32(material.roughness)  # as the kernel would
     _set(record, "alpha", alpha)
+    _set(record, "distribution", layout.MICROFACET_DISTRIBUTIONS[material.distribution])
+    _set(record, "masking", layout.MASKINGS[material.masking])
     _set(record, "nonlinear", int(material.nonlinear))
     _set(record, "specular_sampling_weight", specular_sampling_weight(material, textures))
     _set(record, "coat_alpha_range", alpha_range(material, textures, alpha))
@@ -89,7 +91,7 @@ def gauss_legendre(count):
 
 def _key(queue, record):
     return (queue.device.int_ptr, float(_get(record, "ior")), float(_get(record, "exterior_ior")),
-            *map(float, _get(record, "coat_alpha_range")))
+            int(_get(record, "distribution")), *map(float, _get(record, "coat_alpha_range")))
 
 
 def fill_coat_tables(queue, program, arrays, indices):

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import grids, limits, meshes, textures
 from .errors import ArgumentError, FileError, SceneError
+from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "plastic")
@@ -94,9 +95,11 @@ class Material:
     tint: np.ndarray = field(default_factory=lambda: np.ones(3))
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
-    roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
+    roughness: float = 0.0      # 0: smooth (delta lobes); microfacet alpha = roughness^2
+    distribution: str = "ggx"   # of rough lobes' normals: layout.MICROFACET_DISTRIBUTIONS
+    masking: str = "height_correlated"   # layout.MASKINGS ("separable": Mitsuba's G1(wo) G1(wi))
     # plastic (kernels/materials/plastic.h): albedo is its diffuse_reflectance, ior / exterior_ior
-    # and roughness its coat's
+    # roughness and distribution its coat's (masking: separable, Mitsuba's)
     specular: np.ndarray = field(default_factory=lambda: np.ones(3))  # specular_reflectance
     nonlinear: bool = False     # internal scattering per channel (Mitsuba's `nonlinear`)
     # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
@@ -503,7 +506,9 @@ def _read_material(node, texture_names=()):
                             emission=texturable.color("radiance", "emission", allow_scalar=True))
     elif kind in ("dielectric", "conductor"):
         material = Material(name, kind, albedo=np.zeros(3), tint=texturable.color("tint", "color", [1.0] * 3, high=1),
-                            roughness=_read_roughness(node, texturable))
+                            roughness=_read_roughness(node, texturable),
+                            distribution=node.string("distribution", "ggx", choices=MICROFACET_DISTRIBUTIONS),
+                            masking=node.string("masking", "height_correlated", choices=MASKINGS))
         material.energy_compensation = node.boolean("energy_compensation", "alpha" not in maps)
         if material.energy_compensation and "alpha" in maps:
             raise SceneError(node.at("energy_compensation"), "needs a constant roughness, not a texture")
@@ -527,7 +532,8 @@ def _read_plastic(node, name, texturable):
                         albedo=texturable.color("diffuse", "color", [0.5] * 3, high=1),
                         specular=texturable.color("specular", "specular", [1.0] * 3, high=1),
                         roughness=_read_roughness(node, texturable),
-                        ior=node.number("ior", 1.49, low=0, low_open=True),
+                        distribution=node.string("distribution", "ggx", choices=MICROFACET_DISTRIBUTIONS),
+                        masking="separable", ior=node.number("ior", 1.49, low=0, low_open=True),
                         exterior_ior=node.number("exterior_ior", 1.000277, low=0, low_open=True),
                         nonlinear=node.boolean("nonlinear", False), two_sided=node.boolean("two_sided", True))
     if np.float32(material.ior) == np.float32(material.exterior_ior):

@@ -212,23 +212,26 @@ KERNEL void fresnel_refract_values(__global const float2* cos_eta, __global floa
     out[i] = (float4)(fresnel_dielectric(cos_i, eta), wt.x, wt.y, wt.z);
 }
 
-// GGX around +z: D(h), G1(cos_o), and the visible-normal density of h seen from wo.
-KERNEL void microfacet_values(float alpha, __global const float4* wo, __global const float4* h,
-                              __global float4* out) {
+// The microfacet model (distribution, masking) of width alpha around +z: D(h), G1(cos_o), the
+// visible-normal density of h seen from wo, and G(cos_o, cos of wi[i]).
+KERNEL void microfacet_values(float alpha, int distribution, int masking, __global const float4* wo,
+                              __global const float4* h, __global const float4* wi, __global float4* out) {
     int i = get_global_id(0);
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
-    out[i] = (float4)(ggx_d(n, h[i].xyz, alpha), ggx_g1(wo[i].z, alpha),
-                      sample_ggx_vndf_pdf(n, wo[i].xyz, h[i].xyz, alpha), 0.0f);
+    Microfacet mf = make_microfacet(alpha, distribution, masking);
+    out[i] = (float4)(microfacet_d(mf, n, h[i].xyz), microfacet_g1(mf, wo[i].z),
+                      sample_microfacet_visible_pdf(mf, n, wo[i].xyz, h[i].xyz),
+                      microfacet_g(mf, wo[i].z, wi[i].z));
 }
 
-// Visible normals sampled for wo[i].
-KERNEL void sample_vndf_values(float alpha, __global const float4* wo, uint seed,
-                               __global float4* out) {
+// Visible normals of the distribution sampled for wo[i] with random numbers u[i], and their density.
+KERNEL void sample_vndf_values(float alpha, int distribution, __global const float4* wo,
+                               __global const float2* u, __global float4* out) {
     int i = get_global_id(0);
-    Rng rng = rng_for_sample((uint)i, 2u, seed);
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
-    float3 h = sample_ggx_vndf(n, wo[i].xyz, alpha, rng_float2(&rng));
-    out[i] = (float4)(h, sample_ggx_vndf_pdf(n, wo[i].xyz, h, alpha));
+    Microfacet mf = make_microfacet(alpha, distribution, MASKING_SEPARABLE);
+    float3 h = sample_microfacet_visible(mf, n, wo[i].xyz, u[i]);
+    out[i] = (float4)(h, sample_microfacet_visible_pdf(mf, n, wo[i].xyz, h));
 }
 #endif
 

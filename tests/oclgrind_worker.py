@@ -141,10 +141,14 @@ def run_test_kernels(case, device):
         kernel("fresnel_refract_values")(queue, (n,), None, upload(context, np.float32([[0.9, 1.5], [0.1, 1.5],
                                                                                         [0.3, 0.7], [1.0, 1.0]])),
                                          *outputs(context, (n, 4)))
-        kernel("microfacet_values")(queue, (n,), None, np.float32(0.2), upload(context, wo), upload(context, wo),
-                                    *outputs(context, (n, 4)))
-        kernel("sample_vndf_values")(queue, (n,), None, np.float32(0.2), upload(context, wo), np.uint32(4),
-                                     *outputs(context, (n, 4)))
+        u = rng.uniform(0, 1, (n, 2)).astype(np.float32)
+        for distribution in layout.MICROFACET_DISTRIBUTIONS.values():
+            for masking in layout.MASKINGS.values():
+                kernel("microfacet_values")(queue, (n,), None, np.float32(0.2), np.int32(distribution),
+                                            np.int32(masking), upload(context, wo), upload(context, wo),
+                                            upload(context, wo[::-1]), *outputs(context, (n, 4)))
+            kernel("sample_vndf_values")(queue, (n,), None, np.float32(0.2), np.int32(distribution),
+                                         upload(context, wo), upload(context, u), *outputs(context, (n, 4)))
 
     scene, arrays = small_scene(features)
     leave = float4([[0.2, 0.0, 1.0], [0.0, 0.3, -1.0], [1.0, 0.0, 0.001], [0.0, 0.0, -1.0]])

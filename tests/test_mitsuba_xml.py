@@ -391,16 +391,19 @@ def material_of(folder, bsdf):
      {"type": "dielectric", "ior": 1.333, "exterior_ior": 1.1, "tint": [0.5, 0.6, 0.7]}),
     ('<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.09"/></bsdf>',
      {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3, "roughness": 0.3,
-      "energy_compensation": False}),
-    ('<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.04"/>'
+      "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
+    ('<bsdf type="roughdielectric"><string name="distribution" value="GGX"/><float name="alpha_u" value="0.04"/>'
      '<float name="alpha_v" value="0.04"/></bsdf>',
      {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3, "roughness": 0.2,
-      "energy_compensation": False}),
+      "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
+    ('<bsdf type="roughdielectric"><boolean name="sample_visible" value="false"/></bsdf>',   # Mitsuba's defaults
+     {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3, "roughness": np.sqrt(0.1),
+      "distribution": "beckmann", "masking": "separable", "energy_compensation": False}),
     ('<bsdf type="conductor"/>', {"type": "conductor", "tint": [1.0] * 3, "two_sided": False}),
     ('<bsdf type="twosided"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
      '<rgb name="specular_reflectance" value="0.5, 0.4, 0.3"/></bsdf></bsdf>',
      {"type": "conductor", "tint": [0.5, 0.4, 0.3], "two_sided": True, "roughness": np.sqrt(0.1),
-      "energy_compensation": False}),
+      "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
     ('<bsdf type="null"/>', {"type": "interface"}),
 ])
 def test_bsdfs(tmp_path, bsdf, expected):
@@ -425,7 +428,8 @@ def test_conductor_presets_and_eta_k_warn(tmp_path):
 
 @pytest.mark.parametrize("bsdf,message", [
     ('<bsdf type="plastic"/>', "unsupported BSDF 'plastic' (supported: diffuse, dielectric"),
-    ('<bsdf type="roughdielectric"/>', "distribution 'beckmann' is not supported"),
+    ('<bsdf type="roughdielectric"><string name="distribution" value="phong"/></bsdf>',
+     "unknown microfacet distribution 'phong' (known: ggx, beckmann)"),
     ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf>', "anisotropic roughness"),
     ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="1.5"/></bsdf>',

@@ -5,16 +5,17 @@
 | `diffuse` | `reflectance` (0.5) | `diffuse`, one-sided (black seen from behind, as Mitsuba's) |
 | `twosided` | one nested `diffuse`, `conductor`, `roughconductor`, `plastic` or `roughplastic` | the same, `two_sided` |
 | `dielectric` | `int_ior` (bk7), `ext_ior` (air): numbers or IOR_PRESETS names; `specular_transmittance` (1) | `dielectric` (`ior`, `exterior_ior`, `tint`); `specular_reflectance` other than 1 is an error |
-| `roughdielectric` | the same, `distribution` (must be ggx), `alpha` (0.1) or equal `alpha_u`/`alpha_v` | rough `dielectric`, `roughness` sqrt(alpha), single scattering |
+| `roughdielectric` | the same, `distribution` (beckmann; or ggx), `alpha` (0.1) or equal `alpha_u`/`alpha_v` | rough `dielectric`, `roughness` sqrt(alpha), `masking` separable, single scattering |
 | `conductor` | `specular_reflectance` (1), `material` (none: a perfect mirror; CONDUCTOR_PRESETS) or `eta`/`k` | `conductor`, `tint` = specular_reflectance x reflectance at normal incidence (a warning for presets and eta/k) |
-| `roughconductor` | the same, `distribution` (ggx), `alpha` | rough `conductor`, single scattering |
+| `roughconductor` | the same, `distribution` (beckmann), `alpha` | rough `conductor`, `masking` separable, single scattering |
 | `plastic` | `int_ior` (polypropylene), `ext_ior` (air), `diffuse_reflectance` (0.5), `specular_reflectance` (1), `nonlinear` (false) | `plastic` (`ior`, `exterior_ior`, `diffuse`, `specular`, `nonlinear`), one-sided |
-| `roughplastic` | the same, `distribution` (must be ggx), `alpha` (0.1; a number: Mitsuba takes no texture) or equal `alpha_u`/`alpha_v` | rough `plastic`, `roughness` sqrt(alpha) |
+| `roughplastic` | the same, `distribution` (beckmann; or ggx), `alpha` (0.1; a number: Mitsuba takes no texture) or equal `alpha_u`/`alpha_v` | rough `plastic`, `roughness` sqrt(alpha) |
 | `null` | | `interface` |
 | accepted | `sample_visible` (rough lobes) | |
 """
 import numpy as np
 
+from ..layout import MICROFACET_DISTRIBUTIONS
 from .texture import _is_texture, color_or_texture, is_textured, number_or_texture
 from .values import fmt, parse_float
 
@@ -126,25 +127,27 @@ def _plastic(plugin, reader, two_sided):
     if plugin.type == "roughplastic":
         if _is_texture(plugin, "alpha"):
             raise plugin.error("a textured alpha is not supported on roughplastic (Mitsuba takes a number)")
-        # Its tables are its model: no energy compensation to turn off.
-        material.update((k, v) for k, v in _roughness(plugin, reader).items() if k != "energy_compensation")
+        # Its masking is Mitsuba's always, and its tables are its model (no energy compensation).
+        model = _roughness(plugin, reader)
+        material.update((k, v) for k, v in model.items() if k not in ("masking", "energy_compensation"))
     return material
 
 
 def _roughness(plugin, reader):
-    """GGX alpha -> the format's roughness (alpha = roughness^2), or a texture of alpha; single
-    scattering, as Mitsuba."""
-    distribution = plugin.string("distribution", "beckmann")
-    if distribution != "ggx":
-        raise plugin.error(f"microfacet distribution '{distribution}' is not supported: clrender's "
-                           "rough lobes are GGX (add <string name=\"distribution\" value=\"ggx\"/>; "
-                           "Mitsuba's default is beckmann)")
+    """Mitsuba's microfacet model: the distribution (beckmann by default, or ggx), alpha as the
+    format's roughness (alpha = roughness^2) or a texture of alpha, separable masking-shadowing,
+    single scattering, as Mitsuba's rough BSDFs."""
+    distribution = plugin.string("distribution", "beckmann").lower()
+    if distribution not in MICROFACET_DISTRIBUTIONS:
+        raise plugin.error(f"unknown microfacet distribution '{distribution}' (known: "
+                           f"{', '.join(MICROFACET_DISTRIBUTIONS)})")
+    model = {"distribution": distribution, "masking": "separable", "energy_compensation": False}
     if plugin.has("alpha") and (plugin.has("alpha_u") or plugin.has("alpha_v")):
         raise plugin.error("give either alpha or alpha_u and alpha_v")
+    plugin.accept("sample_visible")   # a sampling choice: the same image in expectation
     alpha = number_or_texture(plugin, "alpha", 0.1, reader)
     if is_textured(alpha):
-        plugin.accept("sample_visible")
-        return {"alpha": alpha, "energy_compensation": False}
+        return {"alpha": alpha, **model}
     if plugin.has("alpha_u") or plugin.has("alpha_v"):
         alpha_u, alpha_v = plugin.number("alpha_u", 0.1), plugin.number("alpha_v", 0.1)
         if alpha_u != alpha_v:
@@ -152,8 +155,7 @@ def _roughness(plugin, reader):
         alpha = alpha_u
     if not 0 <= alpha <= 1:
         raise plugin.error(f"alpha must be in [0, 1], got {alpha:g}")
-    plugin.accept("sample_visible")   # a sampling choice: the same image
-    return {"roughness": float(np.sqrt(alpha)), "energy_compensation": False}
+    return {"roughness": float(np.sqrt(alpha)), **model}
 
 
 def _conductor_reflectance(plugin, reader):

@@ -82,8 +82,8 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
         float3 n = specular_normal(sp, wo);
         if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return (float3)(0.0f);
         float3 f = material_kind(m) == MATERIAL_DIELECTRIC
-            ? eval_dielectric(material_color(m), material_eta(m, sp), material_alpha(m), n, wo, wi)
-            : eval_conductor(material_color(m), material_alpha(m), n, wo, wi);
+            ? eval_dielectric(material_color(m), material_eta(m, sp), material_microfacet(m), n, wo, wi)
+            : eval_conductor(material_color(m), material_microfacet(m), n, wo, wi);
         return f * specular_energy_scale(scene, m, sp, dot(n, wo));
     }
 #endif
@@ -105,8 +105,8 @@ INLINE float sample_bsdf_pdf(const Scene* scene, const Material* m, const Surfac
         float3 n = specular_normal(sp, wo);
         if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return 0.0f;
         if (material_kind(m) == MATERIAL_DIELECTRIC)
-            return sample_dielectric_pdf(material_eta(m, sp), material_alpha(m), n, wo, wi);
-        return sample_conductor_pdf(material_alpha(m), n, wo, wi);
+            return sample_dielectric_pdf(material_eta(m, sp), material_microfacet(m), n, wo, wi);
+        return sample_conductor_pdf(material_microfacet(m), n, wo, wi);
     }
 #endif
     return sample_diffuse_pdf(sp, wi);
@@ -119,7 +119,7 @@ INLINE float sample_bsdf_pdf(const Scene* scene, const Material* m, const Surfac
 BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp,
                                 float3 wo, float rnl, float2 rn) {
     float3 n = specular_normal(sp, wo);
-    float alpha = material_alpha(m);
+    Microfacet mf = material_microfacet(m);
     bool dielectric = material_kind(m) == MATERIAL_DIELECTRIC;
     float eta = dielectric ? material_eta(m, sp) : 1.0f;
     if (material_is_delta(m)) {
@@ -127,12 +127,12 @@ BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const Sur
         return sample_dielectric_delta(material_color(m), eta, n, sp->ng, wo, rnl);
     }
     BsdfSample bs = bsdf_sample_none();
-    float3 wi = dielectric ? sample_dielectric(eta, alpha, n, wo, rnl, rn) : sample_conductor(alpha, n, wo, rn);
+    float3 wi = dielectric ? sample_dielectric(eta, mf, n, wo, rnl, rn) : sample_conductor(mf, n, wo, rn);
     if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return bs;  // also rejects the zero vector
-    float pdf_w = dielectric ? sample_dielectric_pdf(eta, alpha, n, wo, wi) : sample_conductor_pdf(alpha, n, wo, wi);
+    float pdf_w = dielectric ? sample_dielectric_pdf(eta, mf, n, wo, wi) : sample_conductor_pdf(mf, n, wo, wi);
     if (!(pdf_w > 0.0f)) return bs;
-    float3 f = dielectric ? eval_dielectric(material_color(m), eta, alpha, n, wo, wi)
-                          : eval_conductor(material_color(m), alpha, n, wo, wi);
+    float3 f = dielectric ? eval_dielectric(material_color(m), eta, mf, n, wo, wi)
+                          : eval_conductor(material_color(m), mf, n, wo, wi);
     bs.wi = wi;
     bs.pdf_w = pdf_w;
     bs.weight = f * specular_energy_scale(scene, m, sp, dot(n, wo)) / pdf_w;

@@ -1,5 +1,5 @@
 // Dielectric interfaces (glass, water): exact Fresnel reflectance, Snell refraction, the smooth
-// interface as a pair of delta lobes and the rough one as Walter et al.'s GGX microfacet BSDF
+// interface as a pair of delta lobes and the rough one as Walter et al.'s microfacet BSDF (GGX or Beckmann)
 // ("Microfacet Models for Refraction through Rough Surfaces", EGSR 2007).
 //
 // Conventions: directions are unit vectors in world space pointing away from the surface; n is
@@ -20,19 +20,19 @@
 #include "materials/dielectric_smooth.h"
 #if DIELECTRIC
 
-// ----- rough interface: GGX microfacets ----------------------------------------------------------
-// f * |cos_i| (Walter et al. 2007, eqs. 20-21), with height-correlated G2. Transmission uses the
+// ----- rough interface: microfacets (materials/microfacet.h) -------------------------------------
+// f * |cos_i| (Walter et al. 2007, eqs. 20-21). Transmission uses the
 // generalised half vector h ~ -(wo + eta wi) (eq. 16); the microfacet must face wo and be
 // crossed by wi, otherwise that configuration has no microfacet explaining it. Since
 // wo.h + eta wi.h = |wo + eta wi|, the squared denominator of eq. 21 is |wo + eta wi|^2 / eta^2,
 // which never vanishes, and its eta^2 cancels the 1/eta^2 of radiance transport.
-float3 eval_dielectric(float3 tint, float eta, float alpha, float3 n, float3 wo, float3 wi) {
+float3 eval_dielectric(float3 tint, float eta, Microfacet mf, float3 n, float3 wo, float3 wi) {
     float cos_o = dot(n, wo), cos_i = dot(n, wi);
     if (cos_o <= 0.0f || cos_i == 0.0f) return (float3)(0.0f);
     if (cos_i > 0.0f) {
         float3 h = normalize(wo + wi);  // |wo + wi| > 0: both lie above the surface
         float f = fresnel_dielectric(dot(wo, h), eta);
-        return (float3)(f * ggx_d(n, h, alpha) * ggx_g2(cos_o, cos_i, alpha) / (4.0f * cos_o));
+        return (float3)(f * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
     }
     float3 ht = wo + eta * wi;
     float len2 = dot(ht, ht);
@@ -42,7 +42,7 @@ float3 eval_dielectric(float3 tint, float eta, float alpha, float3 n, float3 wo,
     float cos_oh = dot(wo, h), cos_ih = dot(wi, h);
     if (cos_oh <= 0.0f || cos_ih >= 0.0f) return (float3)(0.0f);
     float f = fresnel_dielectric(cos_oh, eta);
-    float value = (1.0f - f) * ggx_d(n, h, alpha) * ggx_g2(cos_o, cos_i, alpha) * cos_oh * -cos_ih /
+    float value = (1.0f - f) * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) * cos_oh * -cos_ih /
                   (cos_o * len2);
     return tint * value;
 }
@@ -50,14 +50,14 @@ float3 eval_dielectric(float3 tint, float eta, float alpha, float3 n, float3 wo,
 // Density of sample_dielectric: the visible-normal density, times the probability of the lobe
 // chosen at that normal (F or 1 - F), times the Jacobian from h to wi (1 / (4 wo.h) for
 // reflection; eta^2 |wi.h| / |wo + eta wi|^2 for refraction, Walter et al. eq. 17).
-float sample_dielectric_pdf(float eta, float alpha, float3 n, float3 wo, float3 wi) {
+float sample_dielectric_pdf(float eta, Microfacet mf, float3 n, float3 wo, float3 wi) {
     float cos_o = dot(n, wo), cos_i = dot(n, wi);
     if (cos_o <= 0.0f || cos_i == 0.0f) return 0.0f;
     if (cos_i > 0.0f) {
         float3 h = normalize(wo + wi);
         float cos_oh = dot(wo, h);
         float f = fresnel_dielectric(cos_oh, eta);
-        return cos_oh > 0.0f ? f * sample_ggx_vndf_pdf(n, wo, h, alpha) / (4.0f * cos_oh) : 0.0f;
+        return cos_oh > 0.0f ? f * sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh) : 0.0f;
     }
     float3 ht = wo + eta * wi;
     float len2 = dot(ht, ht);
@@ -67,7 +67,7 @@ float sample_dielectric_pdf(float eta, float alpha, float3 n, float3 wo, float3 
     float cos_oh = dot(wo, h), cos_ih = dot(wi, h);
     if (cos_oh <= 0.0f || cos_ih >= 0.0f) return 0.0f;
     float f = fresnel_dielectric(cos_oh, eta);
-    return (1.0f - f) * sample_ggx_vndf_pdf(n, wo, h, alpha) * eta * eta * -cos_ih / len2;
+    return (1.0f - f) * sample_microfacet_visible_pdf(mf, n, wo, h) * eta * eta * -cos_ih / len2;
 }
 
 // A visible microfacet normal, then reflection or refraction about it chosen by its Fresnel
@@ -75,8 +75,8 @@ float sample_dielectric_pdf(float eta, float alpha, float3 n, float3 wo, float3 
 // refracted above it) is rejected rather than kept: otherwise two mechanisms could produce the
 // same wi and sample_dielectric_pdf, which counts one, would understate the density.
 // Returns the zero vector for no sample.
-float3 sample_dielectric(float eta, float alpha, float3 n, float3 wo, float rnl, float2 rn) {
-    float3 h = sample_ggx_vndf(n, wo, alpha, rn);
+float3 sample_dielectric(float eta, Microfacet mf, float3 n, float3 wo, float rnl, float2 rn) {
+    float3 h = sample_microfacet_visible(mf, n, wo, rn);
     float cos_oh = dot(wo, h);
     if (cos_oh <= 0.0f) return (float3)(0.0f);
     float3 wi;

@@ -27,7 +27,7 @@
 
 float albedo_table_mu(int k) {
     float s = (float)k / (float)(ALBEDO_TABLE_SIZE - 1);
-    return fmax(s * s, 1e-4f);  // at mu = 0 exactly the masking ratio G2 / G1 is 0 / 0
+    return fmax(s * s, 1e-4f);  // at mu = 0 exactly the masking ratio G / G1 is 0 / 0
 }
 
 // Linear interpolation in sqrt(mu).
@@ -41,24 +41,24 @@ float lookup_albedo(__global const float* table, float cos_o) {
 // E(mu_o) of the uncompensated lobe, as the exact expectation of sample_dielectric's (or
 // sample_conductor's) energy weight over a midpoint grid of its random numbers: for each visible
 // normal both lobes are summed with their Fresnel probabilities instead of picking one, and a
-// valid sample weighs G2 / G1(wo) (eval / pdf without tint and the radiance 1/eta^2).
-float specular_albedo(bool dielectric, float eta, float alpha, float cos_o) {
+// valid sample weighs G / G1(wo) (eval / pdf without tint and the radiance 1/eta^2).
+float specular_albedo(bool dielectric, float eta, Microfacet mf, float cos_o) {
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
     float3 wo = (float3)(sqrt(fmax(0.0f, 1.0f - cos_o * cos_o)), 0.0f, cos_o);
-    float g1 = ggx_g1(cos_o, alpha);
+    float g1 = microfacet_g1(mf, cos_o);
     float sum = 0.0f;
     for (int j = 0; j < ALBEDO_GRID; ++j) {
         float row = 0.0f;  // summed per row, so float rounding stays small
         for (int i = 0; i < ALBEDO_GRID; ++i) {
             float2 u = (float2)(((float)i + 0.5f) / ALBEDO_GRID, ((float)j + 0.5f) / ALBEDO_GRID);
-            float3 h = sample_ggx_vndf(n, wo, alpha, u);
+            float3 h = sample_microfacet_visible(mf, n, wo, u);
             float cos_oh = dot(wo, h);
             if (cos_oh <= 0.0f) continue;
             float f = dielectric ? fresnel_dielectric(cos_oh, eta) : 1.0f;
             float3 wi = reflect(wo, h);
-            if (wi.z > 0.0f) row += f * ggx_g2(cos_o, wi.z, alpha);
+            if (wi.z > 0.0f) row += f * microfacet_g(mf, cos_o, wi.z);
             if (f < 1.0f && refract(wo, h, eta, &wi) && wi.z < 0.0f)
-                row += (1.0f - f) * ggx_g2(cos_o, wi.z, alpha);
+                row += (1.0f - f) * microfacet_g(mf, cos_o, wi.z);
         }
         sum += row;
     }
@@ -77,7 +77,7 @@ KERNEL void specular_albedo_table(__global const Material* materials, int materi
     float ior = material_ior(&m), exterior = material_exterior_ior(&m);
     float eta = side == 0 ? ior / exterior : exterior / ior;
     tables[offset + side * ALBEDO_TABLE_SIZE + k] =
-        specular_albedo(dielectric, eta, material_alpha(&m), albedo_table_mu(k));
+        specular_albedo(dielectric, eta, material_microfacet(&m), albedo_table_mu(k));
 }
 
 #endif

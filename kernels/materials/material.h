@@ -12,6 +12,8 @@ int material_back_material(const Material* m) { return m->kind.z; }
 int material_albedo_tables(const Material* m) { return m->kind.w; }
 int material_normal_map(const Material* m) { return m->maps.x; }
 int material_bump_map(const Material* m) { return m->maps.y; }
+int material_distribution(const Material* m) { return m->maps.z; }
+int material_masking(const Material* m) { return m->maps.w; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
 float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }

@@ -1,80 +1,75 @@
-// GGX (Trowbridge-Reitz) microfacet distribution, isotropic: the normal distribution D, Smith
-// masking G1 and height-correlated masking-shadowing G2, and sampling of the distribution of
-// normals visible from wo (VNDF). Directions are unit vectors in world space; n is the macro
-// normal on wo's side. alpha is the GGX width (alpha = roughness^2 on the host side).
+// Microfacet surfaces as the rough lobes see them: one small interface over the distributions
+// of normals (materials/ggx.h, materials/beckmann.h). A Microfacet names the distribution
+// (MICROFACET_GGX, MICROFACET_BECKMANN), its width alpha, and how masking and shadowing combine
+// (MASKING_HEIGHT_CORRELATED: Heitz 2014's G2, our default; MASKING_SEPARABLE: G1(wo) G1(wi),
+// as Mitsuba 3's rough BSDFs). The enumerations come from clrender/layout.py.
+// Directions are unit vectors in world space; n is the macro normal on wo's side.
 #ifndef CLRENDER_MICROFACET_H
 #define CLRENDER_MICROFACET_H
 #include "math.h"
+#include "materials/material.h"
+#include "materials/ggx.h"
+#include "materials/beckmann.h"
 #if DIELECTRIC
 
-// Below this width a GGX lobe is narrower than float32 can evaluate reliably (D peaks at
+typedef struct {
+    float alpha;
+    int distribution;   // MICROFACET_*
+    int masking;        // MASKING_*
+} Microfacet;
+
+Microfacet make_microfacet(float alpha, int distribution, int masking) {
+    Microfacet mf;
+    mf.alpha = alpha;
+    mf.distribution = distribution;
+    mf.masking = masking;
+    return mf;
+}
+
+// The microfacet surface of a rough material (fields alpha, distribution, masking).
+Microfacet material_microfacet(const Material* m) {
+    return make_microfacet(material_alpha(m), material_distribution(m), material_masking(m));
+}
+
+// Below this width a lobe is narrower than float32 can evaluate reliably (a GGX D peaks at
 // 1 / (pi alpha^2) and 1 - cos^2 cancels near the peak); such surfaces are treated as smooth,
 // as in pbrt-v4 (TrowbridgeReitzDistribution::EffectivelySmooth).
 #define MICROFACET_MIN_ALPHA 1e-3f
 
 bool microfacet_is_smooth(float alpha) { return alpha < MICROFACET_MIN_ALPHA; }
 
-// D(h) = alpha^2 / (pi (cos^2 alpha^2 + sin^2)^2) (Walter et al. 2007, eq. 33). sin^2 comes from
-// a cross product, not 1 - cos^2, which would cancel to zero near the peak of a narrow lobe.
-float ggx_d(float3 n, float3 h, float alpha) {
-    float cos_h = dot(n, h);
-    if (cos_h <= 0.0f) return 0.0f;
-    float3 c = cross(n, h);
-    float a2 = alpha * alpha;
-    float k = cos_h * cos_h * a2 + dot(c, c);
-    return a2 / (PI_F * k * k);
+// The distribution of normals D(h), per unit solid angle and projected area.
+float microfacet_d(Microfacet mf, float3 n, float3 h) {
+    return mf.distribution == MICROFACET_BECKMANN ? beckmann_d(n, h, mf.alpha) : ggx_d(n, h, mf.alpha);
 }
 
-// sqrt(cos^2 + alpha^2 sin^2): the term shared by Lambda and G1. With it,
-// Lambda = (s / |cos| - 1) / 2, written so that cos -> 0 gives 0 masking, never inf / inf.
-float ggx_mask_term(float cos_w, float alpha) {
-    float c2 = cos_w * cos_w;
-    return sqrt(c2 + alpha * alpha * fmax(0.0f, 1.0f - c2));
+// Smith masking of one direction at cos_w to the macro normal.
+float microfacet_g1(Microfacet mf, float cos_w) {
+    return mf.distribution == MICROFACET_BECKMANN ? beckmann_g1(cos_w, mf.alpha) : ggx_g1(cos_w, mf.alpha);
 }
 
-// Smith masking of one direction: G1 = 1 / (1 + Lambda) = 2 |cos| / (|cos| + s).
-float ggx_g1(float cos_w, float alpha) {
-    float c = fabs(cos_w);
-    float d = c + ggx_mask_term(c, alpha);
-    return d > 0.0f ? 2.0f * c / d : 0.0f;
-}
-
-// Height-correlated masking-shadowing (Heitz 2014, "Understanding the Masking-Shadowing
-// Function", eq. 99): G2 = 1 / (1 + Lambda_o + Lambda_i) = 2 co ci / (co si + ci so).
-float ggx_g2(float cos_o, float cos_i, float alpha) {
-    float co = fabs(cos_o), ci = fabs(cos_i);
-    float d = co * ggx_mask_term(ci, alpha) + ci * ggx_mask_term(co, alpha);
-    return d > 0.0f ? 2.0f * co * ci / d : 0.0f;
+// Masking-shadowing of the pair (wo, wi), from their cosines to the macro normal (either sign:
+// transmission has cos_i < 0). The microfacet must face both; the lobes check that.
+float microfacet_g(Microfacet mf, float cos_o, float cos_i) {
+    if (mf.masking == MASKING_SEPARABLE) return microfacet_g1(mf, cos_o) * microfacet_g1(mf, cos_i);
+    return mf.distribution == MICROFACET_BECKMANN ? beckmann_g2(cos_o, cos_i, mf.alpha)
+                                                   : ggx_g2(cos_o, cos_i, mf.alpha);
 }
 
 // Density of visible normals, per unit solid angle of h (Heitz 2018, eq. 3):
 // D_wo(h) = G1(wo) max(0, wo.h) D(h) / cos_o.
-float sample_ggx_vndf_pdf(float3 n, float3 wo, float3 h, float alpha) {
+float sample_microfacet_visible_pdf(Microfacet mf, float3 n, float3 wo, float3 h) {
     float cos_o = dot(n, wo), cos_oh = dot(wo, h);
     if (cos_o <= 0.0f || cos_oh <= 0.0f) return 0.0f;
-    return ggx_g1(cos_o, alpha) * cos_oh * ggx_d(n, h, alpha) / cos_o;
+    return microfacet_g1(mf, cos_o) * cos_oh * microfacet_d(mf, n, h) / cos_o;
 }
 
-// A microfacet normal visible from wo, distributed as sample_ggx_vndf_pdf (Heitz 2018,
-// "Sampling the GGX Distribution of Visible Normals", listing 1): stretch wo to the unit-roughness
-// configuration, sample the projected hemisphere there, unstretch.
-float3 sample_ggx_vndf(float3 n, float3 wo, float alpha, float2 u) {
-    float3 t, b;
-    make_basis(n, &t, &b);
-    float3 vh = normalize((float3)(alpha * dot(wo, t), alpha * dot(wo, b), fmax(dot(wo, n), 0.0f)));
-    float len2 = vh.x * vh.x + vh.y * vh.y;
-    // At normal incidence any tangent will do; rsqrt(0) would be inf.
-    float3 t1 = len2 > 0.0f ? (float3)(-vh.y, vh.x, 0.0f) * rsqrt(len2) : (float3)(1.0f, 0.0f, 0.0f);
-    float3 t2 = cross(vh, t1);
-    float r = sqrt(u.x);
-    float s_phi, c_phi;
-    sincos_2pi(u.y, &s_phi, &c_phi);
-    float p1 = r * c_phi, p2 = r * s_phi;
-    float s = 0.5f * (1.0f + vh.z);
-    p2 = (1.0f - s) * sqrt(fmax(0.0f, 1.0f - p1 * p1)) + s * p2;
-    float3 nh = p1 * t1 + p2 * t2 + sqrt(fmax(0.0f, 1.0f - p1 * p1 - p2 * p2)) * vh;
-    float3 hl = normalize((float3)(alpha * nh.x, alpha * nh.y, fmax(nh.z, 0.0f)));
-    return hl.x * t + hl.y * b + hl.z * n;
+// A microfacet normal visible from wo, distributed as sample_microfacet_visible_pdf. (Mitsuba's
+// sample_visible = false samples D(h) cos(h) instead: the same lobes in expectation, noisier;
+// we always sample visible normals.)
+float3 sample_microfacet_visible(Microfacet mf, float3 n, float3 wo, float2 u) {
+    return mf.distribution == MICROFACET_BECKMANN ? sample_beckmann_vndf(n, wo, mf.alpha, u)
+                                                   : sample_ggx_vndf(n, wo, mf.alpha, u);
 }
 
 #endif

@@ -31,7 +31,7 @@
 typedef struct {
     float3 diffuse;         // diffuse_reflectance of the base
     float3 specular;        // specular_reflectance of the coat
-    float alpha;            // the rough coat's microfacet width
+    Microfacet mf;          // the rough coat's microfacets (separable masking: Mitsuba's)
     float specular_weight;  // specular_sampling_weight
     int nonlinear;
     int mirror;             // the specular lobe is a delta lobe
@@ -43,11 +43,11 @@ Plastic plastic_at(const Scene* scene, const Material* m) {
     Plastic p;
     p.diffuse = material_color(m);
     p.specular = material_specular(m);
-    p.alpha = material_alpha(m);
+    p.mf = material_microfacet(m);
     p.specular_weight = material_specular_sampling_weight(m);
     p.nonlinear = material_nonlinear(m);
-    p.coat = plastic_coat(scene, m, p.alpha);
-    p.mirror = p.coat.smooth || microfacet_is_smooth(p.alpha);
+    p.coat = plastic_coat(scene, m, p.mf.alpha);
+    p.mirror = p.coat.smooth || microfacet_is_smooth(p.mf.alpha);
     return p;
 }
 
@@ -68,8 +68,8 @@ float3 eval_plastic(const Plastic* p, float3 n, float3 wo, float3 wi) {
         (cos_i * INV_PI_F / (c->eta * c->eta) * coat_transmittance(c, cos_o) * coat_transmittance(c, cos_i));
     if (p->mirror) return value;  // a delta lobe
     float3 h = normalize(wo + wi);
-    float specular = fresnel_dielectric(dot(wo, h), c->eta) * ggx_d(n, h, p->alpha) *
-                     ggx_g1(cos_o, p->alpha) * ggx_g1(cos_i, p->alpha) / (4.0f * cos_o);
+    float specular = fresnel_dielectric(dot(wo, h), c->eta) * microfacet_d(p->mf, n, h) *
+                     microfacet_g(p->mf, cos_o, cos_i) / (4.0f * cos_o);
     return value + specular * p->specular;
 }
 
@@ -82,7 +82,7 @@ float sample_plastic_pdf(const Plastic* p, float3 n, float3 wo, float3 wi) {
     if (p->mirror) return pdf;
     float3 h = normalize(wo + wi);
     float cos_oh = dot(wo, h);
-    return cos_oh > 0.0f ? pdf + specular * sample_ggx_vndf_pdf(n, wo, h, p->alpha) / (4.0f * cos_oh) : pdf;
+    return cos_oh > 0.0f ? pdf + specular * sample_microfacet_visible_pdf(p->mf, n, wo, h) / (4.0f * cos_oh) : pdf;
 }
 
 // ng: the geometric normal on wo's side (for the mirror, as sample_conductor_delta). A glossy
@@ -99,7 +99,7 @@ BsdfSample sample_plastic(const Plastic* p, float3 n, float3 ng, float3 wo, floa
         return bs;
     }
     BsdfSample bs = bsdf_sample_none();
-    bs.wi = glossy ? reflect(wo, sample_ggx_vndf(n, wo, p->alpha, rn)) : to_world(sample_cosine_hemisphere(rn), n);
+    bs.wi = glossy ? reflect(wo, sample_microfacet_visible(p->mf, n, wo, rn)) : to_world(sample_cosine_hemisphere(rn), n);
     bs.pdf_w = sample_plastic_pdf(p, n, wo, bs.wi);
     if (bs.pdf_w > 0.0f) bs.weight = eval_plastic(p, n, wo, bs.wi) / bs.pdf_w;
     return bs;

@@ -89,7 +89,7 @@ float coat_internal_reflectance(const PlasticCoat* c) {
 // Mitsuba's eval_transmittance (reflection false) or eval_reflectance (true) of a rough
 // interface of relative index eta, for light arriving at cos(theta) = mu; nodes: (x, weight) of
 // the Gauss-Legendre rule on [-1, 1].
-float coat_quadrature(bool reflection, float eta, float alpha, float mu, __global const float2* nodes,
+float coat_quadrature(bool reflection, float eta, Microfacet mf, float mu, __global const float2* nodes,
                       int count) {
     float3 n = (float3)(0.0f, 0.0f, 1.0f);
     float3 wi = (float3)(sqrt(fmax(0.0f, 1.0f - mu * mu)), 0.0f, mu);
@@ -99,15 +99,15 @@ float coat_quadrature(bool reflection, float eta, float alpha, float mu, __globa
         float row = 0.0f;  // summed per row, so float rounding stays small
         for (int i = 0; i < count; ++i) {
             float2 u = (float2)(nodes[i].x, nodes[j].x) * 0.5f + 0.5f;
-            float3 m = sample_ggx_vndf(n, wi, alpha, u);
+            float3 m = sample_microfacet_visible(mf, n, wi, u);
             float f = fresnel_dielectric(dot(wi, m), eta);
             float3 wo = wi;
             float value = 0.0f;
             if (reflection) {
                 wo = reflect(wi, m);
-                if (wo.z > 0.0f) value = f * ggx_g1(wo.z, alpha);
+                if (wo.z > 0.0f) value = f * microfacet_g1(mf, wo.z);
             } else if (f < 1.0f && refract(wi, m, eta, &wo) && wo.z < 0.0f) {
-                value = (1.0f - f) * ggx_g1(wo.z, alpha);
+                value = (1.0f - f) * microfacet_g1(mf, wo.z);
             }
             row += value * nodes[i].y;
         }
@@ -133,7 +133,8 @@ KERNEL void plastic_coat_table(__global const Material* materials, int material,
     float mu = fmax(1e-6f, (float)k / (float)(COAT_TABLE_SIZE - 1));
     bool fine = !(eta > 1.0f);
     out[(r * 2 + side) * COAT_TABLE_SIZE + k] =
-        coat_quadrature(side == 1, eta, alpha, mu, fine ? nodes_128 : nodes_32, fine ? 128 : 32);
+        coat_quadrature(side == 1, eta, make_microfacet(alpha, material_distribution(&m), MASKING_SEPARABLE), mu,
+                        fine ? nodes_128 : nodes_32, fine ? 128 : 32);
 }
 
 #endif
