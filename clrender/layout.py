@@ -71,8 +71,9 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #     specular (textured) the specular_reflectance of its coat; nonlinear 1: the base's internal
 #     scattering per channel (Mitsuba's `nonlinear`); specular_sampling_weight: the probability
 #     weight of the coat's lobe, from the reflectances' means (Mitsuba's); coat_alpha_range: the
-#     alphas of the first and last rows of the rough coat's tables (equal: one row; a textured
-#     alpha spans the texture's values, clrender/plastic.py).
+#     alphas of the first and last rows of the rough coat's tables, coat_alpha_rows their count
+#     (1 for a constant alpha; a textured one spans the texture's values, clrender/plastic.py;
+#     0: a smooth coat).
 #   opacity (textured): the fraction of light the surface stops (1: opaque); bump_scale.
 #   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
 #     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
@@ -96,6 +97,7 @@ MATERIAL_FIELDS = {
     "specular": (("slot", 3), 0, 3),
     "specular_sampling_weight": (("slot", 4), 0, 1),
     "coat_alpha_range": (("slot", 4), 1, 2),
+    "coat_alpha_rows": (("slot", 5), 0, 1),
     "opacity": (("slot", 12), 0, 1),
     "bump_scale": (("slot", 12), 1, 1),
     "toon_shadow_color": (("slot", 3), 0, 3),
@@ -266,9 +268,10 @@ ALBEDO_TABLE_SIZE = 64
 # The rough coat of plastic (kernels/materials/plastic_coat.h): a row of its tables holds the
 # coat's external transmittance at COAT_TABLE_SIZE values of mu = cos(theta), spaced evenly in
 # [0, 1] (Mitsuba's MI_ROUGH_TRANSMITTANCE_RES), then its internal reflectance; one row per alpha,
-# COAT_ALPHA_ROWS rows evenly spaced over a textured alpha's range.
+# rows evenly spaced in sqrt(alpha) over a textured alpha's range, at most COAT_SQRT_ALPHA_STEP
+# apart (docs/materials-plastic.md measures the interpolation's error).
 COAT_TABLE_SIZE = 64
-COAT_ALPHA_ROWS = 16
+COAT_SQRT_ALPHA_STEP = 1 / 32
 
 # Ray marching's step (kernels/media/raymarch.h): at step 1 a step spans at most one voxel and
 # at most MARCH_STEP_OPTICAL_DEPTH of majorant optical depth; the refinement by optical depth stops
@@ -288,7 +291,6 @@ def c_constants():
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     lines.append(f"#define COAT_TABLE_SIZE {COAT_TABLE_SIZE}")
-    lines.append(f"#define COAT_ALPHA_ROWS {COAT_ALPHA_ROWS}")
     lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")

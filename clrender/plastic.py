@@ -35,7 +35,9 @@ def set_fields(record, material, textures):
     _set(record, "masking", layout.MASKINGS[material.masking])
     _set(record, "nonlinear", int(material.nonlinear))
     _set(record, "specular_sampling_weight", specular_sampling_weight(material, textures))
-    _set(record, "coat_alpha_range", alpha_range(material, textures, alpha))
+    low, high = alpha_range(material, textures, alpha)
+    _set(record, "coat_alpha_range", (low, high))
+    _set(record, "coat_alpha_rows", alpha_rows(low, high))
 
 
 def mitsuba_mean(material, field, constant, textures):
@@ -69,12 +71,19 @@ def alpha_range(material, textures, alpha):
     return max(np.float32(low), MIN_TABLE_ALPHA), max(np.float32(high), MIN_TABLE_ALPHA)
 
 
-def table_rows(record):
-    """Rows of the coat tables of a plastic Material record; 0 for a smooth coat (no tables)."""
-    low, high = _get(record, "coat_alpha_range")
+def alpha_rows(low, high):
+    """Rows of coat tables from alpha `low` to `high`: none for a smooth coat, one for a constant
+    alpha, else evenly spaced in sqrt(alpha), at most COAT_SQRT_ALPHA_STEP apart."""
     if not high > 0:
         return 0
-    return layout.COAT_ALPHA_ROWS if high > low else 1
+    if not high > low:
+        return 1
+    return 1 + max(1, int(np.ceil((np.sqrt(float(high)) - np.sqrt(float(low))) / layout.COAT_SQRT_ALPHA_STEP)))
+
+
+def table_rows(record):
+    """Rows of the coat tables of a plastic Material record."""
+    return int(_get(record, "coat_alpha_rows"))
 
 
 def table_floats(record):

@@ -405,6 +405,21 @@ def material_of(folder, bsdf):
      {"type": "conductor", "tint": [0.5, 0.4, 0.3], "two_sided": True, "roughness": np.sqrt(0.1),
       "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
     ('<bsdf type="null"/>', {"type": "interface"}),
+    ('<bsdf type="plastic"/>',   # Mitsuba's defaults: polypropylene in air
+     {"type": "plastic", "two_sided": False, "ior": 1.49, "exterior_ior": 1.000277, "diffuse": [0.5] * 3,
+      "specular": [1.0] * 3, "nonlinear": False}),
+    ('<bsdf type="twosided"><bsdf type="plastic"><float name="int_ior" value="1.9"/><string name="ext_ior" '
+     'value="water"/><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/><float name="specular_reflectance" '
+     'value="0.5"/><boolean name="nonlinear" value="true"/></bsdf></bsdf>',
+     {"type": "plastic", "two_sided": True, "ior": 1.9, "exterior_ior": 1.333, "diffuse": [0.1, 0.2, 0.3],
+      "specular": [0.5] * 3, "nonlinear": True}),
+    ('<bsdf type="roughplastic"/>',
+     {"type": "plastic", "two_sided": False, "ior": 1.49, "exterior_ior": 1.000277, "diffuse": [0.5] * 3,
+      "specular": [1.0] * 3, "nonlinear": False, "roughness": np.sqrt(0.1), "distribution": "beckmann"}),
+    ('<bsdf type="twosided"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>'
+     '<float name="alpha" value="0.04"/><boolean name="sample_visible" value="false"/></bsdf></bsdf>',
+     {"type": "plastic", "two_sided": True, "ior": 1.49, "exterior_ior": 1.000277, "diffuse": [0.5] * 3,
+      "specular": [1.0] * 3, "nonlinear": False, "roughness": 0.2, "distribution": "ggx"}),
 ])
 def test_bsdfs(tmp_path, bsdf, expected):
     material, warned = material_of(tmp_path, bsdf)
@@ -427,7 +442,13 @@ def test_conductor_presets_and_eta_k_warn(tmp_path):
 
 
 @pytest.mark.parametrize("bsdf,message", [
-    ('<bsdf type="plastic"/>', "unsupported BSDF 'plastic' (supported: diffuse, dielectric"),
+    ('<bsdf type="hair"/>', "unsupported BSDF 'hair' (supported: diffuse, dielectric"),
+    ('<bsdf type="plastic"><float name="int_ior" value="1.2"/><float name="ext_ior" value="1.2"/></bsdf>',
+     "int_ior and ext_ior must differ"),
+    ('<bsdf type="roughplastic"><texture type="checkerboard" name="alpha"/></bsdf>',
+     "a textured alpha is not supported on roughplastic (Mitsuba takes a number)"),
+    ('<bsdf type="roughplastic"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf>',
+     "anisotropic roughness"),
     ('<bsdf type="roughdielectric"><string name="distribution" value="phong"/></bsdf>',
      "unknown microfacet distribution 'phong' (known: ggx, beckmann)"),
     ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/>'

@@ -23,6 +23,7 @@ int material_nonlinear(const Material* m) { return (int)m->slot[2].z; }
 float3 material_specular(const Material* m) { return m->slot[3].xyz; }
 float material_specular_sampling_weight(const Material* m) { return m->slot[4].x; }
 float2 material_coat_alpha_range(const Material* m) { return m->slot[4].yz; }
+int material_coat_alpha_rows(const Material* m) { return (int)m->slot[5].x; }
 float material_opacity(const Material* m) { return m->slot[12].x; }
 float material_bump_scale(const Material* m) { return m->slot[12].y; }
 

@@ -13,10 +13,11 @@
 //     (1 - F) G1(wt) or F G1(wr), integrated by Gauss-Legendre quadrature over the random numbers
 //     of visible-normal sampling (32^2 nodes for an interface of eta > 1, else 128^2).
 // The host fills the tables with plastic_coat_table below (clrender/plastic.py): from the
-// microfacet code that renders. A row holds T(mu_0..), then r; a textured alpha has
-// COAT_ALPHA_ROWS rows spanning the texture's values (Material field coat_alpha_range), linearly
-// interpolated in alpha: Mitsuba has no textured alpha on roughplastic. Rows start at alpha
-// 1e-4 at least (Mitsuba's least microfacet width).
+// microfacet code that renders. A row holds T(mu_0..), then r; a textured alpha has rows
+// spanning the texture's values (Material fields coat_alpha_range, coat_alpha_rows), evenly
+// spaced in sqrt(alpha) and interpolated linearly there (T changes fastest at small alphas;
+// Mitsuba has no textured alpha on roughplastic: docs/materials-plastic.md measures the error).
+// Rows start at alpha 1e-4 at least (Mitsuba's least microfacet width).
 #ifndef CLRENDER_PLASTIC_COAT_H
 #define CLRENDER_PLASTIC_COAT_H
 #include "portability.h"
@@ -58,10 +59,11 @@ PlasticCoat plastic_coat(const Scene* scene, const Material* m, float alpha) {
     c.row = scene->specular_albedo + max(offset, 0);
     c.next = 0;
     c.next_weight = 0.0f;
-    float2 range = material_coat_alpha_range(m);
-    if (!c.smooth && range.y > range.x) {
-        float x = clamp((alpha - range.x) / (range.y - range.x), 0.0f, 1.0f) * (float)(COAT_ALPHA_ROWS - 1);
-        int r = min((int)x, COAT_ALPHA_ROWS - 2);
+    float2 range = sqrt(material_coat_alpha_range(m));
+    int rows = material_coat_alpha_rows(m);
+    if (!c.smooth && rows > 1) {
+        float x = clamp((sqrt(alpha) - range.x) / (range.y - range.x), 0.0f, 1.0f) * (float)(rows - 1);
+        int r = min((int)x, rows - 2);
         c.row += r * COAT_ROW;
         c.next = COAT_ROW;
         c.next_weight = x - (float)r;
@@ -127,7 +129,11 @@ KERNEL void plastic_coat_table(__global const Material* materials, int material,
     int rows = get_global_size(0);
     Material m = materials[material];
     float2 range = material_coat_alpha_range(&m);
-    float alpha = rows > 1 ? range.x + (range.y - range.x) * (float)r / (float)(rows - 1) : range.x;
+    float alpha = range.x;
+    if (rows > 1) {
+        float s = sqrt(range.x) + (sqrt(range.y) - sqrt(range.x)) * (float)r / (float)(rows - 1);
+        alpha = s * s;
+    }
     float eta = material_ior(&m) / material_exterior_ior(&m);
     if (side == 1) eta = 1.0f / eta;
     float mu = fmax(1e-6f, (float)k / (float)(COAT_TABLE_SIZE - 1));
