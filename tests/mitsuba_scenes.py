@@ -265,6 +265,73 @@ def textured_spheres():
     </shape>""", max_depth=4)
 
 
+def plastic_spheres():
+    """Mitsuba's plastic and roughplastic (its default distribution, Beckmann) on spheres, one
+    with nonlinear internal scattering and a tinted coat."""
+    return _scene(FLOOR + SUN + SKY + """
+    <shape type="sphere">
+        <point name="center" x="-0.75" y="-0.2" z="0"/>
+        <float name="radius" value="0.7"/>
+        <bsdf type="plastic">
+            <rgb name="diffuse_reflectance" value="0.7, 0.2, 0.1"/>
+            <float name="int_ior" value="1.5"/>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="0.75" y="-0.2" z="0"/>
+        <float name="radius" value="0.7"/>
+        <bsdf type="roughplastic">
+            <float name="alpha" value="0.15"/>
+            <rgb name="diffuse_reflectance" value="0.1, 0.3, 0.8"/>
+            <rgb name="specular_reflectance" value="0.9, 0.8, 0.6"/>
+            <boolean name="nonlinear" value="true"/>
+        </bsdf>
+    </shape>""")
+
+
+def textured_plastic():
+    """Textured reflectances of plastics (their means weigh the lobes): a GGX roughplastic with a
+    checkerboard diffuse_reflectance, a smooth nonlinear plastic with a checkerboard
+    specular_reflectance, and a two-sided roughplastic floor."""
+    return _scene(SUN + SKY + """
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/><translate y="-1"/></transform>
+        <bsdf type="twosided">
+            <bsdf type="roughplastic">
+                <string name="distribution" value="ggx"/>
+                <float name="alpha" value="0.05"/>
+                <rgb name="diffuse_reflectance" value="0.5, 0.45, 0.3"/>
+            </bsdf>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.7"/>
+        <transform name="to_world"><rotate x="1" angle="50"/><rotate y="1" angle="20"/><translate x="-0.75" y="-0.2"/></transform>
+        <bsdf type="roughplastic">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="0.3"/>
+            <texture type="checkerboard" name="diffuse_reflectance">
+                <rgb name="color0" value="0.8, 0.3, 0.1"/>
+                <rgb name="color1" value="0.1, 0.5, 0.7"/>
+                <transform name="to_uv"><scale x="6" y="3"/></transform>
+            </texture>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.7"/>
+        <transform name="to_world"><rotate z="1" angle="30"/><translate x="0.75" y="-0.2"/></transform>
+        <bsdf type="plastic">
+            <boolean name="nonlinear" value="true"/>
+            <rgb name="diffuse_reflectance" value="0.6, 0.6, 0.2"/>
+            <texture type="checkerboard" name="specular_reflectance">
+                <rgb name="color0" value="1, 1, 1"/>
+                <rgb name="color1" value="0.2, 0.1, 0.6"/>
+                <transform name="to_uv"><scale x="4" y="4"/></transform>
+            </texture>
+        </bsdf>
+    </shape>""", origin="0 2 5", target="0 -0.5 0")
+
+
 SCENES = {
     "textured_spheres": textured_spheres,
     "glass_sphere": glass_sphere,
@@ -276,6 +343,8 @@ SCENES = {
     "environment_map_hidden": lambda: environment_map(hide_emitters=True),
     "lights": lights,
     "meshes": meshes,
+    "plastic_spheres": plastic_spheres,
+    "textured_plastic": textured_plastic,
 }
 
 

@@ -10,8 +10,9 @@ whose stderr is split by case. Settings, and why:
   OCLGRIND_BUILD_OPTIONS=-cl-opt-disable           Oclgrind 21.10 (Debian 12) crashes in its
       uninitialised-value checker on shuffles with undefined lanes, which the optimiser makes
       out of float3 code; unoptimised code has none, and checks the source more literally.
-  -DALBEDO_GRID=4                                  the energy-table kernel loops 192^2 times per
-      entry, minutes under the simulator; its memory accesses do not depend on the loop length.
+  -DALBEDO_GRID=4 -DCOAT_NODES=4                   the energy-table kernel loops 192^2 times per
+      entry, the plastic coat tables' up to 128^2: minutes under the simulator; their memory
+      accesses do not depend on the loop length.
 Scenes are 8 x 8 pixels (example scenes 8 pixels wide), two samples of one launch each (the
 example scenes' second in bands of 4 rows, launches offset to their first row), depth 4.
 Skipped when Oclgrind is not installed (apt-get install oclgrind); CI installs it.
@@ -119,7 +120,7 @@ def oclgrind_results():
             f.write(LIBRARY + "\n")
         package_root = os.path.dirname(os.path.dirname(os.path.abspath(clrender.__file__)))
         env = dict(os.environ, OCL_ICD_VENDORS=icd, OCLGRIND_UNINITIALIZED="1", OCLGRIND_DATA_RACES="1",
-                   OCLGRIND_BUILD_OPTIONS="-cl-opt-disable -DALBEDO_GRID=4",
+                   OCLGRIND_BUILD_OPTIONS="-cl-opt-disable -DALBEDO_GRID=4 -DCOAT_NODES=4",
                    PYOPENCL_NO_CACHE="1",                        # build for this device and these options
                    CLRENDER_CACHE_DIR=os.path.join(folder, "cache"),
                    PYTHONPATH=os.pathsep.join([package_root, os.environ.get("PYTHONPATH", "")]))
