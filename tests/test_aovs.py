@@ -45,6 +45,15 @@ def test_diffuse_wall_albedo_equals_its_albedo_and_normals_face_the_camera(devic
     assert np.all(result.aovs["emission"] == 0.0)   # all its light is reflected
 
 
+@pytest.mark.parametrize("roughness", [0.0, 0.3])
+def test_plastic_albedo_is_its_diffuse_reflectance(device, roughness):
+    # docs/denoising.md: the base's colour, smooth coat or rough (a smooth plastic is no delta
+    # vertex: its base is diffuse).
+    material = {"type": "plastic", "diffuse": [0.3, 0.5, 0.7], "specular": 0.8, "roughness": roughness}
+    albedo = render(wall_scene(material), device).aovs["albedo"]
+    np.testing.assert_allclose(albedo, np.broadcast_to([0.3, 0.5, 0.7], albedo.shape), rtol=1e-6)
+
+
 def test_normals_are_unit_and_face_the_camera_on_a_sphere(device):
     data = {
         "camera": camera(position=(0, 0, 4), look_at=(0, 0, 0), fov=40, resolution=(24, 24)),
