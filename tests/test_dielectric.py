@@ -315,6 +315,31 @@ def bin_of(wi):
     return zi * PHI_BINS + pi
 
 
+def assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_face=True):
+    """Samples wi (pdf, weight) of `bsdf` at wo, `valid` those with a density (not delta): their
+    histogram against sample_bsdf_pdf integrated per bin (chi-square); the density integrates to
+    the fraction of valid samples (some are rejected under the macro surface; binomial standard
+    error, plus 0.2% for the quadrature); each weight is f * |cos| / pdf of its direction (the
+    same functions NEE and MIS use). Returns f * |cos| at the quadrature's directions and their
+    cell's solid angle."""
+    count = len(wi)
+    dirs, cell = sphere_bins_quadrature()
+    f_quad, pdf_quad = bsdf.eval(wo, dirs, front_face=front_face)
+    p_bin = per_bin(pdf_quad * cell).ravel()
+    observed = np.bincount(bin_of(wi[valid]), minlength=p_bin.size)
+    expected = p_bin * count
+    big = expected > 20
+    chi2 = np.sum((observed[big] - expected[big]) ** 2 / expected[big])
+    dof = big.sum() - 1
+    assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)
+    fraction = valid.mean()
+    assert abs(p_bin.sum() - fraction) < 5 * np.sqrt(fraction * (1 - fraction) / count) + 2e-3
+    f_s, pdf_s = bsdf.eval(wo, wi[valid][:2000], front_face=front_face)
+    np.testing.assert_allclose(pdf_s, pdf[valid][:2000], rtol=2e-4)
+    np.testing.assert_allclose(weight[valid][:2000], f_s / pdf_s[:, None], rtol=2e-4)
+    return f_quad, cell
+
+
 ROUGH_CASES = [
     ({"type": "dielectric", "ior": 1.5, "roughness": 0.5}, True, 0.8),
     ({"type": "dielectric", "ior": 1.5, "roughness": 0.5}, False, 0.9),   # inside: microfacet TIR
@@ -342,24 +367,7 @@ def test_rough_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, q
     wi, pdf, weight, _, delta = bsdf.sample(wo, count, front_face=front_face, seed=3)
     assert not np.any(delta)
     valid = pdf > 0
-    # The density of the sampler, integrated per bin from sample_bsdf_pdf.
-    dirs, cell = sphere_bins_quadrature()
-    f_quad, pdf_quad = bsdf.eval(wo, dirs, front_face=front_face)
-    p_bin = per_bin(pdf_quad * cell).ravel()
-    observed = np.bincount(bin_of(wi[valid]), minlength=p_bin.size)
-    expected = p_bin * count
-    big = expected > 20
-    chi2 = np.sum((observed[big] - expected[big]) ** 2 / expected[big])
-    dof = big.sum() - 1
-    assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)
-    # The pdf integrates to the probability that a sample is produced (some are rejected under
-    # the macro surface); binomial standard error, plus 0.2% for the quadrature.
-    fraction = valid.mean()
-    assert abs(p_bin.sum() - fraction) < 5 * np.sqrt(fraction * (1 - fraction) / count) + 2e-3
-    # Each weight is f * |cos| / pdf of its direction (the same functions NEE and MIS use).
-    f_s, pdf_s = bsdf.eval(wo, wi[valid][:2000], front_face=front_face)
-    np.testing.assert_allclose(pdf_s, pdf[valid][:2000], rtol=2e-4)
-    np.testing.assert_allclose(weight[valid][:2000], f_s / pdf_s[:, None], rtol=2e-4)
+    f_quad, cell = assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_face)
     # And so the integral of f * |cos| (quadrature) equals the mean weight (Monte Carlo): 5 SE
     # of the Monte Carlo mean, plus 0.5% for the quadrature of the value.
     for channel in range(3):

@@ -13,7 +13,7 @@ from clrender import layout, plastic, textures
 from clrender.arrays import build_scene_arrays
 from clrender.energy import fill_albedo_tables
 from conftest import build_test_kernels, camera
-from test_dielectric import Bsdf, bin_of, direction, per_bin, sphere_bins_quadrature
+from test_dielectric import Bsdf, assert_samples_follow_the_density, direction
 
 mi = pytest.importorskip("mitsuba")
 SIZE = layout.COAT_TABLE_SIZE
@@ -304,22 +304,7 @@ def test_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, queue, 
     wi, pdf, weight, eta, delta = bsdf.sample(wo, count, seed=3)
     assert np.all(eta == 1)
     valid = (pdf > 0) & ~delta
-    dirs, cell = sphere_bins_quadrature()
-    f_quad, pdf_quad = bsdf.eval(wo, dirs)
-    p_bin = per_bin(pdf_quad * cell).ravel()
-    observed = np.bincount(bin_of(wi[valid]), minlength=p_bin.size)
-    expected = p_bin * count
-    big = expected > 20
-    chi2 = np.sum((observed[big] - expected[big]) ** 2 / expected[big])
-    dof = big.sum() - 1
-    assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)
-    # The density integrates to the probability of a non-delta sample (binomial 5 SE, plus 0.2%
-    # for the quadrature of a narrow lobe).
-    fraction = valid.mean()
-    assert abs(p_bin.sum() - fraction) < 5 * np.sqrt(fraction * (1 - fraction) / count) + 2e-3
-    f_s, pdf_s = bsdf.eval(wo, wi[valid][:2000])
-    np.testing.assert_allclose(pdf_s, pdf[valid][:2000], rtol=2e-4)
-    np.testing.assert_allclose(weight[valid][:2000], f_s / pdf_s[:, None], rtol=2e-4)
+    assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid)
 
 
 @pytest.mark.parametrize("name", list(MATERIALS))
