@@ -861,11 +861,11 @@ def test_cli_render_xml_with_parameters(tmp_path):
 
 
 def test_cli_errors_and_warnings(tmp_path):
-    body = '<shape type="sphere"><bsdf type="plastic"/></shape>'
+    body = '<shape type="sphere"><bsdf type="hair"/></shape>'
     result = run_cli("info", write(tmp_path, body))
     assert result.returncode == 3 and "Traceback" not in result.stderr   # a bad scene (docs/errors.md)
-    assert (f"clrender: error: scene.xml:{line_of(body, 'plastic')} <bsdf type='plastic'>: "
-            "unsupported BSDF 'plastic'") in result.stderr
+    assert (f"clrender: error: scene.xml:{line_of(body, 'hair')} <bsdf type='hair'>: "
+            "unsupported BSDF 'hair'") in result.stderr
     path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>'))
     result = run_cli("info", path)
     assert result.returncode == 0 and "clrender: warning: scene.xml:" in result.stderr

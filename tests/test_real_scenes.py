@@ -86,3 +86,16 @@ def test_staircase_meshes_without_area_are_skipped_with_a_warning(tmp_path):
     assert all(re.match(r"geometry\.xml:\d+ <shape type='obj'>: no triangle of 'WoodStairs_\d+' has an area", w)
                for w in skipped)
     assert arrays.degenerate_triangles >= 20 and len(arrays.triangles) > 100000
+
+
+def test_staircase_loads_with_its_roughplastics():
+    # Its six roughplastics (two-sided, GGX, nonlinear, four with wood textures) were the first
+    # refusal (issue 22); Mitsuba's parameters reach the plastic materials.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = clrender.load_scene(real_scene("bitterli-staircase/scene_gt.xml"), parameters={"resx": "8", "resy": "8"})
+    plastics = [m for m in scene.materials if m.type == "plastic"]
+    assert len(plastics) == 6
+    assert all(m.distribution == "ggx" and m.nonlinear and m.two_sided and m.ior == 1.5 and m.exterior_ior == 1
+               for m in plastics)
+    assert sum("color" in m.textures for m in plastics) == 4

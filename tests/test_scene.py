@@ -38,7 +38,7 @@ def test_example_scenes_load():
 
 
 @pytest.mark.parametrize("patch,where,message", [
-    (lambda s: s["materials"][0].update(type="plastic"), "materials[0].type", "valid: diffuse, emissive"),
+    (lambda s: s["materials"][0].update(type="velvet"), "materials[0].type", "valid: diffuse, emissive"),
     (lambda s: s["materials"][0].update(albedo=[0.5, -1, 0.5]), "materials[0].albedo", "non-negative"),
     (lambda s: s["materials"][0].update(albedo=[0.5, 0.5]), "materials[0].albedo", "list of 3 numbers"),
     (lambda s: s["materials"][0].update(albedo=[2, 0, 0]), "materials[0].albedo", "<= 1"),
