@@ -18,7 +18,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
     sphere), a point and a directional light; each feature adds what it compiles in:
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
-    and rough glass, a rough mirror (energy tables) and a smooth one; TOON a toon sphere;
+    glass reflecting tinted, rough Beckmann glass and a rough GGX mirror (energy tables), a
+    smooth copper mirror (complex Fresnel) and a thin dielectric pane; TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
     kinds of media; TEXTURES a checkerboard floor, an 8-bit sRGB bitmap on the box (mirrored
@@ -58,16 +59,20 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         shapes.append({"name": "prism", "type": "box", "material": "glass",
                        "transform": {"scale": 0.3, "rotate": [20, 40, 0], "translate": [-0.2, -0.6, 0.9]}})
     elif features["DIELECTRIC"]:
-        materials += [{"name": "glass", "type": "dielectric", "ior": 1.5},
-                      {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4},
+        materials += [{"name": "glass", "type": "dielectric", "ior": 1.5, "reflection_tint": [0.9, 0.95, 1.0]},
+                      {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4,
+                       "distribution": "beckmann"},
                       {"name": "rough_mirror", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.3},
-                      {"name": "mirror", "type": "conductor"}]
+                      {"name": "mirror", "type": "conductor", "material": "Cu"},
+                      {"name": "pane", "type": "thin_dielectric", "ior": 1.5, "tint": [0.8, 0.9, 1.0]}]
         sphere("glass", "glass", [0.9, -0.5, 0.3], 0.45)
         sphere("rough_glass", "rough_glass", [-0.2, -0.6, 0.9], 0.35)
         shapes.append({"name": "rough_mirror", "type": "box", "material": "rough_mirror",
                        "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
         shapes.append({"name": "mirror", "type": "rectangle", "material": "mirror",
                        "transform": {"scale": 0.4, "rotate": [0, 60, 0], "translate": [-1.6, -0.4, 0.2]}})
+        shapes.append({"name": "pane", "type": "rectangle", "material": "pane",
+                       "transform": {"scale": [0.5, 0.4, 1], "rotate": [0, -30, 0], "translate": [1.2, -0.5, 1.2]}})
     textures = []
     if features["TEXTURES"]:
         _add_textures(textures, materials, shapes, sphere, features["DIELECTRIC"])

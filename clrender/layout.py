@@ -66,7 +66,11 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #   color (textured): albedo (diffuse), tint (dielectric: transmission, conductor: reflectance),
 #     base colour (toon), transmittance (interface).
 #   alpha (textured): the microfacet width of rough lobes (dielectric, conductor).
-#   ior / exterior_ior: indices of refraction inside and outside (dielectric).
+#   ior / exterior_ior: indices of refraction inside and outside (dielectric, thin_dielectric).
+#   reflection_tint (textured): the tint of reflection (dielectric, thin_dielectric: Mitsuba's
+#     specular_reflectance; `color` tints transmission).
+#   conductor_eta, conductor_k: the complex index of refraction eta + i k per RGB channel
+#     (conductor; 0 and 0: Fresnel reflectance 1, a perfect mirror tinted by `color`).
 #   opacity (textured): the fraction of light the surface stops (1: opaque); bump_scale.
 #   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
 #     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
@@ -86,6 +90,9 @@ MATERIAL_FIELDS = {
     "alpha": (("slot", 1), 0, 1),
     "ior": (("slot", 2), 0, 1),
     "exterior_ior": (("slot", 2), 1, 1),
+    "reflection_tint": (("slot", 3), 0, 3),
+    "conductor_eta": (("slot", 4), 0, 3),
+    "conductor_k": (("slot", 5), 0, 3),
     "opacity": (("slot", 12), 0, 1),
     "bump_scale": (("slot", 12), 1, 1),
     "toon_shadow_color": (("slot", 3), 0, 3),
@@ -101,7 +108,7 @@ MATERIAL_FIELDS = {
     "toon_ambient": (("slot", 9), 0, 3),
 }
 # The fields a texture may drive; each owns lane w of its member for the texture reference.
-TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity")
+TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity", "reflection_tint")
 
 # A texture (kernels/textures/texture.h). info: x kind (TEXTURE_KINDS), y first byte of its
 # texels in Scene.texels, z width, w height. format: x channels (1, 3 or 4), y encoding
@@ -177,7 +184,7 @@ STRUCTS = {
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4}
+MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4, "thin_dielectric": 5}
 # Rough lobes: the distribution of microfacet normals, and the masking-shadowing term
 # (height-correlated G2, or Mitsuba's separable G1(wo) G1(wi)).
 MICROFACET_DISTRIBUTIONS = {"ggx": 0, "beckmann": 1}

@@ -19,6 +19,9 @@ float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
 float material_ior(const Material* m) { return m->slot[2].x; }
 float material_exterior_ior(const Material* m) { return m->slot[2].y; }
+float3 material_reflection_tint(const Material* m) { return m->slot[3].xyz; }
+float3 material_conductor_eta(const Material* m) { return m->slot[4].xyz; }
+float3 material_conductor_k(const Material* m) { return m->slot[5].xyz; }
 float material_opacity(const Material* m) { return m->slot[12].x; }
 float material_bump_scale(const Material* m) { return m->slot[12].y; }
 
