@@ -265,61 +265,47 @@ def textured_spheres():
     </shape>""", max_depth=4)
 
 
+def _sphere(center, radius, bsdf):
+    """A sphere shape with the BSDF element `bsdf` (XML text)."""
+    x, y, z = center
+    return f"""
+    <shape type="sphere">
+        <point name="center" x="{x}" y="{y}" z="{z}"/>
+        <float name="radius" value="{radius}"/>
+        {bsdf}
+    </shape>"""
+
+
 def metals():
     """Conductors with complex indices: a smooth gold preset, a rough (Beckmann, Mitsuba's default)
     sphere with explicit RGB eta and k (Bitterli's scenes' values) and a tint, and a rough GGX
     copper preset, wide enough that separable masking shows."""
-    return _scene(FLOOR + SUN + SKY + """
-    <shape type="sphere">
-        <point name="center" x="-1.1" y="-0.4" z="0"/>
-        <float name="radius" value="0.55"/>
-        <bsdf type="conductor">
+    return _scene(FLOOR + SUN + SKY + _sphere((-1.1, -0.4, 0), 0.55, """<bsdf type="conductor">
             <string name="material" value="Au"/>
-        </bsdf>
-    </shape>
-    <shape type="sphere">
-        <point name="center" x="0" y="-0.4" z="0.2"/>
-        <float name="radius" value="0.55"/>
-        <bsdf type="roughconductor">
+        </bsdf>""") + _sphere((0, -0.4, 0.2), 0.55, """<bsdf type="roughconductor">
             <float name="alpha" value="0.25"/>
             <rgb name="eta" value="0.200438, 0.924033, 1.10221"/>
             <rgb name="k" value="3.91295, 2.45285, 2.14219"/>
             <rgb name="specular_reflectance" value="0.9, 0.8, 0.7"/>
-        </bsdf>
-    </shape>
-    <shape type="sphere">
-        <point name="center" x="1.1" y="-0.4" z="0"/>
-        <float name="radius" value="0.55"/>
-        <bsdf type="roughconductor">
+        </bsdf>""") + _sphere((1.1, -0.4, 0), 0.55, """<bsdf type="roughconductor">
             <string name="distribution" value="ggx"/>
             <float name="alpha" value="0.5"/>
             <string name="material" value="Cu"/>
-        </bsdf>
-    </shape>""", max_depth=6)
+        </bsdf>"""), max_depth=6)
 
 
 def beckmann_glass():
     """Rough glass with Mitsuba's default distribution (Beckmann), and a smooth dielectric whose
     reflection is tinted (specular_reflectance < 1)."""
-    return _scene(FLOOR + SUN + SKY + """
-    <shape type="sphere">
-        <point name="center" x="-0.6" y="0" z="0"/>
-        <float name="radius" value="0.6"/>
-        <bsdf type="roughdielectric">
+    return _scene(FLOOR + SUN + SKY + _sphere((-0.6, 0, 0), 0.6, """<bsdf type="roughdielectric">
             <float name="alpha" value="0.3"/>
             <float name="int_ior" value="1.5"/>
             <rgb name="specular_reflectance" value="0.6, 0.8, 1"/>
-        </bsdf>
-    </shape>
-    <shape type="sphere">
-        <point name="center" x="0.7" y="0" z="0"/>
-        <float name="radius" value="0.6"/>
-        <bsdf type="dielectric">
+        </bsdf>""") + _sphere((0.7, 0, 0), 0.6, """<bsdf type="dielectric">
             <float name="int_ior" value="1.7"/>
             <rgb name="specular_reflectance" value="0.3, 0.5, 0.7"/>
             <rgb name="specular_transmittance" value="1, 0.9, 0.8"/>
-        </bsdf>
-    </shape>""", max_depth=10)
+        </bsdf>"""), max_depth=10)
 
 
 def thin_pane():
@@ -337,14 +323,9 @@ def thin_pane():
             <rgb name="specular_transmittance" value="0.9, 0.95, 1"/>
             <rgb name="specular_reflectance" value="1, 0.9, 0.8"/>
         </bsdf>
-    </shape>
-    <shape type="sphere">
-        <point name="center" x="0.2" y="-0.4" z="-0.3"/>
-        <float name="radius" value="0.6"/>
-        <bsdf type="diffuse">
+    </shape>""" + _sphere((0.2, -0.4, -0.3), 0.6, """<bsdf type="diffuse">
             <rgb name="reflectance" value="0.2, 0.6, 0.3"/>
-        </bsdf>
-    </shape>""", max_depth=8)
+        </bsdf>"""), max_depth=8)
 
 
 SCENES = {
