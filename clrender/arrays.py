@@ -377,10 +377,13 @@ def _material_array(materials, textures=()):
             _set(record, "color", m.tint if m.index_matched else 1.0)
         elif kind == "plastic":
             plastic.set_fields(record, m, textures)
-        elif kind in ("dielectric", "conductor"):
+        elif kind in ("dielectric", "conductor", "thin_dielectric"):
             _set(record, "color", m.tint)
             _set(record, "ior", m.ior)
             _set(record, "exterior_ior", m.exterior_ior)
+            _set(record, "reflection_tint", m.reflection_tint)
+            _set(record, "conductor_eta", m.conductor_eta)
+            _set(record, "conductor_k", m.conductor_k)
             # Squared in float32, as the kernel would: alpha = roughness^2.
             _set(record, "alpha", np.float32(m.roughness) * np.float32(m.roughness))
             _set(record, "distribution", layout.MICROFACET_DISTRIBUTIONS[m.distribution])

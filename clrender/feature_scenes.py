@@ -18,7 +18,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
     sphere), a point and a directional light; each feature adds what it compiles in:
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
-    and rough glass, a rough mirror (energy tables) and a smooth one, a smooth plastic and a rough
+    glass reflecting tinted, rough Beckmann glass and a rough GGX mirror (energy tables), a
+    smooth copper mirror (complex Fresnel), a thin dielectric pane, a smooth plastic and a rough
     one (coat tables); TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
@@ -60,10 +61,12 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         shapes.append({"name": "prism", "type": "box", "material": "glass",
                        "transform": {"scale": 0.3, "rotate": [20, 40, 0], "translate": [-0.2, -0.6, 0.9]}})
     elif features["DIELECTRIC"]:
-        materials += [{"name": "glass", "type": "dielectric", "ior": 1.5},
-                      {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4},
+        materials += [{"name": "glass", "type": "dielectric", "ior": 1.5, "reflection_tint": [0.9, 0.95, 1.0]},
+                      {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4,
+                       "distribution": "beckmann"},
                       {"name": "rough_mirror", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.3},
-                      {"name": "mirror", "type": "conductor"},
+                      {"name": "mirror", "type": "conductor", "material": "Cu"},
+                      {"name": "pane", "type": "thin_dielectric", "ior": 1.5, "tint": [0.8, 0.9, 1.0]},
                       {"name": "plastic", "type": "plastic", "diffuse": [0.8, 0.3, 0.2]},
                       {"name": "rough_plastic", "type": "plastic", "alpha": 0.15, "distribution": "beckmann",
                        "nonlinear": True, "diffuse": [0.2, 0.4, 0.7]}]
@@ -73,6 +76,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
                        "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
         shapes.append({"name": "mirror", "type": "rectangle", "material": "mirror",
                        "transform": {"scale": 0.4, "rotate": [0, 60, 0], "translate": [-1.6, -0.4, 0.2]}})
+        shapes.append({"name": "pane", "type": "rectangle", "material": "pane",
+                       "transform": {"scale": [0.5, 0.4, 1], "rotate": [0, -30, 0], "translate": [1.2, -0.5, 1.2]}})
         sphere("plastic", "plastic", [0.2, -0.75, 1.4], 0.25)
         sphere("rough_plastic", "rough_plastic", [-0.9, -0.7, 1.2], 0.3)
     textures = []

@@ -41,7 +41,7 @@ FEATURE_VALUES = {
 # What the packet integrator (LANES 8) leaves out: every other feature.
 PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
 
-SPECULAR_MATERIALS = ("dielectric", "conductor", "plastic")
+SPECULAR_MATERIALS = ("dielectric", "conductor", "thin_dielectric", "plastic")
 
 
 def volume_method(scene, override=None):
@@ -86,7 +86,8 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
 
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
-    features, every material some shape uses diffuse (emissive included) or smooth dielectric,
+    features, every material some shape uses diffuse (emissive included) or smooth dielectric
+    reflecting untinted,
     no light but emitting triangles (no emitting spheres, point, directional or environment
     lights)."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
@@ -95,7 +96,7 @@ def packets_cover(scene, features):
         material = scene.materials[shape.material]
         if material.type not in ("diffuse", "emissive", "dielectric"):
             return False
-        if material.type == "dielectric" and not _is_smooth(material):
+        if material.type == "dielectric" and not (_is_smooth(material) and np.all(material.reflection_tint == 1)):
             return False
         if isinstance(shape.mesh, meshes.Sphere) and np.any(material.emission > 0):
             return False

@@ -66,9 +66,14 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #   color (textured): albedo (diffuse), tint (dielectric: transmission, conductor: reflectance),
 #     base colour (toon), transmittance (interface).
 #   alpha (textured): the microfacet width of rough lobes (dielectric, conductor, plastic).
-#   ior / exterior_ior: indices of refraction inside and outside (dielectric, plastic's coat).
-#   plastic (kernels/materials/plastic.h): color is the diffuse_reflectance of its base;
-#     specular (textured) the specular_reflectance of its coat; nonlinear 1: the base's internal
+#   ior / exterior_ior: indices of refraction inside and outside (dielectric, thin_dielectric,
+#     plastic's coat).
+#   reflection_tint (textured): the tint of reflection (dielectric, thin_dielectric, plastic:
+#     Mitsuba's specular_reflectance; `color` tints transmission).
+#   conductor_eta, conductor_k: the complex index of refraction eta + i k per RGB channel
+#     (conductor; 0 and 0: Fresnel reflectance 1, a perfect mirror tinted by `color`).
+#   plastic (kernels/materials/plastic.h): color is the diffuse_reflectance of its base,
+#     reflection_tint the specular_reflectance of its coat; nonlinear 1: the base's internal
 #     scattering per channel (Mitsuba's `nonlinear`); specular_sampling_weight: the probability
 #     weight of the coat's lobe, from the reflectances' means (Mitsuba's); coat_alpha_range: the
 #     alphas of the first and last rows of the rough coat's tables, coat_alpha_rows their count
@@ -93,8 +98,10 @@ MATERIAL_FIELDS = {
     "alpha": (("slot", 1), 0, 1),
     "ior": (("slot", 2), 0, 1),
     "exterior_ior": (("slot", 2), 1, 1),
+    "reflection_tint": (("slot", 3), 0, 3),
+    "conductor_eta": (("slot", 4), 0, 3),
+    "conductor_k": (("slot", 5), 0, 3),
     "nonlinear": (("slot", 2), 2, 1),
-    "specular": (("slot", 3), 0, 3),
     "specular_sampling_weight": (("slot", 4), 0, 1),
     "coat_alpha_range": (("slot", 4), 1, 2),
     "coat_alpha_rows": (("slot", 5), 0, 1),
@@ -113,7 +120,7 @@ MATERIAL_FIELDS = {
     "toon_ambient": (("slot", 9), 0, 3),
 }
 # The fields a texture may drive; each owns lane w of its member for the texture reference.
-TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity", "specular")
+TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity", "reflection_tint")
 
 # A texture (kernels/textures/texture.h). info: x kind (TEXTURE_KINDS), y first byte of its
 # texels in Scene.texels, z width, w height. format: x channels (1, 3 or 4), y encoding
@@ -189,7 +196,8 @@ STRUCTS = {
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
-MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4, "plastic": 5}
+MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4, "thin_dielectric": 5,
+                  "plastic": 6}
 # Rough lobes: the distribution of microfacet normals, and the masking-shadowing term
 # (height-correlated G2, or Mitsuba's separable G1(wo) G1(wi)).
 MICROFACET_DISTRIBUTIONS = {"ggx": 0, "beckmann": 1}

@@ -26,7 +26,7 @@ def set_fields(record, material, textures):
     """Write the plastic `material` (scene.Material) into its Material `record`; `textures`: the
     scene's (their means weigh the lobes, a textured alpha's values span the tables)."""
     _set(record, "color", material.albedo)
-    _set(record, "specular", material.specular)
+    _set(record, "reflection_tint", material.reflection_tint)
     _set(record, "ior", material.ior)
     _set(record, "exterior_ior", material.exterior_ior)
     alpha = np.float32(material.roughness) * np.float32(material.roughness)  # as the kernel would
@@ -53,7 +53,7 @@ def mitsuba_mean(material, field, constant, textures):
 def specular_sampling_weight(material, textures):
     """Mitsuba's specular_sampling_weight: the specular reflectance's mean over the sum of both
     means (1/2 where both are black: the material is black then)."""
-    specular = mitsuba_mean(material, "specular", material.specular, textures)
+    specular = mitsuba_mean(material, "reflection_tint", material.reflection_tint, textures)
     diffuse = mitsuba_mean(material, "color", material.albedo, textures)
     return specular / (specular + diffuse) if specular + diffuse > 0 else 0.5
 

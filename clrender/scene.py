@@ -13,10 +13,12 @@ import numpy as np
 
 from . import grids, limits, meshes, textures
 from .errors import ArgumentError, FileError, SceneError
+from .conductor_presets import CONDUCTOR_PRESETS
 from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
-MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "plastic")
+MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "thin_dielectric",
+                  "plastic")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
@@ -93,14 +95,18 @@ class Material:
     toon: Toon = None                # set for type "toon" only
     # dielectric and conductor (docs/materials-dielectric.md)
     tint: np.ndarray = field(default_factory=lambda: np.ones(3))
+    reflection_tint: np.ndarray = field(default_factory=lambda: np.ones(3))   # dielectrics' and plastic's reflection
+    # conductor: complex index of refraction per RGB channel; 0 and 0: Fresnel 1 (a tinted mirror)
+    conductor_eta: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    conductor_k: np.ndarray = field(default_factory=lambda: np.zeros(3))
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
     roughness: float = 0.0      # 0: smooth (delta lobes); microfacet alpha = roughness^2
     distribution: str = "ggx"   # of rough lobes' normals: layout.MICROFACET_DISTRIBUTIONS
     masking: str = "height_correlated"   # layout.MASKINGS ("separable": Mitsuba's G1(wo) G1(wi))
-    # plastic (kernels/materials/plastic.h): albedo is its diffuse_reflectance, ior / exterior_ior
-    # roughness and distribution its coat's (masking: separable, Mitsuba's)
-    specular: np.ndarray = field(default_factory=lambda: np.ones(3))  # specular_reflectance
+    # plastic (kernels/materials/plastic.h): albedo is its diffuse_reflectance, reflection_tint its
+    # specular_reflectance, ior / exterior_ior, roughness and distribution its coat's (masking:
+    # separable, Mitsuba's)
     nonlinear: bool = False     # internal scattering per channel (Mitsuba's `nonlinear`)
     # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
     # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
@@ -514,9 +520,12 @@ def _read_material(node, texture_names=()):
             raise SceneError(node.at("energy_compensation"), "needs a constant roughness, not a texture")
         if kind == "conductor":
             material.two_sided = node.boolean("two_sided", True)
+            material.conductor_eta, material.conductor_k = _read_conductor_ior(node)
         if kind == "dielectric":
-            material.ior = node.number("ior", 1.5, low=0, low_open=True)
-            material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
+            _read_dielectric_sides(node, texturable, material)
+    elif kind == "thin_dielectric":
+        material = Material(name, kind, albedo=np.zeros(3), tint=texturable.color("tint", "color", [1.0] * 3, high=1))
+        _read_dielectric_sides(node, texturable, material)
     elif kind == "plastic":
         material = _read_plastic(node, name, texturable)
     else:  # an index-matched boundary: only separates media
@@ -526,11 +535,33 @@ def _read_material(node, texture_names=()):
     return material
 
 
+def _read_dielectric_sides(node, texturable, material):
+    """The indices of refraction inside and outside, and the tint of reflection."""
+    material.ior = node.number("ior", 1.5, low=0, low_open=True)
+    material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
+    material.reflection_tint = texturable.color("reflection_tint", "reflection_tint", [1.0] * 3, high=1)
+
+
+def _read_conductor_ior(node):
+    """A conductor's complex index of refraction (eta, k) per RGB channel: `eta` and `k`, or a
+    preset `material` (Mitsuba's names), or neither: (0, 0), Fresnel reflectance 1."""
+    if "material" in node.data:
+        if "eta" in node.data or "k" in node.data:
+            raise SceneError(node.where, "give either material or eta and k")
+        name = node.string("material", choices=CONDUCTOR_PRESETS)
+        return tuple(np.array(value, dtype=float) for value in CONDUCTOR_PRESETS[name])
+    if ("eta" in node.data) != ("k" in node.data):
+        raise SceneError(node.at("k" if "eta" in node.data else "eta"), "required with "
+                         f"{'eta' if 'eta' in node.data else 'k'} (the complex index eta + i k)")
+    return (node.vector("eta", [0.0] * 3, non_negative=True, allow_scalar=True),
+            node.vector("k", [0.0] * 3, non_negative=True, allow_scalar=True))
+
+
 def _read_plastic(node, name, texturable):
     """Mitsuba's plastic and roughplastic, with their defaults (polypropylene in air)."""
     material = Material(name, "plastic",
                         albedo=texturable.color("diffuse", "color", [0.5] * 3, high=1),
-                        specular=texturable.color("specular", "specular", [1.0] * 3, high=1),
+                        reflection_tint=texturable.color("specular", "reflection_tint", [1.0] * 3, high=1),
                         roughness=_read_roughness(node, texturable),
                         distribution=node.string("distribution", "ggx", choices=MICROFACET_DISTRIBUTIONS),
                         masking="separable", ior=node.number("ior", 1.49, low=0, low_open=True),

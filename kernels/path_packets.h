@@ -70,7 +70,7 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
         lane_float exterior = material_exterior_ior_at(scene->materials, sp->material);
         lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
         lane_float eta = select(exterior / ior, ior / exterior, sp->front_face);  // bsdf.h, material_eta
-        BsdfSample delta = sample_dielectric_delta(color, eta, n, sp->ng, wo, u_lobe);
+        BsdfSample delta = sample_dielectric_delta(l3_splat(1.0f), color, eta, n, sp->ng, wo, u_lobe);
         bs.wi = l3_select(bs.wi, delta.wi, glass);
         bs.weight = l3_select(bs.weight, delta.weight, glass);
         bs.pdf_w = select(bs.pdf_w, delta.pdf_w, glass);

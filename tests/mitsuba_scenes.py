@@ -265,28 +265,81 @@ def textured_spheres():
     </shape>""", max_depth=4)
 
 
+def _sphere(center, radius, bsdf):
+    """A sphere shape with the BSDF element `bsdf` (XML text)."""
+    x, y, z = center
+    return f"""
+    <shape type="sphere">
+        <point name="center" x="{x}" y="{y}" z="{z}"/>
+        <float name="radius" value="{radius}"/>
+        {bsdf}
+    </shape>"""
+
+
+def metals():
+    """Conductors with complex indices: a smooth gold preset, a rough (Beckmann, Mitsuba's default)
+    sphere with explicit RGB eta and k (Bitterli's scenes' values) and a tint, and a rough GGX
+    copper preset, wide enough that separable masking shows."""
+    return _scene(FLOOR + SUN + SKY + _sphere((-1.1, -0.4, 0), 0.55, """<bsdf type="conductor">
+            <string name="material" value="Au"/>
+        </bsdf>""") + _sphere((0, -0.4, 0.2), 0.55, """<bsdf type="roughconductor">
+            <float name="alpha" value="0.25"/>
+            <rgb name="eta" value="0.200438, 0.924033, 1.10221"/>
+            <rgb name="k" value="3.91295, 2.45285, 2.14219"/>
+            <rgb name="specular_reflectance" value="0.9, 0.8, 0.7"/>
+        </bsdf>""") + _sphere((1.1, -0.4, 0), 0.55, """<bsdf type="roughconductor">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="0.5"/>
+            <string name="material" value="Cu"/>
+        </bsdf>"""), max_depth=6)
+
+
+def beckmann_glass():
+    """Rough glass with Mitsuba's default distribution (Beckmann), and a smooth dielectric whose
+    reflection is tinted (specular_reflectance < 1)."""
+    return _scene(FLOOR + SUN + SKY + _sphere((-0.6, 0, 0), 0.6, """<bsdf type="roughdielectric">
+            <float name="alpha" value="0.3"/>
+            <float name="int_ior" value="1.5"/>
+            <rgb name="specular_reflectance" value="0.6, 0.8, 1"/>
+        </bsdf>""") + _sphere((0.7, 0, 0), 0.6, """<bsdf type="dielectric">
+            <float name="int_ior" value="1.7"/>
+            <rgb name="specular_reflectance" value="0.3, 0.5, 0.7"/>
+            <rgb name="specular_transmittance" value="1, 0.9, 0.8"/>
+        </bsdf>"""), max_depth=10)
+
+
+def thin_pane():
+    """A thin dielectric pane (Mitsuba's thindielectric) standing on the floor between the camera
+    and a diffuse sphere, at an angle: the sphere through it, the sky and the floor in it."""
+    return _scene(FLOOR + SUN + SKY + """
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="1.2" y="0.8"/>
+            <rotate y="1" angle="35"/>
+            <translate y="-0.2" z="1"/>
+        </transform>
+        <bsdf type="thindielectric">
+            <float name="int_ior" value="1.6"/>
+            <rgb name="specular_transmittance" value="0.9, 0.95, 1"/>
+            <rgb name="specular_reflectance" value="1, 0.9, 0.8"/>
+        </bsdf>
+    </shape>""" + _sphere((0.2, -0.4, -0.3), 0.6, """<bsdf type="diffuse">
+            <rgb name="reflectance" value="0.2, 0.6, 0.3"/>
+        </bsdf>"""), max_depth=8)
+
+
 def plastic_spheres():
     """Mitsuba's plastic and roughplastic (its default distribution, Beckmann) on spheres, one
     with nonlinear internal scattering and a tinted coat."""
-    return _scene(FLOOR + SUN + SKY + """
-    <shape type="sphere">
-        <point name="center" x="-0.75" y="-0.2" z="0"/>
-        <float name="radius" value="0.7"/>
-        <bsdf type="plastic">
+    return _scene(FLOOR + SUN + SKY + _sphere((-0.75, -0.2, 0), 0.7, """<bsdf type="plastic">
             <rgb name="diffuse_reflectance" value="0.7, 0.2, 0.1"/>
             <float name="int_ior" value="1.5"/>
-        </bsdf>
-    </shape>
-    <shape type="sphere">
-        <point name="center" x="0.75" y="-0.2" z="0"/>
-        <float name="radius" value="0.7"/>
-        <bsdf type="roughplastic">
+        </bsdf>""") + _sphere((0.75, -0.2, 0), 0.7, """<bsdf type="roughplastic">
             <float name="alpha" value="0.15"/>
             <rgb name="diffuse_reflectance" value="0.1, 0.3, 0.8"/>
             <rgb name="specular_reflectance" value="0.9, 0.8, 0.6"/>
             <boolean name="nonlinear" value="true"/>
-        </bsdf>
-    </shape>""")
+        </bsdf>"""))
 
 
 def textured_plastic():
@@ -333,6 +386,9 @@ def textured_plastic():
 
 
 SCENES = {
+    "metals": metals,
+    "beckmann_glass": beckmann_glass,
+    "thin_pane": thin_pane,
     "textured_spheres": textured_spheres,
     "glass_sphere": glass_sphere,
     "rough_glass": rough_glass,

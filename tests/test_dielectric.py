@@ -353,12 +353,17 @@ ROUGH_CASES = [
      False, 0.6),
     ({"type": "conductor", "tint": [0.9, 0.5, 0.2], "roughness": 0.6, "distribution": "beckmann"}, True, 0.3),
     ({"type": "conductor", "roughness": 0.5, "masking": "separable"}, True, 0.5),
+    # complex Fresnel, tinted reflection
+    ({"type": "conductor", "material": "Au", "roughness": 0.4, "distribution": "beckmann", "masking": "separable",
+      "energy_compensation": False}, True, 0.6),
+    ({"type": "dielectric", "ior": 1.5, "roughness": 0.5, "reflection_tint": [0.3, 0.6, 0.9]}, True, 0.4),
 ]
 
 
 @pytest.mark.parametrize("material,front_face,cos_o", ROUGH_CASES,
                          ids=["glass-out", "glass-in", "glass-in-rough", "bubble", "conductor", "beckmann-glass-out",
-                              "beckmann-glass-in", "beckmann-conductor", "separable-conductor"])
+                              "beckmann-glass-in", "beckmann-conductor", "separable-conductor", "gold",
+                              "tinted-reflection"])
 def test_rough_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, queue, kernels, material,
                                                                        front_face, cos_o):
     bsdf = Bsdf(context, queue, kernels, material)

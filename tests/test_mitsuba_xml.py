@@ -385,20 +385,24 @@ def material_of(folder, bsdf):
     ('<bsdf type="diffuse"/>', {"type": "diffuse", "albedo": [0.5] * 3, "two_sided": False}),
     ('<bsdf type="twosided"><bsdf type="diffuse"><float name="reflectance" value="0.2"/></bsdf></bsdf>',
      {"type": "diffuse", "albedo": [0.2] * 3, "two_sided": True}),
-    ('<bsdf type="dielectric"/>', {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3}),
+    ('<bsdf type="dielectric"/>', {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3,
+                                   "reflection_tint": [1.0] * 3}),
     ('<bsdf type="dielectric"><string name="int_ior" value="water"/><float name="ext_ior" value="1.1"/>'
-     '<rgb name="specular_transmittance" value="0.5, 0.6, 0.7"/></bsdf>',
-     {"type": "dielectric", "ior": 1.333, "exterior_ior": 1.1, "tint": [0.5, 0.6, 0.7]}),
+     '<rgb name="specular_transmittance" value="0.5, 0.6, 0.7"/><float name="specular_reflectance" value="0.4"/></bsdf>',
+     {"type": "dielectric", "ior": 1.333, "exterior_ior": 1.1, "tint": [0.5, 0.6, 0.7], "reflection_tint": [0.4] * 3}),
+    ('<bsdf type="thindielectric"><string name="int_ior" value="bk7"/><string name="ext_ior" value="air"/></bsdf>',
+     {"type": "thin_dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3,
+      "reflection_tint": [1.0] * 3}),
     ('<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.09"/></bsdf>',
      {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3, "roughness": 0.3,
-      "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
+      "reflection_tint": [1.0] * 3, "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
     ('<bsdf type="roughdielectric"><string name="distribution" value="GGX"/><float name="alpha_u" value="0.04"/>'
      '<float name="alpha_v" value="0.04"/></bsdf>',
      {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3, "roughness": 0.2,
-      "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
+      "reflection_tint": [1.0] * 3, "distribution": "ggx", "masking": "separable", "energy_compensation": False}),
     ('<bsdf type="roughdielectric"><boolean name="sample_visible" value="false"/></bsdf>',   # Mitsuba's defaults
      {"type": "dielectric", "ior": 1.5046, "exterior_ior": 1.000277, "tint": [1.0] * 3, "roughness": np.sqrt(0.1),
-      "distribution": "beckmann", "masking": "separable", "energy_compensation": False}),
+      "reflection_tint": [1.0] * 3, "distribution": "beckmann", "masking": "separable", "energy_compensation": False}),
     ('<bsdf type="conductor"/>', {"type": "conductor", "tint": [1.0] * 3, "two_sided": False}),
     ('<bsdf type="twosided"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
      '<rgb name="specular_reflectance" value="0.5, 0.4, 0.3"/></bsdf></bsdf>',
@@ -429,16 +433,25 @@ def test_bsdfs(tmp_path, bsdf, expected):
     assert warned == []
 
 
-def test_conductor_presets_and_eta_k_warn(tmp_path):
-    material, warned = material_of(tmp_path, '<bsdf type="conductor"><string name="material" value="Au"/>'
-                                             '<float name="specular_reflectance" value="0.5"/></bsdf>')
-    assert np.allclose(material["tint"], 0.5 * np.array(mitsuba.CONDUCTOR_PRESETS["Au"]))
-    assert len(warned) == 1 and "material 'Au' approximated by its normal-incidence reflectance" in warned[0]
-    material, warned = material_of(tmp_path, '<bsdf type="conductor"><rgb name="eta" value="0.2, 0.9, 1.1"/>'
-                                             '<rgb name="k" value="3.9, 2.4, 2.2"/></bsdf>')
-    eta, k = np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.2])
-    assert np.allclose(material["tint"], ((eta - 1) ** 2 + k ** 2) / ((eta + 1) ** 2 + k ** 2))
-    assert "eta/k approximated" in warned[0]
+@pytest.mark.parametrize("bsdf,expected", [
+    ('<bsdf type="conductor"><string name="material" value="Au"/><float name="specular_reflectance" value="0.5"/></bsdf>',
+     {"material": "Au", "tint": [0.5] * 3}),
+    ('<bsdf type="conductor"><rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.2"/></bsdf>',
+     {"eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.2], "tint": [1.0] * 3}),
+    ('<bsdf type="conductor"><float name="eta" value="1.5"/></bsdf>', {"eta": [1.5] * 3, "k": [1.0] * 3, "tint": [1.0] * 3}),
+    ('<bsdf type="roughconductor"><string name="material" value="none"/></bsdf>', {"tint": [1.0] * 3}),
+])
+def test_conductor_indices_translate_without_warnings(tmp_path, bsdf, expected):
+    # Presets by name, explicit eta and k (Mitsuba's defaults 0 and 1), none: a perfect mirror.
+    material, warned = material_of(tmp_path, bsdf)
+    assert {key: material[key] for key in ("material", "eta", "k", "tint") if key in material} == expected
+    assert warned == []
+
+
+def test_conductor_with_a_textured_reflectance_keeps_its_index(tmp_path):
+    material, _ = material_of(tmp_path, '<bsdf type="conductor"><string name="material" value="Cu"/>'
+                                        '<texture type="checkerboard" name="specular_reflectance"/></bsdf>')
+    assert material["material"] == "Cu" and "texture" in material["tint"]
 
 
 @pytest.mark.parametrize("bsdf,message", [
@@ -457,7 +470,6 @@ def test_conductor_presets_and_eta_k_warn(tmp_path):
      "alpha must be in [0, 1]"),
     ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.1"/>'
      '<float name="alpha_u" value="0.1"/></bsdf>', "either alpha or alpha_u"),
-    ('<bsdf type="dielectric"><float name="specular_reflectance" value="0.5"/></bsdf>', "specular_reflectance other than 1"),
     ('<bsdf type="dielectric"><string name="int_ior" value="unobtainium"/></bsdf>', "unknown index of refraction"),
     ('<bsdf type="conductor"><string name="material" value="Xx"/></bsdf>', "unknown conductor material 'Xx'"),
     ('<bsdf type="conductor"><string name="material" value="Au"/><float name="eta" value="1"/></bsdf>',

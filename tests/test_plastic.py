@@ -83,7 +83,7 @@ def test_fields_and_mitsubas_defaults_reach_the_material_record():
     np.testing.assert_allclose(field("ior"), [1.49, 1.9], rtol=1e-7)   # polypropylene
     np.testing.assert_allclose(field("exterior_ior"), [1.000277, 1.33], rtol=1e-7)   # air
     np.testing.assert_allclose(field("color"), [[0.5] * 3, [0.1, 0.2, 0.9]], rtol=1e-7)
-    np.testing.assert_allclose(field("specular"), [[1.0] * 3, [0.5] * 3])
+    np.testing.assert_allclose(field("reflection_tint"), [[1.0] * 3, [0.5] * 3])
     assert field("nonlinear").tolist() == [0, 1]
     np.testing.assert_allclose(field("alpha"), [0, 0.2], rtol=1e-6)
     assert field("distribution")[1] == layout.MICROFACET_DISTRIBUTIONS["beckmann"]

@@ -13,6 +13,7 @@
 #include "materials/microfacet.h"
 #include "materials/dielectric.h"
 #include "materials/conductor.h"
+#include "materials/thin_dielectric.h"
 #include "materials/energy.h"
 #include "materials/plastic.h"
 
@@ -40,7 +41,24 @@ float3 specular_energy_scale(const Scene* scene, const Material* m, const Surfac
     int side = dielectric && !sp->front_face ? ALBEDO_TABLE_SIZE : 0;
     float e = lookup_albedo(scene->specular_albedo + offset + side, cos_o);
     if (!(e > 0.0f)) return (float3)(1.0f);
-    return dielectric ? (float3)(1.0f / e) : 1.0f + material_color(m) * ((1.0f - e) / e);
+    if (dielectric) return (float3)(1.0f / e);
+    float3 f0 = fresnel_conductor(1.0f, material_conductor_eta(m), material_conductor_k(m));
+    return 1.0f + material_color(m) * f0 * ((1.0f - e) / e);
+}
+
+// f * |cos| of a rough dielectric or conductor lobe, and the density of its sampler.
+float3 eval_rough_specular(const Material* m, const SurfacePoint* sp, float3 n, float3 wo, float3 wi) {
+    if (material_kind(m) == MATERIAL_DIELECTRIC)
+        return eval_dielectric(material_reflection_tint(m), material_color(m), material_eta(m, sp),
+                               material_microfacet(m), n, wo, wi);
+    return eval_conductor(material_color(m), material_conductor_eta(m), material_conductor_k(m),
+                          material_microfacet(m), n, wo, wi);
+}
+
+float rough_specular_pdf(const Material* m, const SurfacePoint* sp, float3 n, float3 wo, float3 wi) {
+    if (material_kind(m) == MATERIAL_DIELECTRIC)
+        return sample_dielectric_pdf(material_eta(m, sp), material_microfacet(m), n, wo, wi);
+    return sample_conductor_pdf(material_microfacet(m), n, wo, wi);
 }
 
 // A glossy lobe counts only where the geometric and the shading normal put wi on the same side,
@@ -56,11 +74,13 @@ bool is_one_sided_back(const Material* m, const SurfacePoint* sp) {
 }
 
 bool is_specular_material(const Material* m) {
-    return material_kind(m) == MATERIAL_DIELECTRIC || material_kind(m) == MATERIAL_CONDUCTOR;
+    int kind = material_kind(m);
+    return kind == MATERIAL_DIELECTRIC || kind == MATERIAL_CONDUCTOR || kind == MATERIAL_THIN_DIELECTRIC;
 }
 
 bool material_is_delta(const Material* m) {
 #if DIELECTRIC
+    if (material_kind(m) == MATERIAL_THIN_DIELECTRIC) return true;
     if (is_specular_material(m)) return microfacet_is_smooth(material_alpha(m));
 #endif
     return false;
@@ -81,10 +101,7 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
         if (material_is_delta(m)) return (float3)(0.0f);
         float3 n = specular_normal(sp, wo);
         if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return (float3)(0.0f);
-        float3 f = material_kind(m) == MATERIAL_DIELECTRIC
-            ? eval_dielectric(material_color(m), material_eta(m, sp), material_microfacet(m), n, wo, wi)
-            : eval_conductor(material_color(m), material_microfacet(m), n, wo, wi);
-        return f * specular_energy_scale(scene, m, sp, dot(n, wo));
+        return eval_rough_specular(m, sp, n, wo, wi) * specular_energy_scale(scene, m, sp, dot(n, wo));
     }
 #endif
     return eval_diffuse(material_color(m), sp, wi);
@@ -104,38 +121,40 @@ INLINE float sample_bsdf_pdf(const Scene* scene, const Material* m, const Surfac
         if (material_is_delta(m)) return 0.0f;
         float3 n = specular_normal(sp, wo);
         if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return 0.0f;
-        if (material_kind(m) == MATERIAL_DIELECTRIC)
-            return sample_dielectric_pdf(material_eta(m, sp), material_microfacet(m), n, wo, wi);
-        return sample_conductor_pdf(material_microfacet(m), n, wo, wi);
+        return rough_specular_pdf(m, sp, n, wo, wi);
     }
 #endif
     return sample_diffuse_pdf(sp, wi);
 }
 
 #if DIELECTRIC
-// Dielectrics and conductors, with the random numbers as arguments (for the tests' kernels).
-// Glossy lobes: the weight is eval / pdf of the sampled direction, the same two functions that
-// next-event estimation and MIS use, so both strategies agree by construction.
+// Dielectrics, conductors and thin dielectrics, with the random numbers as arguments (for the
+// tests' kernels). Glossy lobes: the weight is eval / pdf of the sampled direction, the same two
+// functions that next-event estimation and MIS use, so both strategies agree by construction.
 BsdfSample sample_specular_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp,
                                 float3 wo, float rnl, float2 rn) {
     float3 n = specular_normal(sp, wo);
-    Microfacet mf = material_microfacet(m);
-    bool dielectric = material_kind(m) == MATERIAL_DIELECTRIC;
+    int kind = material_kind(m);
+    if (kind == MATERIAL_THIN_DIELECTRIC)
+        return sample_thin_dielectric(material_reflection_tint(m), material_color(m),
+                                      material_ior(m) / material_exterior_ior(m), n, sp->ng, wo, rnl);
+    bool dielectric = kind == MATERIAL_DIELECTRIC;
     float eta = dielectric ? material_eta(m, sp) : 1.0f;
     if (material_is_delta(m)) {
-        if (!dielectric) return sample_conductor_delta(material_color(m), n, sp->ng, wo);
-        return sample_dielectric_delta(material_color(m), eta, n, sp->ng, wo, rnl);
+        if (dielectric)
+            return sample_dielectric_delta(material_reflection_tint(m), material_color(m), eta, n, sp->ng, wo, rnl);
+        return sample_conductor_delta(material_color(m), material_conductor_eta(m), material_conductor_k(m), n,
+                                      sp->ng, wo);
     }
     BsdfSample bs = bsdf_sample_none();
+    Microfacet mf = material_microfacet(m);
     float3 wi = dielectric ? sample_dielectric(eta, mf, n, wo, rnl, rn) : sample_conductor(mf, n, wo, rn);
     if (!sides_agree(dot(wi, sp->ng), dot(wi, n))) return bs;  // also rejects the zero vector
-    float pdf_w = dielectric ? sample_dielectric_pdf(eta, mf, n, wo, wi) : sample_conductor_pdf(mf, n, wo, wi);
+    float pdf_w = rough_specular_pdf(m, sp, n, wo, wi);
     if (!(pdf_w > 0.0f)) return bs;
-    float3 f = dielectric ? eval_dielectric(material_color(m), eta, mf, n, wo, wi)
-                          : eval_conductor(material_color(m), mf, n, wo, wi);
     bs.wi = wi;
     bs.pdf_w = pdf_w;
-    bs.weight = f * specular_energy_scale(scene, m, sp, dot(n, wo)) / pdf_w;
+    bs.weight = eval_rough_specular(m, sp, n, wo, wi) * specular_energy_scale(scene, m, sp, dot(n, wo)) / pdf_w;
     bs.eta = dot(wi, sp->ng) < 0.0f ? eta : 1.0f;
     return bs;
 }

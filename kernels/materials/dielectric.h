@@ -21,18 +21,20 @@
 #if DIELECTRIC
 
 // ----- rough interface: microfacets (materials/microfacet.h) -------------------------------------
-// f * |cos_i| (Walter et al. 2007, eqs. 20-21). Transmission uses the
+// f * |cos_i| (Walter et al. 2007, eqs. 20-21); reflection is tinted by reflect_tint (Mitsuba's
+// specular_reflectance), transmission by tint (specular_transmittance). Transmission uses the
 // generalised half vector h ~ -(wo + eta wi) (eq. 16); the microfacet must face wo and be
 // crossed by wi, otherwise that configuration has no microfacet explaining it. Since
 // wo.h + eta wi.h = |wo + eta wi|, the squared denominator of eq. 21 is |wo + eta wi|^2 / eta^2,
 // which never vanishes, and its eta^2 cancels the 1/eta^2 of radiance transport.
-float3 eval_dielectric(float3 tint, float eta, Microfacet mf, float3 n, float3 wo, float3 wi) {
+float3 eval_dielectric(float3 reflect_tint, float3 tint, float eta, Microfacet mf, float3 n, float3 wo,
+                       float3 wi) {
     float cos_o = dot(n, wo), cos_i = dot(n, wi);
     if (cos_o <= 0.0f || cos_i == 0.0f) return (float3)(0.0f);
     if (cos_i > 0.0f) {
         float3 h = normalize(wo + wi);  // |wo + wi| > 0: both lie above the surface
         float f = fresnel_dielectric(dot(wo, h), eta);
-        return (float3)(f * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+        return reflect_tint * (f * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
     }
     float3 ht = wo + eta * wi;
     float len2 = dot(ht, ht);

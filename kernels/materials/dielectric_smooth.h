@@ -49,16 +49,16 @@ lane_int refract(lane_float3 wo, lane_float3 n, lane_float eta, lane_float3* wt)
 }
 
 // ----- smooth interface: two delta lobes, picked with probability F and 1 - F ------------------
-// The weight of the chosen lobe is its throughput divided by its probability: 1 for reflection,
-// tint / eta^2 for refraction. eta == 1 is an index-matched interface: the ray goes straight on,
+// The weight of the chosen lobe is its throughput divided by its probability: reflect_tint for
+// reflection (Mitsuba's specular_reflectance, usually 1), tint / eta^2 for refraction. eta == 1 is an index-matched interface: the ray goes straight on,
 // so the object vanishes exactly, with no Fresnel term rounded to a tiny non-zero value.
 // n may be an interpolated normal and ng is the facet's, both on wo's side. Near silhouettes n
 // can send the reflected ray into the object or the refracted one back out; such a ray would
 // cross (or not cross) the interface against its eta^2 scaling, or enter the glass at an angle
 // that total internal reflection then traps forever. The facet's normal decides the direction
-// then; if refraction about it is impossible, the ray reflects with weight 1 (energy kept).
-BsdfSample sample_dielectric_delta(lane_float3 tint, lane_float eta, lane_float3 n, lane_float3 ng,
-                                  lane_float3 wo, lane_float rnl) {
+// then; if refraction about it is impossible, the ray reflects (energy kept).
+BsdfSample sample_dielectric_delta(lane_float3 reflect_tint, lane_float3 tint, lane_float eta, lane_float3 n,
+                                  lane_float3 ng, lane_float3 wo, lane_float rnl) {
     BsdfSample bs = bsdf_sample_none();
     bs.delta = LANE_TRUE;
     lane_float f = fresnel_dielectric(l3_dot(n, wo), eta);
@@ -74,7 +74,7 @@ BsdfSample sample_dielectric_delta(lane_float3 tint, lane_float eta, lane_float3
     lane_int below = l3_dot(wr, ng) <= 0.0f;
     if (lane_any(reflected & below)) wr = l3_select(wr, reflect(wo, ng), below);
     bs.wi = l3_select(wt, wr, reflected);
-    bs.weight = l3_select(l3_div(tint, eta * eta), l3_splat(1.0f), reflected);
+    bs.weight = l3_select(l3_div(tint, eta * eta), reflect_tint, reflected);
     bs.eta = select(eta, (lane_float)(1.0f), reflected);
     lane_int matched = eta == 1.0f;
     bs.wi = l3_select(bs.wi, l3_neg(wo), matched);

@@ -19,8 +19,10 @@ float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
 float material_ior(const Material* m) { return m->slot[2].x; }
 float material_exterior_ior(const Material* m) { return m->slot[2].y; }
+float3 material_reflection_tint(const Material* m) { return m->slot[3].xyz; }
+float3 material_conductor_eta(const Material* m) { return m->slot[4].xyz; }
+float3 material_conductor_k(const Material* m) { return m->slot[5].xyz; }
 int material_nonlinear(const Material* m) { return (int)m->slot[2].z; }
-float3 material_specular(const Material* m) { return m->slot[3].xyz; }
 float material_specular_sampling_weight(const Material* m) { return m->slot[4].x; }
 float2 material_coat_alpha_range(const Material* m) { return m->slot[4].yz; }
 int material_coat_alpha_rows(const Material* m) { return (int)m->slot[5].x; }

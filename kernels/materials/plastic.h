@@ -42,7 +42,7 @@ typedef struct {
 Plastic plastic_at(const Scene* scene, const Material* m) {
     Plastic p;
     p.diffuse = material_color(m);
-    p.specular = material_specular(m);
+    p.specular = material_reflection_tint(m);
     p.mf = material_microfacet(m);
     p.specular_weight = material_specular_sampling_weight(m);
     p.nonlinear = material_nonlinear(m);
@@ -94,7 +94,8 @@ BsdfSample sample_plastic(const Plastic* p, float3 n, float3 ng, float3 wo, floa
     bool glossy = rnl < specular;
     if (glossy && p->mirror) {
         float f = 1.0f - coat_transmittance(&p->coat, cos_o);
-        BsdfSample bs = sample_conductor_delta(p->specular * (f / specular), n, ng, wo);
+        // A perfect mirror (index 0 + 0i: Fresnel 1) of the coat's reflectance.
+        BsdfSample bs = sample_conductor_delta(p->specular * (f / specular), (float3)(0.0f), (float3)(0.0f), n, ng, wo);
         bs.pdf_w = specular;
         return bs;
     }
