@@ -106,6 +106,19 @@ MEDIUM_FIELDS = {
 
 CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
 
+# The pixel reconstruction filter (kernels/filter.h, the table built by clrender/filters.py):
+# kind.x FILTER_*; the rest is read by the tabulated filters only. support: x radius, y 1 / the
+# filter's integral. shape: gaussian x -1 / (2 stddev^2), y its value at the radius; tent x
+# 1 / radius. cells: the cubic coefficients (a, b, c, d) of the sampling map in each of
+# FILTER_CELLS cells. edge_cdf and edge_mass (FILTER_EDGES floats each): the cumulative
+# distribution of the sampled density and of the filter at -(k + 0.5), k = 0, 1, ... (0 where
+# that lies beyond the radius).
+FILTER_CELLS = 64
+FILTER_EDGES = 16
+_FILTER_EDGE_TABLE = ("<f4", (FILTER_EDGES // 4, 4))
+FILTER = _struct(("kind", I4), ("support", F4), ("shape", F4), ("cells", ("<f4", (FILTER_CELLS, 4))),
+                 ("edge_cdf", _FILTER_EDGE_TABLE), ("edge_mass", _FILTER_EDGE_TABLE))
+
 RENDER_PARAMS = np.dtype([
     ("camera", CAMERA),
     ("frame", I4),         # width, height, first sample, samples in this pass
@@ -117,6 +130,7 @@ RENDER_PARAMS = np.dtype([
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
     ("sampling", I4),      # x the sampler of camera paths (SAMPLERS)
+    ("filter", FILTER),    # the pixel reconstruction filter
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
@@ -135,6 +149,7 @@ STRUCTS = {
     "Emitter": EMITTER,
     "Medium": MEDIUM,
     "Camera": CAMERA,
+    "Filter": FILTER,
     "RenderParams": RENDER_PARAMS,
     "AovSums": AOV_SUMS,
 }
@@ -149,6 +164,8 @@ MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 # The random numbers of camera paths (render.sampler, kernels/rng.h); RenderParams.sampling.x.
 SAMPLERS = {"independent": 0, "sobol": 1}
+# Pixel reconstruction filters (camera.filter, kernels/filter.h); RenderParams.filter.kind.x.
+FILTER_KINDS = {"box": 0, "gaussian": 1, "tent": 2}
 
 
 def field(records, fields, name):
@@ -187,9 +204,11 @@ def c_constants():
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
-                          ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS)):
+                          ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("FILTER", FILTER_KINDS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
+    lines.append(f"#define FILTER_CELLS {FILTER_CELLS}")
+    lines.append(f"#define FILTER_EDGES {FILTER_EDGES}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

@@ -11,7 +11,7 @@ file path in its timed Mitsuba process, so that process imports Mitsuba only: no
 level here may import clrender.
 
 Conventions made equal (docs/performance.md, "Against Mitsuba 3"): vertical field of view
-(`fov_axis` y), a box pixel filter of one pixel (our jittered pixel samples), one-sided area
+(`fov_axis` y), the pixel filter (box, gaussian or tent), one-sided area
 emitters on the side the triangle winding (or the sphere's outward normal) faces, flat normals
 for meshes without shading normals, max depth counted alike (1: emitters only). Russian roulette
 starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_depth`, its
@@ -82,8 +82,13 @@ def _sensor(scene, spp):
     return {"type": "perspective", "fov": float(camera.fov), "fov_axis": "y",
             "to_world": to_world.tolist(),
             "film": {"type": "hdrfilm", "width": int(width), "height": int(height),
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+                     "rfilter": _rfilter(camera.filter), "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": int(spp)}}
+
+
+def _rfilter(pixel_filter):
+    parameter = {"gaussian": {"stddev": pixel_filter.stddev}, "tent": {"radius": pixel_filter.radius}}
+    return {"type": pixel_filter.type, **parameter.get(pixel_filter.type, {})}
 
 
 def _bsdf(material):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl as cl
 
-from . import layout, limits
+from . import filters, layout, limits
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
@@ -153,6 +153,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["lights"] = (arrays.first_light, 0, 0, 0)
     p["tile"] = (0, 0, width, height) if tile is None else tile
     p["sampling"] = (sampler_code(scene, sampler), 0, 0, 0)
+    p["filter"] = filters.filter_record(camera.filter)
     return p
 
 

@@ -20,6 +20,11 @@ LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
 SAMPLERS = ("sobol", "independent")   # clrender/layout.py SAMPLERS, kernels/rng.h
+FILTER_TYPES = ("box", "gaussian", "tent")   # clrender/filters.py
+# Filter radii up to the image edges the kernel's tables cover (layout.FILTER_EDGES); a filter
+# narrower than MIN_FILTER_RADIUS of a pixel is a box in all but name.
+MAX_FILTER_RADIUS = 16.0
+MIN_FILTER_RADIUS = 0.01
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
 
@@ -35,6 +40,14 @@ def _unit(v):
     return (v / largest) / np.linalg.norm(v / largest)
 
 
+@dataclass(frozen=True)
+class Filter:
+    """The pixel reconstruction filter (clrender/filters.py, kernels/filter.h)."""
+    type: str = "box"          # FILTER_TYPES
+    stddev: float = 0.5        # gaussian, pixels (its radius is 4 stddev)
+    radius: float = 1.0        # tent, pixels
+
+
 @dataclass
 class Camera:
     position: np.ndarray
@@ -42,6 +55,7 @@ class Camera:
     up: np.ndarray
     fov: float                 # vertical field of view, degrees
     resolution: tuple          # (width, height)
+    filter: Filter = field(default_factory=Filter)
 
     def basis(self):
         """(forward, right, up): the unit view direction, and the image's right and up axes
@@ -454,6 +468,7 @@ def _read_camera(node):
         up=node.vector("up", [0, 1, 0]),
         fov=node.number("fov", 40.0, low=0, high=179, low_open=True),
         resolution=(width, height),
+        filter=_read_filter(node.child("filter")) if "filter" in node.data else Filter(),
     )
     node.read.add("medium")  # read with the media, which come later in the file
     forward = camera.look_at - camera.position
@@ -463,6 +478,20 @@ def _read_camera(node):
         raise SceneError(node.at("up"), "must not be zero or parallel to the viewing direction")
     node.finish()
     return camera
+
+
+def _read_filter(node):
+    kind = node.string("type", choices=FILTER_TYPES)
+    d = Filter()
+    if kind == "gaussian":   # its radius is 4 stddev
+        f = Filter(kind, stddev=float(node.number("stddev", d.stddev, low=MIN_FILTER_RADIUS / 4,
+                                                  high=MAX_FILTER_RADIUS / 4)))
+    elif kind == "tent":
+        f = Filter(kind, radius=float(node.number("radius", d.radius, low=MIN_FILTER_RADIUS, high=MAX_FILTER_RADIUS)))
+    else:
+        f = Filter(kind)
+    node.finish()
+    return f
 
 
 def _resolution(node):

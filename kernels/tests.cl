@@ -4,6 +4,7 @@
 #include "math.h"
 #include "rng.h"
 #include "sampling.h"
+#include "filter.h"
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
@@ -17,7 +18,7 @@
 KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
                           __global TriangleShading* sh, __global TriangleInfo* info,
                           __global Material* m, __global Emitter* e, __global Medium* md,
-                          __global Camera* c,
+                          __global Camera* c, __global Filter* f,
                           __global RenderParams* p, __global AovSums* a, __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
@@ -46,11 +47,15 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
     out[k++] = OFFSET(c, up);
+    out[k++] = sizeof(Filter);
+    out[k++] = OFFSET(f, kind); out[k++] = OFFSET(f, support); out[k++] = OFFSET(f, shape);
+    out[k++] = OFFSET(f, cells); out[k++] = OFFSET(f, edge_cdf);
+    out[k++] = OFFSET(f, edge_mass);
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
-    out[k++] = OFFSET(p, sampling);
+    out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
     out[k++] = OFFSET(a, colour_m2);
@@ -83,6 +88,15 @@ KERNEL void path_samples(int sampler, uint seed, int samples, int dims, __global
         float2 u = rng_float2(&pairs);
         out[(j * samples + i) * dims + d] = (float4)(u, rng_float(&singles), 0.0f);
     }
+}
+
+// ----- pixel filter (filter.h): the offset and weight of sample i of pixel `pixel` of `size` --
+KERNEL void filter_samples(__constant Filter* filter, int pixel, int size, uint seed, __global float2* out) {
+    int i = get_global_id(0);
+    Rng rng = rng_for_sample((uint)i, 0u, seed);
+    float weight;
+    float t = sample_filter_axis(filter, rng_float(&rng), pixel, size, &weight);
+    out[i] = (float2)(t, weight);
 }
 
 // The scrambled Sobol bits of (index, seed): Owen-scrambled dimensions 0 and 1, the nested

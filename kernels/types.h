@@ -45,6 +45,12 @@ typedef struct {
 // forward + sx * right + sy * up with sx, sy in [-1, 1].
 typedef struct { float4 origin; float4 forward; float4 right; float4 up; } Camera;
 
+// The pixel reconstruction filter (filter.h; layout.py FILTER names the fields): kind.x FILTER_*.
+typedef struct {
+    int4 kind; float4 support; float4 shape; float4 cells[FILTER_CELLS];
+    float4 edge_cdf[FILTER_EDGES / 4]; float4 edge_mass[FILTER_EDGES / 4];
+} Filter;
+
 typedef struct {
     Camera camera;
     int4 frame;        // x width, y height, z first sample index of this pass, w samples in pass
@@ -57,6 +63,7 @@ typedef struct {
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
     int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h)
+    Filter filter;     // the pixel reconstruction filter (filter.h)
 } RenderParams;
 
 // Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose

@@ -52,6 +52,11 @@ def test_example_scenes_load():
     (lambda s: s["camera"].update(fov=180), "camera.fov", "<= 179"),
     (lambda s: s["camera"].update(resolution=[0, 10]), "camera.resolution", "integers"),
     (lambda s: s["camera"].update(look_at=[0, 0, 5]), "camera.look_at", "must differ"),
+    (lambda s: s["camera"].update(filter={"type": "mitchell"}), "camera.filter.type", "valid: box, gaussian, tent"),
+    (lambda s: s["camera"].update(filter={"type": "gaussian", "stddev": 5}), "camera.filter.stddev", "<= 4"),
+    (lambda s: s["camera"].update(filter={"type": "tent", "radius": 0}), "camera.filter.radius", ">= 0.01"),
+    (lambda s: s["camera"].update(filter={"type": "box", "radius": 2}), "camera.filter.radius", "unknown field"),
+    (lambda s: s["camera"].update(filter="gaussian"), "camera.filter", "must be an object"),
     (lambda s: s.update(render={"spp": -1}), "render.spp", ">= 1"),
     (lambda s: s.update(render={"max_depth": 2.5}), "render.max_depth", "integer"),
     (lambda s: s.update(lights=[{"type": "spot"}]), "lights[0].type", "valid: environment, point, directional"),
@@ -66,6 +71,16 @@ def test_invalid_fields_are_reported_with_their_place(patch, where, message):
     text = error_of(data)
     assert text.startswith(where + ":"), text
     assert message in text, text
+
+
+def test_the_camera_filter_is_a_box_unless_named_with_mitsubas_defaults():
+    def loaded(**fields):
+        return clrender.load_scene_dict(base_scene(camera={**camera(), **fields})).camera.filter
+
+    assert loaded().type == "box"
+    assert (loaded(filter={"type": "gaussian"}).type, loaded(filter={"type": "gaussian"}).stddev) == ("gaussian", 0.5)
+    assert loaded(filter={"type": "gaussian", "stddev": 0.3}).stddev == 0.3
+    assert loaded(filter={"type": "tent"}).radius == 1.0
 
 
 def test_missing_mesh_file_names_the_path_tried(tmp_path):
