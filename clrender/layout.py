@@ -104,7 +104,9 @@ MEDIUM_FIELDS = {
     "majorant_resolution": ("majorant_resolution", 0, 3),
 }
 
-CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
+# lens: x the aperture radius (0: a pinhole), y the distance of the plane in focus along forward
+# (kernels/camera.h).
+CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4), ("lens", F4))
 
 # The pixel reconstruction filter (kernels/filter.h, the table built by clrender/filters.py):
 # kind.x FILTER_*; the rest is read by the tabulated filters only. support: x radius, y 1 / the

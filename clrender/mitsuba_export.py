@@ -11,7 +11,7 @@ file path in its timed Mitsuba process, so that process imports Mitsuba only: no
 level here may import clrender.
 
 Conventions made equal (docs/performance.md, "Against Mitsuba 3"): vertical field of view
-(`fov_axis` y), the pixel filter (box, gaussian or tent), one-sided area
+(`fov_axis` y), the pixel filter (box, gaussian or tent), a thin lens, one-sided area
 emitters on the side the triangle winding (or the sphere's outward normal) faces, flat normals
 for meshes without shading normals, max depth counted alike (1: emitters only). Russian roulette
 starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_depth`, its
@@ -79,7 +79,9 @@ def _sensor(scene, spp):
     to_world[:3, 1] = up / np.linalg.norm(up)
     to_world[:3, 2] = forward
     to_world[:3, 3] = camera.position
-    return {"type": "perspective", "fov": float(camera.fov), "fov_axis": "y",
+    lens = {"type": "thinlens", "aperture_radius": float(camera.aperture_radius),
+            "focus_distance": float(camera.focus_distance)} if camera.aperture_radius > 0 else {"type": "perspective"}
+    return {**lens, "fov": float(camera.fov), "fov_axis": "y",
             "to_world": to_world.tolist(),
             "film": {"type": "hdrfilm", "width": int(width), "height": int(height),
                      "rfilter": _rfilter(camera.filter), "pixel_format": "rgb"},

@@ -139,6 +139,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["camera"]["forward"][0, :3] = forward
     p["camera"]["right"][0, :3] = right
     p["camera"]["up"][0, :3] = up
+    p["camera"]["lens"][0, :2] = (camera.aperture_radius * arrays.length_scale, camera.focus_distance * arrays.length_scale)
     p["frame"] = (width, height, first_sample, samples)
     # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
     p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))

@@ -56,6 +56,10 @@ class Camera:
     fov: float                 # vertical field of view, degrees
     resolution: tuple          # (width, height)
     filter: Filter = field(default_factory=Filter)
+    # A thin lens (Mitsuba's thinlens; kernels/camera.h): aperture radius (0: a pinhole) and the
+    # distance of the plane in focus along the view direction.
+    aperture_radius: float = 0.0
+    focus_distance: float = 1.0
 
     def basis(self):
         """(forward, right, up): the unit view direction, and the image's right and up axes
@@ -206,6 +210,9 @@ class Scene:
         self.camera.position = linear @ self.camera.position + offset
         self.camera.look_at = linear @ self.camera.look_at + offset
         self.camera.up = linear @ self.camera.up
+        lengths = abs(np.linalg.det(linear)) ** (1 / 3)   # the lens's, under a uniform scale
+        self.camera.aperture_radius *= lengths
+        self.camera.focus_distance *= lengths
         for light in self.lights:
             if light.position is not None:
                 light.position = linear @ light.position + offset
@@ -469,11 +476,13 @@ def _read_camera(node):
         fov=node.number("fov", 40.0, low=0, high=179, low_open=True),
         resolution=(width, height),
         filter=_read_filter(node.child("filter")) if "filter" in node.data else Filter(),
+        aperture_radius=float(node.number("aperture_radius", 0.0, low=0)),
     )
     node.read.add("medium")  # read with the media, which come later in the file
     forward = camera.look_at - camera.position
     if _norm(forward) == 0:
         raise SceneError(node.at("look_at"), "must differ from camera.position")
+    camera.focus_distance = float(node.number("focus_distance", _norm(forward), low=0, low_open=True))
     if _norm(camera.up) == 0 or _norm(np.cross(_unit(forward), _unit(camera.up))) <= 1e-9:
         raise SceneError(node.at("up"), "must not be zero or parallel to the viewing direction")
     node.finish()

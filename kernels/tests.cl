@@ -4,7 +4,7 @@
 #include "math.h"
 #include "rng.h"
 #include "sampling.h"
-#include "filter.h"
+#include "camera.h"
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
@@ -46,7 +46,7 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = OFFSET(md, majorant_resolution); out[k++] = OFFSET(md, to_voxel);
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
-    out[k++] = OFFSET(c, up);
+    out[k++] = OFFSET(c, up); out[k++] = OFFSET(c, lens);
     out[k++] = sizeof(Filter);
     out[k++] = OFFSET(f, kind); out[k++] = OFFSET(f, support); out[k++] = OFFSET(f, shape);
     out[k++] = OFFSET(f, cells); out[k++] = OFFSET(f, edge_cdf);
@@ -97,6 +97,19 @@ KERNEL void filter_samples(__constant Filter* filter, int pixel, int size, uint 
     float weight;
     float t = sample_filter_axis(filter, rng_float(&rng), pixel, size, &weight);
     out[i] = (float2)(t, weight);
+}
+
+// ----- camera rays (camera.h): sample i = (image x, y in pixels from the top-left corner, lens
+// u.x, u.y); out[2 i] the ray's origin, out[2 i + 1] its direction. ------------------------
+KERNEL void camera_rays(__constant RenderParams* params, __global const float4* samples, __global float4* out) {
+    int i = get_global_id(0);
+    float4 sample = samples[i];
+    int x = (int)floor(sample.x), y = (int)floor(sample.y);
+    Ray ray = camera_ray(&params->camera, x, y, params->frame.x, params->frame.y,
+                         (float2)(sample.x - (float)x, sample.y - (float)y));
+    if (params->camera.lens.x > 0.0f) ray = through_lens(&params->camera, ray, sample.zw);
+    out[2 * i] = (float4)(ray.origin, 0.0f);
+    out[2 * i + 1] = (float4)(ray.direction, 0.0f);
 }
 
 // The scrambled Sobol bits of (index, seed): Owen-scrambled dimensions 0 and 1, the nested

@@ -42,8 +42,9 @@ typedef struct {
 } Medium;
 
 // right/up are pre-scaled by tan(fov/2) (and the aspect ratio), so a pixel's direction is
-// forward + sx * right + sy * up with sx, sy in [-1, 1].
-typedef struct { float4 origin; float4 forward; float4 right; float4 up; } Camera;
+// forward + sx * right + sy * up with sx, sy in [-1, 1]. lens: x the aperture radius (0: a
+// pinhole), y the distance of the plane in focus along forward (camera.h).
+typedef struct { float4 origin; float4 forward; float4 right; float4 up; float4 lens; } Camera;
 
 // The pixel reconstruction filter (filter.h; layout.py FILTER names the fields): kind.x FILTER_*.
 typedef struct {

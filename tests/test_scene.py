@@ -57,6 +57,8 @@ def test_example_scenes_load():
     (lambda s: s["camera"].update(filter={"type": "tent", "radius": 0}), "camera.filter.radius", ">= 0.01"),
     (lambda s: s["camera"].update(filter={"type": "box", "radius": 2}), "camera.filter.radius", "unknown field"),
     (lambda s: s["camera"].update(filter="gaussian"), "camera.filter", "must be an object"),
+    (lambda s: s["camera"].update(aperture_radius=-0.1), "camera.aperture_radius", ">= 0"),
+    (lambda s: s["camera"].update(focus_distance=0), "camera.focus_distance", "> 0"),
     (lambda s: s.update(render={"spp": -1}), "render.spp", ">= 1"),
     (lambda s: s.update(render={"max_depth": 2.5}), "render.max_depth", "integer"),
     (lambda s: s.update(lights=[{"type": "spot"}]), "lights[0].type", "valid: environment, point, directional"),

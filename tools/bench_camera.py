@@ -1,6 +1,7 @@
 """Cost of the camera's options in both kernels (the megakernel and the packets): a scene
-rendered with the box filter (the default) against the gaussian and the tent filters
-(kernels/filter.h) and, with --baseline, against another checkout's box (the code before them).
+rendered with the box filter and a pinhole (the defaults) against the gaussian and the tent
+filters (kernels/filter.h), a thin lens (kernels/camera.h) and, with --baseline, another
+checkout's defaults (the code before them).
 
     python tools/bench_camera.py [scenes...] [--baseline /path/to/other/checkout] [--rounds 5]
         [--spp 256] [--resolution 128]
@@ -20,7 +21,8 @@ from clrender.bench import checkout_comparison_arguments, checkout_worker, inter
 
 DEFAULT_SCENES = ["scenes/cornell_box.json"]
 # name -> the camera's settings (JSON fields), applied after loading the scene
-CAMERAS = {"box": {}, "gaussian": {"filter": {"type": "gaussian"}}, "tent": {"filter": {"type": "tent"}}}
+CAMERAS = {"box": {}, "gaussian": {"filter": {"type": "gaussian"}}, "tent": {"filter": {"type": "tent"}},
+           "thinlens": {"aperture_radius": 0.05}}
 
 WORKER = """
 import importlib.util, json, os, sys
