@@ -24,10 +24,10 @@ _EXPORTS = {
     "MissingDependency": "errors", "SceneError": "errors",
     "load_exr_layers": "image", "load_image": "image", "save_image": "image",
     "efficiency": "metrics", "mse": "metrics", "relative_mse": "metrics", "rmse": "metrics",
-    "MitsubaXmlError": "mitsuba_xml", "MitsubaXmlWarning": "mitsuba_xml",
+    "MitsubaXmlError": "mitsuba", "MitsubaXmlWarning": "mitsuba",
     "Accumulation": "render", "Renderer": "render", "RenderInterrupted": "render", "RenderResult": "render",
     "render": "render",
-    "load_scene": "scene", "load_scene_dict": "scene",
+    "load_scene": "loader", "load_scene_dict": "scene",
 }
 __all__ = sorted(_EXPORTS)
 

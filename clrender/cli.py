@@ -158,7 +158,7 @@ def _add_parameter_option(parser):
 
 
 def _parameter(text):
-    from .mitsuba_xml import PARAMETER_NAME
+    from .mitsuba import PARAMETER_NAME
 
     name, sep, value = text.partition("=")
     if not sep or not name:
@@ -186,17 +186,12 @@ def _parameters(args):
 def _load_scene(path, parameters):
     """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
     the translation notes that `info` shows (None for JSON)."""
-    from .scene import load_scene
+    from .loader import read_scene_file
 
-    if path.suffix.lower() != ".xml":
-        return load_scene(path), None
-    from . import mitsuba_xml
-
-    translation = mitsuba_xml.read_scene(path, parameters)
-    for message in translation.warnings:
-        print(f"clrender: warning: {message}", file=sys.stderr)
-    scene = mitsuba_xml.scene_from_translation(translation)
-    return scene, translation.notes
+    loaded = read_scene_file(path, parameters)
+    for warning in loaded.warnings:
+        print(f"clrender: warning: {warning}", file=sys.stderr)
+    return loaded.scene, loaded.notes
 
 
 def _image_side(text):
@@ -431,7 +426,7 @@ def _report(output, result, where, status, bar=None):
 def _info(args):
     from .arrays import build_scene_arrays
     from .features import describe, scene_features
-    from .mitsuba_xml import errors_at_source
+    from .origins import errors_at_source
 
     for flag, given in (("--device", args.device), ("--no-launch", args.no_launch), ("--resolution", args.resolution)):
         if given and not args.kernel:

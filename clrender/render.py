@@ -16,7 +16,7 @@ from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
 from .errors import ArgumentError
 from .features import scene_features
-from .mitsuba_xml import errors_at_source
+from .origins import errors_at_source
 from .scene import as_scene
 
 

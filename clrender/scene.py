@@ -13,6 +13,7 @@ import numpy as np
 
 from . import grids, limits, meshes
 from .errors import ArgumentError, FileError, SceneError
+from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
@@ -200,7 +201,7 @@ class Scene:
     camera_medium: int = None      # medium at the camera; None: found by casting a ray
     path: Path = None
     outlines: Outlines = field(default_factory=Outlines)
-    origins: dict = None           # scene field -> its place in a Mitsuba XML file
+    origins: object = None         # read from another format: where its fields came from (origins.Origins)
 
     def transform(self, matrix):
         """Move everything (shapes, camera, point and directional lights) by an affine 4x4 matrix."""
@@ -339,43 +340,17 @@ def as_scene(scene):
     raise ArgumentError("scene", f"must be a Scene, a scene dict or a file path, got {type(scene).__name__}")
 
 
-def load_scene(path, parameters=None):
-    """Load and validate a scene file: JSON, or Mitsuba 3 XML (`.xml`, docs/mitsuba-xml.md;
-    `parameters` override its <default> values, like Mitsuba's -D). Relative file paths resolve
-    against the file's folder."""
-    path = _path_argument(path, "path")
-    if path.suffix.lower() == ".xml":
-        from . import mitsuba_xml
-
-        return mitsuba_xml.load_scene(path, parameters)
+def read_scene_file(path, parameters=None):
+    """The JSON scene file `path` (clrender.loader's reader of clrender's own format)."""
     if parameters:
         raise ArgumentError("parameters", f"apply to Mitsuba XML scenes only, not to {path}")
     scene = load_scene_dict(read_json(path), base_dir=path.parent)
     scene.path = path
-    return scene
-
-
-def _path_argument(value, where):
-    if not isinstance(value, (str, os.PathLike)):
-        raise ArgumentError(where, f"must be a file path, got {type(value).__name__}")
-    return Path(value)
+    return LoadedScene(scene)
 
 
 _BOMS = {b"\xff\xfe\x00\x00": "UTF-32", b"\x00\x00\xfe\xff": "UTF-32", b"\xff\xfe": "UTF-16",
          b"\xfe\xff": "UTF-16"}
-
-
-def read_scene_bytes(path, error=SceneError):
-    """The contents of the scene file `path`; `error("", message)` naming it where it is a
-    folder, missing or unreadable."""
-    if path.is_dir():
-        raise error("", f"{path} is a directory, not a scene file")
-    try:
-        return path.read_bytes()
-    except FileNotFoundError:
-        raise error("", f"scene file not found: {path}") from None
-    except OSError as e:
-        raise error("", f"cannot read scene file {path}: {e.strerror or e}") from None
 
 
 def read_json(path):
@@ -438,7 +413,7 @@ def _first_duplicate_key(document):
 
 def load_scene_dict(data, base_dir="."):
     """Build a Scene from a dict with the JSON scene structure (see docs/scene-format.md)."""
-    base_dir = _path_argument(base_dir, "base_dir")
+    base_dir = path_argument(base_dir, "base_dir")
     root = _Node(data, "")
     camera = _read_camera(root.child("camera"))
     render = _read_render(root.child("render", {}))

@@ -18,7 +18,9 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender import cie, grids, mitsuba_xml
+from clrender import cie, grids
+from clrender.mitsuba import (CONDUCTOR_PRESETS, IOR_PRESETS, MitsubaXmlWarning, mitsuba_envmap_lookup,
+                              read_scene, resample_envmap)
 import mitsuba_scenes
 
 try:
@@ -36,7 +38,7 @@ def scalar_rgb():
 
 def load_quietly(path, **parameters):
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", mitsuba_xml.MitsubaXmlWarning)
+        warnings.simplefilter("ignore", MitsubaXmlWarning)
         return clrender.load_scene(path, parameters=parameters)
 
 
@@ -121,7 +123,7 @@ def test_camera_rays_through_pixel_centres_and_corners_match(tmp_path, fov, size
     path = tmp_path / "camera.xml"
     path.write_text(sensor_xml(fov, size, to_world))
     sensor = mi.load_file(str(path)).sensors()[0]
-    camera = mitsuba_xml.read_scene(path).scene["camera"]
+    camera = read_scene(path).scene["camera"]
     ours = clrender.load_scene_dict({"camera": camera}).camera
     width, height = size
     # Image positions in pixels: the corners, pixel centres and an edge; (0, 0) is the top left.
@@ -180,10 +182,10 @@ def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path
         si.wi = mi.Vector3f(*(-d))
         theirs.append(np.array(emitter.eval(si)))
     theirs = np.array(theirs)
-    assert np.allclose(mitsuba_xml.mitsuba_envmap_lookup(image, directions @ matrix[:3, :3]), theirs, rtol=1e-5, atol=1e-6)
+    assert np.allclose(mitsuba_envmap_lookup(image, directions @ matrix[:3, :3]), theirs, rtol=1e-5, atol=1e-6)
     # clrender's texel lookup (lights.h) in the resampled map: close to Mitsuba's, except next to
     # the sharp texel, where constant texels cannot follow the bilinear ramp.
-    resampled = mitsuba_xml.resample_envmap(image, matrix[:3, :3], 96, 56)
+    resampled = resample_envmap(image, matrix[:3, :3], 96, 56)
     u = np.arctan2(directions[:, 0], -directions[:, 2]) / (2 * np.pi) + 0.5
     v = np.arccos(directions[:, 1]) / np.pi
     ours = resampled[np.minimum((v * 56).astype(int), 55), np.minimum((u * 96).astype(int), 95)]
@@ -194,14 +196,14 @@ def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path
 def test_conductor_presets_are_mitsubas_normal_reflectance():
     si = mi.SurfaceInteraction3f()
     si.wi = mi.Vector3f(0, 0, 1)
-    for name, reflectance in mitsuba_xml.CONDUCTOR_PRESETS.items():
+    for name, reflectance in CONDUCTOR_PRESETS.items():
         bsdf = mi.load_dict({"type": "conductor", "material": name})
         _, weight = bsdf.sample(mi.BSDFContext(), si, 0.5, mi.Point2f(0.5, 0.5))
         assert np.allclose(np.array(weight), reflectance, atol=6e-5), name
 
 
 def test_named_iors_are_mitsubas():
-    for name, ior in mitsuba_xml.IOR_PRESETS.items():
+    for name, ior in IOR_PRESETS.items():
         bsdf = mi.load_dict({"type": "dielectric", "int_ior": name, "ext_ior": "vacuum"})
         assert np.isclose(mi.traverse(bsdf)["eta"], ior, rtol=1e-6), name
 
@@ -227,7 +229,7 @@ def test_spectrum_values_reach_the_scene_as_in_mitsuba(tmp_path):
         <emitter type="constant" id="d"><float name="radiance" value="0.4"/></emitter>
     </scene>""")
     theirs = mi.traverse(mi.load_file(str(tmp_path / "s.xml")))
-    scene = mitsuba_xml.read_scene(tmp_path / "s.xml").scene
+    scene = read_scene(tmp_path / "s.xml").scene
     ours = {"a.bsdf.reflectance.value": scene["materials"][0]["albedo"],
             "b.intensity.value": scene["lights"][0]["intensity"],
             "c.irradiance.value": scene["lights"][1]["irradiance"],
@@ -243,7 +245,7 @@ def test_transforms_compose_as_in_mitsuba(tmp_path):
     (tmp_path / "s.xml").write_text(f"""<scene version="3.0.0"><sensor type="perspective"/>
         <shape type="rectangle" id="r"><transform name="to_world">{operations}</transform></shape></scene>""")
     theirs = np.array(mi.traverse(mi.load_file(str(tmp_path / "s.xml")))["r.to_world"].matrix)
-    ours = mitsuba_xml.read_scene(tmp_path / "s.xml").scene["shapes"][0]["transform"]["matrix"]
+    ours = read_scene(tmp_path / "s.xml").scene["shapes"][0]["transform"]["matrix"]
     assert np.allclose(ours, theirs, atol=1e-5)
 
 
@@ -256,6 +258,6 @@ def test_default_bsdfs_of_shapes_are_mitsubas(tmp_path):
     (tmp_path / "s.xml").write_text(xml)
     shapes = mi.load_file(str(tmp_path / "s.xml")).shapes()
     theirs = sorted(float(np.mean(mi.traverse(shape.bsdf())["reflectance.value"])) for shape in shapes)
-    scene = mitsuba_xml.read_scene(tmp_path / "s.xml").scene
+    scene = read_scene(tmp_path / "s.xml").scene
     ours = sorted(float(np.mean(scene["materials"][i]["albedo"])) for i in (0, 1))
     assert theirs == ours == [0.0, 0.5]

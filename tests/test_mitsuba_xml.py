@@ -10,8 +10,8 @@ import pytest
 import trimesh
 
 import clrender
-from clrender import cie, grids, limits, meshes, mitsuba_xml
-from clrender.mitsuba_xml import MitsubaXmlError, MitsubaXmlWarning
+from clrender import cie, grids, limits, meshes, mitsuba
+from clrender.mitsuba import MitsubaXmlError, MitsubaXmlWarning
 
 SENSOR = """<sensor type="perspective">
         <float name="fov" value="40"/>
@@ -29,7 +29,7 @@ def write(folder, body, sensor=SENSOR, name="scene.xml", version="3.0.0"):
 
 def translate(folder, body, sensor=SENSOR, parameters=None):
     """(scene dict, warnings) of a scene with the default sensor and `body`."""
-    translation = mitsuba_xml.read_scene(write(folder, body, sensor), parameters)
+    translation = mitsuba.read_scene(write(folder, body, sensor), parameters)
     return translation.scene, translation.warnings
 
 
@@ -330,7 +330,7 @@ def test_bsdfs(tmp_path, bsdf, expected):
 def test_conductor_presets_and_eta_k_warn(tmp_path):
     material, warned = material_of(tmp_path, '<bsdf type="conductor"><string name="material" value="Au"/>'
                                              '<float name="specular_reflectance" value="0.5"/></bsdf>')
-    assert np.allclose(material["tint"], 0.5 * np.array(mitsuba_xml.CONDUCTOR_PRESETS["Au"]))
+    assert np.allclose(material["tint"], 0.5 * np.array(mitsuba.CONDUCTOR_PRESETS["Au"]))
     assert len(warned) == 1 and "material 'Au' approximated by its normal-incidence reflectance" in warned[0]
     material, warned = material_of(tmp_path, '<bsdf type="conductor"><rgb name="eta" value="0.2, 0.9, 1.1"/>'
                                              '<rgb name="k" value="3.9, 2.4, 2.2"/></bsdf>')
@@ -495,8 +495,8 @@ def test_envmap_lookup_convention():
     u, v = (2 + 0.5) / 4, 0.5
     phi, theta = 2 * np.pi * u, np.pi * v
     direction = np.array([[np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)]])
-    assert np.allclose(mitsuba_xml.mitsuba_envmap_lookup(image, direction), 1.0)
-    assert np.allclose(mitsuba_xml.mitsuba_envmap_lookup(image, direction * [[1, 1, -1]]), 0.0)
+    assert np.allclose(mitsuba.mitsuba_envmap_lookup(image, direction), 1.0)
+    assert np.allclose(mitsuba.mitsuba_envmap_lookup(image, direction * [[1, 1, -1]]), 0.0)
 
 
 @pytest.mark.parametrize("body,message", [

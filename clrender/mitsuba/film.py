@@ -1,0 +1,39 @@
+"""Films: the image size.
+
+| plugin | parameter (Mitsuba's default) | clrender |
+|---|---|---|
+| `hdrfilm` | `width` (768), `height` (576) | `camera.resolution` |
+| | nested `rfilter` (gaussian) | read by rfilter.py |
+| | accepted (output encoding only) | `file_format`, `pixel_format`, `component_format`, `sample_border`, `compensate`, `banner`, `high_quality_edges` |
+| | errors | crop windows (`crop_offset_*`, `crop_width`, `crop_height` other than the whole image) |
+| none | | hdrfilm 768 x 576 with a gaussian filter (a warning) |
+"""
+from .rfilter import BOX_APPROXIMATION, read_rfilter
+
+
+def read_film(plugin, reader):
+    """(width, height); plugin None: the sensor has no film."""
+    if plugin is None:
+        reader.warn("no <film>: Mitsuba's default hdrfilm is 768 x 576 with a gaussian filter, "
+                    "rendered with clrender's box filter")
+        return 768, 576
+    if plugin.type != "hdrfilm":
+        raise plugin.error(f"unsupported film '{plugin.type}' (supported: hdrfilm)")
+    width, height = plugin.integer("width", 768), plugin.integer("height", 576)
+    if width < 1 or height < 1:
+        raise plugin.error(f"width and height must be >= 1, got {width} x {height}")
+    crop = (plugin.integer("crop_offset_x", 0), plugin.integer("crop_offset_y", 0),
+            plugin.integer("crop_width", width), plugin.integer("crop_height", height))
+    if crop != (0, 0, width, height):
+        raise plugin.error("crop windows are not supported")
+    plugin.accept("file_format", "pixel_format", "component_format", "sample_border", "compensate",
+                  "banner", "high_quality_edges")   # output encoding only
+    filters = plugin.nested("rfilter")
+    if len(filters) > 1:
+        raise plugin.error("a film takes one rfilter")
+    if filters:
+        read_rfilter(filters[0], reader)
+    else:
+        reader.warn(f"{plugin.element.where()}: reconstruction filter gaussian (Mitsuba's default) {BOX_APPROXIMATION}")
+    plugin.finish()
+    return width, height

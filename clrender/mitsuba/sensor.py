@@ -1,0 +1,105 @@
+"""Sensors: the camera, with its film and sampler (film.py, sampler.py).
+
+| plugin | parameter (Mitsuba's default) | clrender |
+|---|---|---|
+| `perspective` | `fov` + `fov_axis` (x, y, diagonal, smaller, larger; x) | `camera.fov`, the vertical field of view |
+| | `focal_length` (50mm, 35 mm film's diagonal, when neither is given) | the same, from the diagonal fov |
+| | `to_world` (a rotation and translation) | `camera.position`, `look_at` (+z), `up` (+y) |
+| | `near_clip` (0.01), `far_clip` (10000) | not clipped: other values are a warning |
+| | nested `film`, `sampler` | `camera.resolution`; `render.spp`, `seed`, `sampler` |
+| | nested `medium` | `camera.medium` and the scene's `medium` |
+| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene) |
+| | errors | non-zero `principal_point_offset_x`, `principal_point_offset_y` |
+"""
+import re
+
+import numpy as np
+
+from .film import read_film
+from .medium import read_medium
+from .sampler import read_sampler
+from .transforms import is_rigid
+
+DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP = 0.01, 10000.0
+
+
+def read_sensor(plugin, reader):
+    """perspective: the camera (position, look_at, up, vertical fov), film and sampler."""
+    if plugin.type != "perspective":
+        raise plugin.error(f"unsupported sensor '{plugin.type}' (supported: perspective)")
+    films = plugin.nested("film")
+    samplers = plugin.nested("sampler")
+    media = plugin.nested("medium")
+    if len(films) > 1 or len(samplers) > 1 or len(media) > 1:
+        raise plugin.error("a sensor takes at most one film, one sampler and one medium")
+    width, height = read_film(films[0] if films else None, reader)
+    spp, seed, sampler = read_sampler(samplers[0] if samplers else None, reader)
+    render = reader.out.scene["render"]
+    render.update(spp=spp, seed=seed, sampler=sampler)
+    matrix = plugin.transform("to_world")
+    matrix = np.eye(4) if matrix is None else matrix
+    if not is_rigid(matrix):
+        raise plugin.error("the sensor's to_world must be a rotation and translation (Mitsuba "
+                           "rejects scale factors; mirroring or shearing the image is not supported)")
+    fov_y = _vertical_fov(plugin, width / height)
+    for name, default in (("near_clip", DEFAULT_NEAR_CLIP), ("far_clip", DEFAULT_FAR_CLIP)):
+        value = plugin.number(name, default)
+        if value != default:
+            reader.warn(f"{plugin.element.where()}: {name} {value:g} ignored (clrender's camera "
+                        "does not clip; differs only where geometry lies closer than near_clip or beyond far_clip)")
+    for name in ("principal_point_offset_x", "principal_point_offset_y"):
+        if plugin.number(name, 0.0) != 0.0:
+            raise plugin.error(f"{name} is not supported (off-centre projections)")
+    plugin.accept("shutter_open", "shutter_close")   # no effect on a static scene
+    plugin.finish()
+    position = matrix[:3, 3]
+    forward = matrix[:3, :3] @ [0.0, 0.0, 1.0]
+    camera = {"position": position.tolist(), "look_at": (position + forward / np.linalg.norm(forward)).tolist(),
+              "up": (matrix[:3, :3] @ [0.0, 1.0, 0.0]).tolist(), "fov": fov_y,
+              "resolution": [width, height]}
+    reader.out.scene["camera"] = camera
+    if media and not reader.ignore_media:
+        name = read_medium(media[0], reader)
+        camera["medium"] = name
+        reader.out.scene["medium"] = name   # shapes without media leave the ray in it (see medium.check_media_nesting)
+    else:
+        camera["medium"] = None
+        if media:
+            reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
+    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}")
+
+
+def _vertical_fov(plugin, aspect):
+    """Mitsuba's fov along fov_axis (x, y, diagonal, smaller, larger; default x), or its
+    focal_length (35 mm film, diagonal; default 50mm), as the vertical fov clrender uses."""
+    if plugin.has("fov") and plugin.has("focal_length"):
+        raise plugin.error("give either fov or focal_length")
+    if plugin.has("focal_length"):
+        text = plugin.string("focal_length")
+        match = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm)?\s*", text)
+        if not match or not float(match.group(1)) > 0:
+            raise plugin.error(f"focal_length must be like '50mm', got {text!r}")
+        tan_half = np.hypot(36.0, 24.0) / (2 * float(match.group(1)))   # along `axis`
+        axis = "diagonal"
+    else:
+        fov = plugin.number("fov", None)
+        axis = plugin.string("fov_axis", "x").lower()
+        if fov is None:
+            tan_half, axis = np.hypot(36.0, 24.0) / (2 * 50.0), "diagonal"
+        elif not 0 < fov < 180:
+            raise plugin.error(f"fov must be in (0, 180) degrees, got {fov:g}")
+        else:
+            tan_half = np.tan(np.radians(fov) / 2)
+    if axis == "smaller":
+        axis = "x" if aspect <= 1 else "y"
+    elif axis == "larger":
+        axis = "y" if aspect <= 1 else "x"
+    if axis == "x":
+        tan_y = tan_half / aspect
+    elif axis == "y":
+        tan_y = tan_half
+    elif axis == "diagonal":
+        tan_y = tan_half / np.hypot(aspect, 1.0)
+    else:
+        raise plugin.error(f"unknown fov_axis '{axis}' (x, y, diagonal, smaller, larger)")
+    return float(np.degrees(2 * np.arctan(tan_y)))

@@ -1,0 +1,123 @@
+"""Shapes: triangle meshes and analytic spheres, each with its material (its BSDF and area emitter)
+and media.
+
+| plugin | parameter (Mitsuba's default) | clrender shape |
+|---|---|---|
+| `rectangle` | | `rectangle`: [-1, 1]^2 in z = 0, facing +z |
+| `cube` | | `box`: [-1, 1]^3, outwards |
+| `disk` | | `disk`: radius 1 in z = 0, facing +z |
+| `sphere` | `center` (0), `radius` (1); to_world a rotation, translation and uniform scale | analytic `sphere` |
+| `obj`, `ply` | `filename`, `face_normals` (false: smooth); `flip_tex_coords` accepted | `mesh` (`smooth`) |
+| all | `to_world` | `transform` |
+| | `flip_normals` (false) | `flip_normals` |
+| | nested or referenced `bsdf` (bsdf.py; none: diffuse 0.5, black if emitting) | `material` |
+| | nested `area` emitter (emitter.py) | the material's `emission` |
+| | `interior`, `exterior` media (medium.py; one side given: the other is vacuum) | `interior`, `exterior` |
+"""
+from pathlib import Path
+
+import numpy as np
+
+from .bsdf import read_bsdf
+from .emitter import read_area_emitter
+from .medium import read_medium
+from .transforms import matrix_rows, rotation_scale
+from .values import fmt
+from .xml import MitsubaXmlError
+
+SHAPES = ("rectangle", "cube", "sphere", "disk", "obj", "ply")
+
+
+def read_shape(plugin, reader):
+    kind = plugin.type
+    if kind not in SHAPES:
+        raise plugin.error(f"unsupported shape '{kind}' (supported: {', '.join(SHAPES)})")
+    index = len(reader.out.scene["shapes"])
+    shape = {"name": plugin.id or f"{kind}_line{plugin.element.line}"}
+    matrix = plugin.transform("to_world")
+    if kind in ("obj", "ply"):
+        shape["type"] = "mesh"
+        shape["file"] = str(plugin.file("filename", reader.files))
+        shape["smooth"] = not plugin.boolean("face_normals", False)
+        plugin.accept("flip_tex_coords")   # no textures
+        summary = f"mesh {Path(shape['file']).name}"
+    elif kind == "sphere":
+        shape["type"] = "sphere"
+        shape["center"] = plugin.point("center", np.zeros(3)).tolist()
+        shape["radius"] = plugin.number("radius", 1.0)
+        if matrix is not None and rotation_scale(matrix) is None:
+            raise plugin.error("a sphere's to_world must be a rotation, translation and uniform scale "
+                               "(Mitsuba does not allow non-uniform scales on spheres)")
+        summary = f"sphere radius {shape['radius']:g}"
+    else:
+        shape["type"] = {"cube": "box"}.get(kind, kind)
+        summary = shape["type"]
+    if matrix is not None:
+        shape["transform"] = {"matrix": matrix_rows(matrix)}
+    if plugin.boolean("flip_normals", False):
+        shape["flip_normals"] = True
+    _read_shape_media(plugin, reader, shape)
+    emitters = plugin.nested("emitter")
+    if len(emitters) > 1:
+        raise plugin.error("a shape takes at most one emitter")
+    emission = None
+    if emitters:
+        emission = read_area_emitter(emitters[0], reader)
+        reader.has_area_emitters = True
+    bsdfs = plugin.nested("bsdf")
+    if len(bsdfs) > 1:
+        raise plugin.error("a shape takes at most one BSDF")
+    bsdf = bsdfs[0] if bsdfs else None
+    shape["material"] = _material(bsdf, reader, emission, emitters[0].element.where() if emitters else None)
+    if bsdf is not None and bsdf.type == "null" and reader.ignore_media:
+        raise bsdf.error("the null BSDF needs integrator volpath or volpathmis (Mitsuba's path "
+                         "integrator lets rays through it but blocks shadow rays)")
+    plugin.finish()
+    reader.out.scene["shapes"].append(shape)
+    reader.note(plugin, f"shapes[{index}]", f"{summary}, material '{shape['material']}'"
+                + (f", emits {fmt(emission)}" if emission is not None else ""))
+
+
+def _read_shape_media(plugin, reader, shape):
+    """interior/exterior: given on one side only, the other is vacuum (as in Mitsuba); given on
+    neither, the format's default (the camera's medium) applies."""
+    interior, exterior = plugin.object("interior", "medium"), plugin.object("exterior", "medium")
+    if (interior or exterior) and not reader.ignore_media:
+        shape["interior"] = read_medium(interior, reader) if interior else None
+        shape["exterior"] = read_medium(exterior, reader) if exterior else None
+    elif interior or exterior:
+        reader.warn(f"{plugin.element.where()}: interior/exterior media ignored, as Mitsuba's `path` "
+                    "integrator ignores media")
+
+
+def _material(plugin, reader, emission, emitter_where):
+    """The name of the scene material for (BSDF, area emission), made once per distinct pair.
+    A shape without a BSDF is diffuse 0.5, or black when it emits (as in Mitsuba)."""
+    key = (id(plugin.element) if plugin else None, None if emission is None else tuple(emission))
+    if key in reader.material_names:
+        return reader.material_names[key]
+    if plugin is None:
+        material = {"type": "diffuse", "albedo": [0.0 if emission is not None else 0.5] * 3,
+                    "two_sided": False}
+        base = "emitter" if emission is not None else "default"
+    else:
+        material = read_bsdf(plugin, reader)
+        base = plugin.id or f"bsdf_line{plugin.element.line}"
+    if emission is not None:
+        if material["type"] != "diffuse":
+            raise MitsubaXmlError(emitter_where, f"an area emitter on a '{plugin.type}' BSDF is not "
+                                                 "supported (only on diffuse BSDFs or none)")
+        material["emission"] = list(emission)
+        base += "_emitting" if plugin else ""
+    name, suffix = base, 1
+    taken = {m["name"] for m in reader.out.scene["materials"]}
+    while name in taken:
+        suffix += 1
+        name = f"{base}_{suffix}"
+    material["name"] = name
+    index = len(reader.out.scene["materials"])
+    reader.out.scene["materials"].append(material)
+    if plugin is not None:
+        reader.note(plugin, f"materials[{index}]", f"{material['type']} '{name}'")
+    reader.material_names[key] = name
+    return name
