@@ -231,6 +231,20 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     assert camera["medium"] is None
 
 
+@pytest.mark.parametrize("film,expected", [
+    ('<film type="hdrfilm"/>', {"type": "gaussian", "stddev": 0.5}),   # Mitsuba's default
+    ("", {"type": "gaussian", "stddev": 0.5}),                           # no film at all
+    ('<film type="hdrfilm"><rfilter type="gaussian"><float name="stddev" value="0.8"/></rfilter></film>',
+     {"type": "gaussian", "stddev": 0.8}),
+    ('<film type="hdrfilm"><rfilter type="tent"/></film>', {"type": "tent", "radius": 1.0}),
+    ('<film type="hdrfilm"><rfilter type="tent"><float name="radius" value="2"/></rfilter></film>',
+     {"type": "tent", "radius": 2.0}),
+    ('<film type="hdrfilm"><rfilter type="box"/></film>', {"type": "box"}),
+])
+def test_reconstruction_filters_are_the_cameras(tmp_path, film, expected):
+    assert translate(tmp_path, "", sensor=sensor(film=film))[0]["camera"]["filter"] == expected
+
+
 @pytest.mark.parametrize("sensor_xml,message", [
     ('<sensor type="orthographic"/>', "unsupported sensor 'orthographic' (supported: perspective)"),
     (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation"),
@@ -245,6 +259,10 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     (sensor(sampler='<sampler type="fancy"/>'), "unsupported sampler 'fancy'"),
     (sensor(sampler='<sampler type="independent"><integer name="sample_count" value="0"/></sampler>'), "sample_count must be >= 1"),
     (sensor(film='<film type="hdrfilm"/><film type="hdrfilm"/>'), "at most one film"),
+    (sensor(film='<film type="hdrfilm"><rfilter type="gaussian"><float name="stddev" value="5"/></rfilter></film>'),
+     "stddev must be in [0.0025, 4] pixels, got 5"),
+    (sensor(film='<film type="hdrfilm"><rfilter type="tent"><float name="width" value="5"/></rfilter></film>'),
+     "parameter 'width' of scene.xml:3 <rfilter type='tent'> is not supported"),
     (sensor(film='<film type="hdrfilm"><integer name="height" value="0"/><rfilter type="box"/></film>'),
      "width and height must be >= 1"),
     (sensor(film='<film type="hdrfilm"><integer name="width" value="20000"/><rfilter type="box"/></film>'),
@@ -262,10 +280,12 @@ def test_sensor_without_sensor_or_with_two_is_an_error(tmp_path):
 def test_sensor_warnings(tmp_path):
     _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>',
                                                       extra='<float name="near_clip" value="0.5"/>'))
-    assert any("gaussian (Mitsuba's default) approximated by clrender's box filter" in w for w in warned)
-    assert any("near_clip 0.5 ignored" in w for w in warned)
-    _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="tent"/></film>'))
-    assert any("reconstruction filter 'tent' approximated" in w for w in warned)
+    assert len(warned) == 1 and "near_clip 0.5 ignored" in warned[0]
+    _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="mitchell"/></film>'))
+    assert any("reconstruction filter 'mitchell' approximated by clrender's box filter" in w for w in warned)
+    _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><boolean name="sample_border" '
+                                                           'value="true"/></film>'))
+    assert len(warned) == 1 and "sample_border: Mitsuba also samples outside the image" in warned[0]
     scene, warned = translate(tmp_path, "", sensor=sensor(film=""))
     assert scene["camera"]["resolution"] == [768, 576] and any("no <film>" in w for w in warned)
     _, warned = translate(tmp_path, "", sensor=sensor(extra='<float name="near_clip" value="0.01"/>'))
@@ -662,7 +682,7 @@ def test_xml_parameters_apply_to_xml_only(tmp_path):
 
 
 def test_load_scene_emits_warnings(tmp_path):
-    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>'))
+    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="lanczos"/></film>'))
     with pytest.warns(MitsubaXmlWarning, match="approximated by clrender's box filter"):
         clrender.load_scene(path)
 
@@ -692,7 +712,7 @@ def test_cli_errors_and_warnings(tmp_path):
     assert result.returncode == 3 and "Traceback" not in result.stderr   # a bad scene (docs/errors.md)
     assert (f"clrender: error: scene.xml:{line_of(body, 'plastic')} <bsdf type='plastic'>: "
             "unsupported BSDF 'plastic'") in result.stderr
-    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>'))
+    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="mitchell"/></film>'))
     result = run_cli("info", path)
     assert result.returncode == 0 and "clrender: warning: scene.xml:" in result.stderr
     result = run_cli("info", "scenes/cornell_box.xml", "-D", "spp")

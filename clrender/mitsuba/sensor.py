@@ -6,7 +6,7 @@
 | | `focal_length` (50mm, 35 mm film's diagonal, when neither is given) | the same, from the diagonal fov |
 | | `to_world` (a rotation and translation) | `camera.position`, `look_at` (+z), `up` (+y) |
 | | `near_clip` (0.01), `far_clip` (10000) | not clipped: other values are a warning |
-| | nested `film`, `sampler` | `camera.resolution`; `render.spp`, `seed`, `sampler` |
+| | nested `film`, `sampler` | `camera.resolution`, `filter`; `render.spp`, `seed`, `sampler` |
 | | nested `medium` | `camera.medium` and the scene's `medium` |
 | | accepted | `shutter_open`, `shutter_close` (no effect on a static scene) |
 | | errors | non-zero `principal_point_offset_x`, `principal_point_offset_y` |
@@ -32,7 +32,7 @@ def read_sensor(plugin, reader):
     media = plugin.nested("medium")
     if len(films) > 1 or len(samplers) > 1 or len(media) > 1:
         raise plugin.error("a sensor takes at most one film, one sampler and one medium")
-    width, height = read_film(films[0] if films else None, reader)
+    width, height, pixel_filter = read_film(films[0] if films else None, reader)
     spp, seed, sampler = read_sampler(samplers[0] if samplers else None, reader)
     render = reader.out.scene["render"]
     render.update(spp=spp, seed=seed, sampler=sampler)
@@ -56,7 +56,7 @@ def read_sensor(plugin, reader):
     forward = matrix[:3, :3] @ [0.0, 0.0, 1.0]
     camera = {"position": position.tolist(), "look_at": (position + forward / np.linalg.norm(forward)).tolist(),
               "up": (matrix[:3, :3] @ [0.0, 1.0, 0.0]).tolist(), "fov": fov_y,
-              "resolution": [width, height]}
+              "resolution": [width, height], "filter": pixel_filter}
     reader.out.scene["camera"] = camera
     if media and not reader.ignore_media:
         name = read_medium(media[0], reader)
@@ -66,7 +66,13 @@ def read_sensor(plugin, reader):
         camera["medium"] = None
         if media:
             reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
-    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}")
+    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}, "
+                                  f"{_describe_filter(pixel_filter)} filter")
+
+
+def _describe_filter(pixel_filter):
+    parameter = {"gaussian": "stddev", "tent": "radius"}.get(pixel_filter["type"])
+    return pixel_filter["type"] + (f" {parameter} {pixel_filter[parameter]:g}" if parameter else "")
 
 
 def _vertical_fov(plugin, aspect):
