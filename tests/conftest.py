@@ -70,6 +70,24 @@ def build_test_kernels(context, **features):
     return build_program(context, no_features(**features), entry="tests.cl")
 
 
+def camera_rays(context, queue, scene, samples):
+    """(origins, directions) of the kernel's camera rays of `scene` (kernels/camera.h, with its
+    lens) for samples (image x, y in pixels from the top-left corner, lens u.x, u.y)."""
+    from clrender.arrays import build_scene_arrays
+    from clrender.render import render_params
+
+    params = render_params(scene, build_scene_arrays(scene), 0, 1, 8, 5, 0)
+    samples = np.asarray(samples, np.float32)
+    out = np.empty((len(samples), 2, 4), np.float32)
+    mf = cl.mem_flags
+    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+    cl.Kernel(build_test_kernels(context), "camera_rays")(
+        queue, (len(samples),), None, cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=params),
+        cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=samples), out_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    return out[:, 0, :3].astype(float), out[:, 1, :3].astype(float)
+
+
 def camera(position=(0, 0, 5), look_at=(0, 0, 0), fov=30, resolution=(32, 32), up=(0, 1, 0)):
     return {"position": list(position), "look_at": list(look_at), "up": list(up), "fov": fov,
             "resolution": list(resolution)}

@@ -2,12 +2,9 @@
 aperture and meet where the pinhole ray meets the plane in focus; its images keep the
 determinism of the pinhole's. Its rays against Mitsuba's thinlens: tests/test_mitsuba_parity.py."""
 import numpy as np
-import pyopencl as cl
 
 import clrender
-from clrender.arrays import build_scene_arrays
-from clrender.render import render_params
-from conftest import build_test_kernels, camera
+from conftest import camera, camera_rays
 
 LENS = {**camera(position=(0.5, 1, 5), look_at=(0, 0.2, 0), resolution=(40, 24)), "aperture_radius": 0.3,
         "focus_distance": 4.0}
@@ -19,26 +16,12 @@ def scene_of(camera_fields):
                                      "lights": [{"type": "directional", "direction": [-1, -1, -1], "irradiance": 2}]})
 
 
-def device_rays(context, queue, scene, samples):
-    """(origins, directions) of the kernel's camera rays for samples (image x, y in pixels, lens u)."""
-    params = render_params(scene, build_scene_arrays(scene), 0, 1, 8, 5, 0)
-    samples = np.asarray(samples, np.float32)
-    out = np.empty((len(samples), 2, 4), np.float32)
-    mf = cl.mem_flags
-    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
-    cl.Kernel(build_test_kernels(context), "camera_rays")(
-        queue, (len(samples),), None, cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=params),
-        cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=samples), out_buffer)
-    cl.enqueue_copy(queue, out, out_buffer)
-    return out[:, 0, :3].astype(float), out[:, 1, :3].astype(float)
-
-
 def test_rays_start_uniformly_on_the_aperture(context, queue):
     scene = scene_of(LENS)
     rng = np.random.default_rng(4)
     count, rings, sectors = 160_000, 20, 8
     samples = np.column_stack([np.full(count, 13.3), np.full(count, 7.8), rng.random((count, 2))])
-    origins, _ = device_rays(context, queue, scene, samples)
+    origins, _ = camera_rays(context, queue, scene, samples)
     forward, right, up = scene.camera.basis()
     offset = (origins - scene.camera.position) / LENS["aperture_radius"]
     assert np.allclose(offset @ forward, 0, atol=1e-5)   # float32 positions near 5, over the radius 0.3
@@ -60,7 +43,7 @@ def test_rays_meet_on_the_plane_in_focus(context, queue):
     rng = np.random.default_rng(5)
     for position in ([0.0, 0.0], [13.3, 7.8], [40.0, 24.0], [39.5, 0.5]):
         samples = np.column_stack([np.tile(position, (64, 1)), rng.random((64, 2))])
-        origins, directions = device_rays(context, queue, scene, samples)
+        origins, directions = camera_rays(context, queue, scene, samples)
         assert np.allclose(np.linalg.norm(directions, axis=1), 1, atol=1e-6)
         pinhole = scene.camera.pixel_directions(*position)
         focus = scene.camera.position + pinhole * LENS["focus_distance"] / (pinhole @ forward)

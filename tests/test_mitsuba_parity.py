@@ -23,6 +23,7 @@ from clrender import cie, filters, grids
 from clrender.mitsuba import (CONDUCTOR_PRESETS, IOR_PRESETS, MitsubaXmlWarning, mitsuba_envmap_lookup,
                               read_scene, resample_envmap)
 from clrender.scene import Filter
+from conftest import camera_rays
 import mitsuba_scenes
 
 try:
@@ -108,10 +109,10 @@ def test_pixel_filters_blur_edges_as_in_mitsuba(tmp_path, device, rfilter):
 # ============================================================================================
 # Exact conventions
 # ============================================================================================
-def sensor_xml(fov, size, to_world):
+def sensor_xml(fov, size, to_world, sensor="perspective"):
     width, height = size
     return f"""<scene version="3.0.0">
-    <sensor type="perspective">
+    <sensor type="{sensor}">
         {fov}
         <transform name="to_world">{to_world}</transform>
         <film type="hdrfilm">
@@ -152,6 +153,30 @@ def test_camera_rays_through_pixel_centres_and_corners_match(tmp_path, fov, size
         assert np.allclose(np.array(ray.d), d, atol=2e-6), (px, py)
         # Mitsuba starts the ray on its near clip plane, on the same line from the eye.
         offset = np.array(ray.o) - ours.position
+        assert np.allclose(offset, np.dot(offset, d) * d, atol=1e-5)
+
+
+@pytest.mark.parametrize("size", [(40, 24), (24, 40)])
+def test_thin_lens_rays_match(tmp_path, context, queue, size):
+    # The same aperture point for the same lens sample (the concentric map in Mitsuba's
+    # orientation) and the same point in focus.
+    lens = ('<float name="fov" value="50"/><float name="aperture_radius" value="0.4"/>'
+            '<float name="focus_distance" value="3.5"/>')
+    to_world = '<lookat origin="1, 2, 5" target="0, 0.5, 0" up="0.1, 1, 0"/><translate value="0.3, -1, 2"/>'
+    path = tmp_path / "camera.xml"
+    path.write_text(sensor_xml(lens, size, to_world, sensor="thinlens"))
+    sensor = mi.load_file(str(path)).sensors()[0]
+    scene = clrender.load_scene_dict({"camera": read_scene(path).scene["camera"]})
+    width, height = size
+    rng = np.random.default_rng(3)
+    samples = np.column_stack([rng.random(64) * width, rng.random(64) * height, rng.random((64, 2))])
+    samples[:4, 2:] = [[0.5, 0.5], [0, 0.5], [1, 1], [0.5, 0]]   # the centre, the rim
+    origins, directions = camera_rays(context, queue, scene, samples)
+    for (x, y, u, v), origin, d in zip(samples, origins, directions):
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(x / width, y / height), mi.Point2f(u, v))
+        assert np.allclose(np.array(ray.d), d, atol=2e-6), (x, y, u, v)
+        # Mitsuba starts the ray on its near clip plane, on the same line.
+        offset = np.array(ray.o) - origin
         assert np.allclose(offset, np.dot(offset, d) * d, atol=1e-5)
 
 

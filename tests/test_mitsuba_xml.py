@@ -231,6 +231,19 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     assert camera["medium"] is None
 
 
+def test_thinlens_is_a_camera_with_a_lens(tmp_path):
+    thinlens = sensor('<float name="aperture_radius" value="0.2"/><float name="focus_distance" value="3"/>')
+    camera = translate(tmp_path, "", sensor=thinlens.replace("perspective", "thinlens"))[0]["camera"]
+    assert (camera["aperture_radius"], camera["focus_distance"]) == (0.2, 3.0)
+    # Mitsuba's focus_distance defaults to the far_clip's value.
+    thinlens = sensor('<float name="aperture_radius" value="0.2"/><float name="far_clip" value="50"/>')
+    camera = translate(tmp_path, "", sensor=thinlens.replace("perspective", "thinlens"))[0]["camera"]
+    assert camera["focus_distance"] == 50.0
+    # A perspective camera ignores a focus_distance, as Mitsuba's does.
+    scene, warned = translate(tmp_path, "", sensor=sensor(extra='<float name="focus_distance" value="3"/>'))
+    assert "aperture_radius" not in scene["camera"] and warned == []
+
+
 @pytest.mark.parametrize("film,expected", [
     ('<film type="hdrfilm"/>', {"type": "gaussian", "stddev": 0.5}),   # Mitsuba's default
     ("", {"type": "gaussian", "stddev": 0.5}),                           # no film at all
@@ -246,7 +259,10 @@ def test_reconstruction_filters_are_the_cameras(tmp_path, film, expected):
 
 
 @pytest.mark.parametrize("sensor_xml,message", [
-    ('<sensor type="orthographic"/>', "unsupported sensor 'orthographic' (supported: perspective)"),
+    ('<sensor type="orthographic"/>', "unsupported sensor 'orthographic' (supported: perspective, thinlens)"),
+    (sensor().replace("perspective", "thinlens"), "a thinlens sensor needs an aperture_radius"),
+    (sensor('<float name="aperture_radius" value="-1"/>').replace("perspective", "thinlens"),
+     "aperture_radius must be >= 0 and focus_distance > 0, got -1 and 10000"),
     (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation"),
     (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation"),
     (sensor('<float name="fov" value="30"/><string name="focal_length" value="50mm"/>'), "either fov or focal_length"),

@@ -8,8 +8,11 @@
 | | `near_clip` (0.01), `far_clip` (10000) | not clipped: other values are a warning |
 | | nested `film`, `sampler` | `camera.resolution`, `filter`; `render.spp`, `seed`, `sampler` |
 | | nested `medium` | `camera.medium` and the scene's `medium` |
-| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene) |
+| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene), `focus_distance` (no effect on a pinhole: Mitsuba ignores it too) |
 | | errors | non-zero `principal_point_offset_x`, `principal_point_offset_y` |
+| `thinlens` | everything `perspective` takes, and | |
+| | `aperture_radius` (required) | `camera.aperture_radius` |
+| | `focus_distance` (far_clip's value) | `camera.focus_distance` |
 """
 import re
 
@@ -24,9 +27,9 @@ DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP = 0.01, 10000.0
 
 
 def read_sensor(plugin, reader):
-    """perspective: the camera (position, look_at, up, vertical fov), film and sampler."""
-    if plugin.type != "perspective":
-        raise plugin.error(f"unsupported sensor '{plugin.type}' (supported: perspective)")
+    """perspective, thinlens: the camera (position, look_at, up, vertical fov, lens), film and sampler."""
+    if plugin.type not in ("perspective", "thinlens"):
+        raise plugin.error(f"unsupported sensor '{plugin.type}' (supported: perspective, thinlens)")
     films = plugin.nested("film")
     samplers = plugin.nested("sampler")
     media = plugin.nested("medium")
@@ -42,11 +45,13 @@ def read_sensor(plugin, reader):
         raise plugin.error("the sensor's to_world must be a rotation and translation (Mitsuba "
                            "rejects scale factors; mirroring or shearing the image is not supported)")
     fov_y = _vertical_fov(plugin, width / height)
+    clips = {}
     for name, default in (("near_clip", DEFAULT_NEAR_CLIP), ("far_clip", DEFAULT_FAR_CLIP)):
-        value = plugin.number(name, default)
-        if value != default:
-            reader.warn(f"{plugin.element.where()}: {name} {value:g} ignored (clrender's camera "
+        clips[name] = plugin.number(name, default)
+        if clips[name] != default:
+            reader.warn(f"{plugin.element.where()}: {name} {clips[name]:g} ignored (clrender's camera "
                         "does not clip; differs only where geometry lies closer than near_clip or beyond far_clip)")
+    lens = _read_lens(plugin, clips["far_clip"])
     for name in ("principal_point_offset_x", "principal_point_offset_y"):
         if plugin.number(name, 0.0) != 0.0:
             raise plugin.error(f"{name} is not supported (off-centre projections)")
@@ -56,7 +61,7 @@ def read_sensor(plugin, reader):
     forward = matrix[:3, :3] @ [0.0, 0.0, 1.0]
     camera = {"position": position.tolist(), "look_at": (position + forward / np.linalg.norm(forward)).tolist(),
               "up": (matrix[:3, :3] @ [0.0, 1.0, 0.0]).tolist(), "fov": fov_y,
-              "resolution": [width, height], "filter": pixel_filter}
+              "resolution": [width, height], "filter": pixel_filter, **lens}
     reader.out.scene["camera"] = camera
     if media and not reader.ignore_media:
         name = read_medium(media[0], reader)
@@ -66,8 +71,25 @@ def read_sensor(plugin, reader):
         camera["medium"] = None
         if media:
             reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
-    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}, "
-                                  f"{_describe_filter(pixel_filter)} filter")
+    lens_note = (f", thin lens of aperture radius {lens['aperture_radius']:g} focused at {lens['focus_distance']:g}"
+                 if lens else "")
+    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg{lens_note}, {spp} spp, "
+                                  f"seed {seed}, {_describe_filter(pixel_filter)} filter")
+
+
+def _read_lens(plugin, far_clip):
+    """thinlens: the camera's aperture_radius and focus_distance (Mitsuba's default: far_clip's
+    value); perspective: none (the focus_distance some scenes give it has no effect)."""
+    if plugin.type == "perspective":
+        plugin.accept("focus_distance")
+        return {}
+    aperture = plugin.number("aperture_radius")
+    if aperture is None:
+        raise plugin.error("a thinlens sensor needs an aperture_radius")
+    focus = plugin.number("focus_distance", far_clip)
+    if not aperture >= 0 or not focus > 0:
+        raise plugin.error(f"aperture_radius must be >= 0 and focus_distance > 0, got {aperture:g} and {focus:g}")
+    return {"aperture_radius": aperture, "focus_distance": focus}
 
 
 def _describe_filter(pixel_filter):
