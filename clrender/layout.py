@@ -159,7 +159,7 @@ STRUCTS = {
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
 MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4}
-EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4}
+EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4, "spot": 5}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 # Values of the GRID_MEDIA feature: how grid media are integrated (docs/heterogeneous-media.md).

@@ -19,7 +19,7 @@ starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_dep
 
 Only what has an exact Mitsuba counterpart is exported: diffuse, emissive, smooth dielectric,
 smooth conductor and index-matched interfaces; homogeneous and grey grid media with
-Henyey-Greenstein phase; constant environments, point and directional lights. Anything else
+Henyey-Greenstein phase; constant environments, point, spot and directional lights. Anything else
 raises ValueError naming the object.
 """
 from pathlib import Path
@@ -158,8 +158,23 @@ def _light(light, index):
         return {"type": "constant", "radiance": _rgb(light.radiance)}
     if light.type == "point":
         return {"type": "point", "position": [float(v) for v in light.position], "intensity": _rgb(light.radiance)}
+    if light.type == "spot":
+        return {"type": "spot", "to_world": _spot_frame(light), "intensity": _rgb(light.radiance),
+                "cutoff_angle": float(light.cutoff_angle), "beam_width": float(light.beam_width)}
     return {"type": "directional", "direction": [float(v) for v in light.direction],
             "irradiance": _rgb(light.radiance)}
+
+
+def _spot_frame(light):
+    """A to_world whose +z is the spot's axis, at its position (rows, as the module's matrices)."""
+    import numpy as np
+
+    z = np.asarray(light.direction, float)
+    x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(z, x), z, light.position
+    return frame.tolist()
 
 
 def write_ply(path, vertices, faces, normals=None):

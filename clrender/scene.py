@@ -17,7 +17,7 @@ from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
-LIGHT_TYPES = ("environment", "point", "directional")
+LIGHT_TYPES = ("environment", "point", "spot", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
 SAMPLERS = ("sobol", "independent")   # clrender/layout.py SAMPLERS, kernels/rng.h
@@ -155,10 +155,12 @@ class Medium:
 @dataclass
 class Light:
     type: str
-    radiance: np.ndarray       # environment radiance, point intensity or directional irradiance
+    radiance: np.ndarray       # environment radiance, point or spot intensity or directional irradiance
     position: np.ndarray = None
-    direction: np.ndarray = None   # directional: the direction the light travels
+    direction: np.ndarray = None   # directional: the direction the light travels; spot: its axis
     image: np.ndarray = None       # environment: (H, W, 3) linear lat-long image, or None
+    cutoff_angle: float = None     # spot: degrees from the axis where its light ends
+    beam_width: float = None       # spot: degrees from the axis where its light starts to fall off
 
 
 @dataclass
@@ -777,14 +779,23 @@ def _read_light(node, base_dir):
     elif kind == "point":
         light = Light(kind, node.vector("intensity", non_negative=True, allow_scalar=True),
                       position=node.vector("position"))
+    elif kind == "spot":
+        cutoff = float(node.number("cutoff_angle", 20.0, low=0, high=180, low_open=True))
+        light = Light(kind, node.vector("intensity", non_negative=True, allow_scalar=True),
+                      position=node.vector("position"), direction=_direction(node), cutoff_angle=cutoff,
+                      beam_width=float(node.number("beam_width", 0.75 * cutoff, low=0)))
     else:
-        direction = node.vector("direction")
-        if _norm(direction) == 0:
-            raise SceneError(node.at("direction"), "must be non-zero")
         light = Light(kind, node.vector("irradiance", non_negative=True, allow_scalar=True),
-                      direction=_unit(direction))
+                      direction=_direction(node))
     node.finish()
     return light
+
+
+def _direction(node):
+    direction = node.vector("direction")
+    if _norm(direction) == 0:
+        raise SceneError(node.at("direction"), "must be non-zero")
+    return _unit(direction)
 
 
 def _read_environment(node, base_dir):

@@ -139,6 +139,14 @@ KERNEL void sample_directions(int routine, float g, uint seed, __global float4* 
     out[i] = (float4)(d, pdf);
 }
 
+// ----- point, spot and directional lights: what emitter 0 sends to points[i] ----------------
+// out: (arriving radiance, the distance to the light; -1 where delta_light_sample declines).
+KERNEL void delta_light_values(__global const Emitter* emitters, __global const float4* points, __global float4* out) {
+    int i = get_global_id(0);
+    LightSample ls;
+    out[i] = delta_light_sample(emitters, points[i].xyz, 1.0f, &ls) ? (float4)(ls.radiance, ls.dist) : (float4)(-1.0f);
+}
+
 // ----- area emitters: one light sample of emitter 0 (the only one) from points[i] -----------
 // out_sample: (wi, pdf_w); out_point: (the sampled point q, its distance); out_pdf: x the pdf that
 // area_emitter_pdf_w gives for reaching q from the point (the MIS weight's), y the cosine at q.

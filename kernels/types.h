@@ -31,7 +31,10 @@ typedef struct {
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Sphere: p0.xyz centre, p0.w signed
 // radius (negative: flipped, emitting inwards). Point: p0 = position,
-// radiance = intensity. Directional: p0 = unit direction towards the light, radiance = irradiance.
+// radiance = intensity. Spot: as a point, and e1.xyz the unit axis it shines along, e1.w the
+// cosine of its cutoff angle, e2.x the cosine of its beam width, e2.y the cutoff angle (radians),
+// e2.z 1 / (cutoff - beam width) (0: no transition; lights.h, spot_falloff).
+// Directional: p0 = unit direction towards the light, radiance = irradiance.
 // Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
 

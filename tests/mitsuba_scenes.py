@@ -236,6 +236,28 @@ def depth_of_field():
                   + diffuse_sphere("0.45, 0.45, 2.6", 0.3, "0.9, 0.85, 0.2"), sensor="thinlens", lens=lens)
 
 
+def spot_lights():
+    """Two spot lights on the floor and a sphere: one narrow with Mitsuba's default beam, one
+    wide and tilted with its own beam width, placed by a scaled lookat."""
+    return _scene(FLOOR + diffuse_sphere("0.3, -0.4, 0", 0.6, "0.7, 0.7, 0.7") + """
+    <emitter type="spot">
+        <transform name="to_world">
+            <lookat origin="-1, 2, 1" target="-0.6, -1, 0"/>
+        </transform>
+        <rgb name="intensity" value="20, 16, 10"/>
+        <float name="cutoff_angle" value="25"/>
+    </emitter>
+    <emitter type="spot">
+        <transform name="to_world">
+            <lookat origin="2, 1, 1.5" target="0, -0.6, 0"/>
+            <scale value="2"/>
+        </transform>
+        <rgb name="intensity" value="30, 45, 90"/>
+        <float name="cutoff_angle" value="50"/>
+        <float name="beam_width" value="10"/>
+    </emitter>""")
+
+
 def diffuse_sphere(center, radius, reflectance):
     return f"""
     <shape type="sphere">
@@ -249,6 +271,7 @@ def diffuse_sphere(center, radius, reflectance):
 
 SCENES = {
     "depth_of_field": depth_of_field,
+    "spot_lights": spot_lights,
     "glass_sphere": glass_sphere,
     "rough_glass": rough_glass,
     "homogeneous_medium": homogeneous_medium,

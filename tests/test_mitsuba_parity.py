@@ -23,7 +23,7 @@ from clrender import cie, filters, grids
 from clrender.mitsuba import (CONDUCTOR_PRESETS, IOR_PRESETS, MitsubaXmlWarning, mitsuba_envmap_lookup,
                               read_scene, resample_envmap)
 from clrender.scene import Filter
-from conftest import camera_rays
+from conftest import camera_rays, delta_light_values
 import mitsuba_scenes
 
 try:
@@ -178,6 +178,37 @@ def test_thin_lens_rays_match(tmp_path, context, queue, size):
         # Mitsuba starts the ray on its near clip plane, on the same line.
         offset = np.array(ray.o) - origin
         assert np.allclose(offset, np.dot(offset, d) * d, atol=1e-5)
+
+
+def test_spot_light_falloff_matches(tmp_path, context, queue):
+    # A scaled, tilted spot with its own beam width: what reaches points around it, Mitsuba's
+    # sample_direction (a delta: its weight is the arriving radiance) against the kernel's.
+    spot = """<emitter type="spot">
+        <transform name="to_world"><lookat origin="0.5, 2, -1" target="1, 0, 0.3"/><scale value="3"/></transform>
+        <rgb name="intensity" value="3, 4, 5"/>
+        <float name="cutoff_angle" value="40"/>
+        <float name="beam_width" value="12"/>
+    </emitter>"""
+    (tmp_path / "spot.xml").write_text(spot.replace("<emitter", '<emitter version="3.0.0"', 1))
+    theirs = mi.load_file(str(tmp_path / "spot.xml"))
+    path = tmp_path / "scene.xml"
+    path.write_text(sensor_xml("", (8, 8), '<lookat origin="0, 0, 5" target="0, 0, 0"/>').replace("</scene>", spot + "</scene>"))
+    scene = load_quietly(path)
+    # Points 1 to 5 away, up to 60 degrees off the axis: in the beam, in the falloff, beyond.
+    rng = np.random.default_rng(6)
+    axis = scene.lights[0].direction
+    side = np.cross(axis, [0.0, 1.0, 0.0])
+    side /= np.linalg.norm(side)
+    angle, around = np.radians(rng.uniform(0, 60, 300)), rng.uniform(0, 2 * np.pi, 300)
+    across = np.cos(around)[:, None] * side + np.sin(around)[:, None] * np.cross(axis, side)
+    directions = np.cos(angle)[:, None] * axis + np.sin(angle)[:, None] * across
+    points = scene.lights[0].position + rng.uniform(1, 5, (300, 1)) * directions
+    ours, _ = delta_light_values(context, queue, scene, points)
+    for point, value in zip(points, ours):
+        interaction = mi.Interaction3f()
+        interaction.p = mi.Point3f(*point)
+        _, weight = theirs.sample_direction(interaction, mi.Point2f(0.5, 0.5))
+        assert np.allclose(np.array(weight), value, rtol=2e-5, atol=1e-6), point
 
 
 @pytest.mark.parametrize("placement", ["to_world", "use_grid_bbox", "both"])

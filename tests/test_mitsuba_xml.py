@@ -509,6 +509,20 @@ def test_emitters(tmp_path):
     assert lights[4] == {"type": "environment", "radiance": [0.1, 0.2, 0.3]}
 
 
+def test_spot_lights(tmp_path):
+    # Mitsuba's defaults: at the origin shining along +z, cutoff 20 degrees, beam 3/4 of it;
+    # to_world places and turns it (a uniform scale changes nothing).
+    body = """<emitter type="spot"/>
+    <emitter type="spot"><transform name="to_world"><rotate x="1" angle="90"/><scale value="2"/>
+        <translate value="1, 2, 3"/></transform><rgb name="intensity" value="1, 2, 3"/>
+        <float name="cutoff_angle" value="40"/><float name="beam_width" value="5"/></emitter>"""
+    lights = translate(tmp_path, body)[0]["lights"]
+    assert lights[0] == {"type": "spot", "position": [0, 0, 0], "direction": [0, 0, 1], "intensity": [1.0] * 3,
+                         "cutoff_angle": 20.0, "beam_width": 15.0}
+    assert np.allclose(lights[1]["position"], [1, 2, 3]) and np.allclose(lights[1]["direction"], [0, -1, 0])
+    assert (lights[1]["intensity"], lights[1]["cutoff_angle"], lights[1]["beam_width"]) == ([1.0, 2.0, 3.0], 40.0, 5.0)
+
+
 def test_envmap_is_resampled_with_a_warning(tmp_path):
     image = np.random.default_rng(3).uniform(0.5, 2.0, (6, 10, 3)).astype(np.float32)
     clrender.save_image(image, tmp_path / "env.exr")
@@ -537,7 +551,11 @@ def test_envmap_lookup_convention():
 
 @pytest.mark.parametrize("body,message", [
     ('<emitter type="area"/>', "an area emitter belongs inside a <shape>"),
-    ('<emitter type="spot"/>', "unsupported emitter 'spot' (supported: point, directional, constant, envmap"),
+    ('<emitter type="sun"/>', "unsupported emitter 'sun' (supported: point, spot, directional, constant, envmap"),
+    ('<emitter type="spot"><transform name="to_world"><scale x="2"/></transform></emitter>',
+     "a spot's to_world must be a rotation, a uniform scale and a translation"),
+    ('<emitter type="spot"><texture type="bitmap" name="texture"/></emitter>', "spot textures are not supported"),
+    ('<emitter type="spot"><float name="cutoff_angle" value="190"/></emitter>', "must be <= 180, got 190"),
     ('<emitter type="point"><point name="position" value="1 2 3"/><transform name="to_world"/></emitter>',
      "either position or to_world"),
     ('<emitter type="directional"><vector name="direction" value="1 2 3"/><transform name="to_world"/></emitter>',
