@@ -42,14 +42,18 @@ lane_float sample_filter_axis(__constant Filter* filter, lane_float u, lane_int 
     __constant const float* edge_cdf = (__constant const float*)filter->edge_cdf;
     __constant const float* edge_mass = (__constant const float*)filter->edge_mass;
     // The distributions' values where the image truncates them (0 and 1 where it does not).
-    lane_int to_low = min(pixel, FILTER_EDGES - 1), to_high = min(size - 1 - pixel, FILTER_EDGES - 1);
+    // Clamped to the tables also for the lanes of a packet beyond the image (packets of 8
+    // overhang a tile whose width is no multiple of 8), which trace nothing. (Integer clamp and
+    // min with vector bounds: Oclgrind gets the vector-and-scalar forms wrong.)
+    lane_int last = (lane_int)(FILTER_EDGES - 1);
+    lane_int to_low = clamp(pixel, (lane_int)(0), last), to_high = clamp(size - 1 - pixel, (lane_int)(0), last);
     lane_float q_low = LANE_LOAD(edge_cdf, to_low, ), q_high = 1.0f - LANE_LOAD(edge_cdf, to_high, );
     lane_float f_low = LANE_LOAD(edge_mass, to_low, ), f_high = 1.0f - LANE_LOAD(edge_mass, to_high, );
     lane_float c = q_low + u * (q_high - q_low);
     lane_int upper = c > 0.5f;   // the offset's sign: the map covers the lower half
     lane_float v = sqrt(2.0f * select(c, 1.0f - c, upper));
     lane_float x = v * (float)FILTER_CELLS;
-    lane_int cell = min(lane_float_to_int(x), FILTER_CELLS - 1);
+    lane_int cell = min(lane_float_to_int(x), (lane_int)(FILTER_CELLS - 1));
     lane_float s = x - lane_int_to_float(cell);
     lane_float a = LANE_LOAD(filter->cells, cell, .x), b = LANE_LOAD(filter->cells, cell, .y);
     lane_float cc = LANE_LOAD(filter->cells, cell, .z), d = LANE_LOAD(filter->cells, cell, .w);

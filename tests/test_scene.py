@@ -93,6 +93,13 @@ def test_the_camera_filter_is_a_box_unless_named_with_mitsubas_defaults():
     assert loaded(filter={"type": "tent"}).radius == 1.0
 
 
+def test_a_camera_is_a_pinhole_unless_given_an_aperture_focused_on_look_at():
+    default = clrender.load_scene_dict(base_scene()).camera
+    assert default.aperture_radius == 0 and np.isclose(default.focus_distance, 5.0)   # camera() looks from z = 5
+    lens = clrender.load_scene_dict(base_scene(camera={**camera(), "aperture_radius": 0.1, "focus_distance": 3})).camera
+    assert (lens.aperture_radius, lens.focus_distance) == (0.1, 3.0)
+
+
 def test_missing_mesh_file_names_the_path_tried(tmp_path):
     data = base_scene(shapes=[{"type": "mesh", "file": "nowhere/bunny.obj", "material": "white"}])
     text = error_of(data, tmp_path)
