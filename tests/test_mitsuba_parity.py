@@ -333,6 +333,17 @@ def test_transforms_compose_as_in_mitsuba(tmp_path):
     assert np.allclose(ours, theirs, atol=1e-5)
 
 
+@pytest.mark.parametrize("target", ["1, 2, 0.5", "0, 0, 0.5", "0, -3, 0", "-2, 1, -0.3"])
+def test_lookat_with_a_zero_up_is_mitsubas(tmp_path, target):
+    # A real scene (nppm-classroom) aims a spot light so: Mitsuba then picks the up axis.
+    (tmp_path / "s.xml").write_text(f"""<scene version="3.0.0"><sensor type="perspective"/>
+        <shape type="rectangle" id="r"><transform name="to_world">
+        <lookat origin="0, 1, 0" target="{target}" up="0, 0, 0"/></transform></shape></scene>""")
+    theirs = np.array(mi.traverse(mi.load_file(str(tmp_path / "s.xml")))["r.to_world"].matrix)
+    ours = read_scene(tmp_path / "s.xml").scene["shapes"][0]["transform"]["matrix"]
+    assert np.allclose(ours, theirs, atol=1e-6)
+
+
 def test_default_bsdfs_of_shapes_are_mitsubas(tmp_path):
     # No BSDF: diffuse 0.5; no BSDF but an area emitter: black.
     xml = """<scene version="3.0.0"><sensor type="perspective"/>
