@@ -4,6 +4,7 @@
     scene = clrender.load_scene("scenes/cornell_box.json")   # or a Mitsuba 3 .xml scene
     image = clrender.render(scene, spp=64)
     clrender.save_image(image, "cornell.png")
+    clrender.view(scene)                                    # watch it converge in the browser
 
 Names are imported on first use (PEP 562), so `import clrender` is quick and the command line
 can handle a Ctrl-C during its start-up itself.
@@ -28,6 +29,7 @@ _EXPORTS = {
     "Accumulation": "render", "Renderer": "render", "RenderInterrupted": "render", "RenderResult": "render",
     "render": "render",
     "load_scene": "loader", "load_scene_dict": "scene",
+    "view": "view",
 }
 __all__ = sorted(_EXPORTS)
 
@@ -57,11 +59,12 @@ def _function_over_submodule(name):
 
 
 class _Package(types.ModuleType):
-    """`clrender.render` and `clrender.denoise` are the functions even after the submodules of
-    the same names are imported (the import system would otherwise set the package attributes
-    to the modules)."""
+    """`clrender.render`, `clrender.denoise` and `clrender.view` are the functions even after the
+    submodules of the same names are imported (the import system would otherwise set the package
+    attributes to the modules)."""
     render = _function_over_submodule("render")
     denoise = _function_over_submodule("denoise")
+    view = _function_over_submodule("view")
 
     def __reduce__(self):   # pickled by name, as modules are (cloudpickle: functions sent to Dask)
         return importlib.import_module, (self.__name__,)

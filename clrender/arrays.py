@@ -1,12 +1,14 @@
 """A scene flattened into the arrays the kernel reads (dtypes from layout.py)."""
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, limits, meshes
+from . import layout, limits, meshes, textures
 from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
 from .errors import SceneError
+from .origins import at_source
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -35,6 +37,10 @@ class SceneArrays:
     table_materials: list       # indices of the materials that own tables (field albedo_tables >= 0)
     bvh_depth: int
     degenerate_triangles: int   # triangles without area in float32 (at the kernel's scale), dropped
+    uvs: np.ndarray             # (slots * 3, 2) float32 corner uv of each primitive slot (one dummy
+                                # row without textures)
+    textures: np.ndarray        # layout.TEXTURE records (one dummy without textures)
+    texels: np.ndarray          # uint8 texels of every bitmap (textures.texture_arrays)
     length_scale: float = 1.0   # kernel lengths = scene lengths x this power of two (device_length_scale)
 
 
@@ -82,16 +88,17 @@ def build_scene_arrays(scene):
     if count > limits.MAX_TRIANGLES:   # before the triangles are gathered and the BVH is built
         raise SceneError("shapes", f"{count} primitives, more than the limit of {limits.MAX_TRIANGLES}")
     scale = device_length_scale(scene)
-    v0, v1, v2, normals, info = _gather_triangles(scene, scale)
+    with_uv = textures.scene_uses_textures(scene)
+    v0, v1, v2, normals, info, uvs = _gather_triangles(scene, scale, with_uv)
     keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
-    _check_no_shape_vanishes(scene, info, keep)
-    v0, v1, v2, normals, info = v0[keep], v1[keep], v2[keep], normals[keep], info[keep]
-    centres, radii, sphere_info = _gather_spheres(scene, scale)
+    _skip_shapes_without_area(scene, info, keep)
+    v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
+    centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
     bvh = build_bvh(v0, v1, v2, spheres=(centres, radii))
     order = bvh.prim_order
-    triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii)
+    triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
     unordered_info = np.concatenate([info, sphere_info])
     info = unordered_info[order]
     nodes, bvh_depth = wide_bvh.collapse(bvh, is_sphere)
@@ -139,6 +146,10 @@ def build_scene_arrays(scene):
         camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, centres, radii,
                                           unordered_info)
     media, grid_data, majorant_data = _medium_array(scene.media, scale)
+    try:
+        texture_records, texels = textures.texture_arrays(scene.textures if with_uv else [])
+    except ValueError as e:
+        raise SceneError("textures", str(e)) from None
     return SceneArrays(
         nodes=nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
@@ -148,7 +159,9 @@ def build_scene_arrays(scene):
         first_light=first_light, spheres=int(np.count_nonzero(is_sphere)),
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
         degenerate_triangles=degenerate, length_scale=scale,
-        specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials)
+        specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials,
+        uvs=_slot_uvs(order, uvs) if with_uv else np.zeros((1, 2), np.float32),
+        textures=texture_records, texels=texels)
 
 
 def _has_float32_area(v0, v1, v2):
@@ -162,24 +175,51 @@ def _has_float32_area(v0, v1, v2):
     return np.isfinite(length2) & (length2 >= np.finfo(np.float32).tiny)
 
 
-def _check_no_shape_vanishes(scene, info, keep):
-    """A shape all of whose triangles lost their area is a mistake (a radius of 1e-30 among
-    metres, a scene too flat), not something to drop silently."""
+class SkippedShapeWarning(UserWarning):
+    """A shape none of whose triangles has an area (corners collinear or coinciding) is skipped."""
+
+
+def _skip_shapes_without_area(scene, info, keep):
+    """Shapes that lost all their triangles (none in `keep`): one without an area of its own, a
+    line or a point as some exporters write them, is skipped with a warning, as Mitsuba loads it
+    and never hits it; one that has an area at its own size but none at the scene's scale is a
+    mistake (a radius of 1e-30 among metres, a scene too flat), not something to drop silently."""
     total = np.bincount(info[:, 1], minlength=len(scene.shapes))
     kept = np.bincount(info[keep, 1], minlength=len(scene.shapes))
     for index in np.flatnonzero((total > 0) & (kept == 0)):
+        shape = scene.shapes[index]
+        if not _has_area_of_its_own(shape.mesh):
+            where, message = at_source(scene.origins, f"shapes[{index}]",
+                                       f"no triangle of {shape.name!r} has an area (their corners are "
+                                       "collinear or coincide): skipped, as it cannot be seen")
+            warnings.warn(f"{where}: {message}", SkippedShapeWarning, stacklevel=3)
+            continue
         sizes = [float(np.max(hi - lo)) for lo, hi in (meshes.bounds(s.mesh) for s in scene.shapes)]
         largest = int(np.argmax(sizes))
-        raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {scene.shapes[index].name!r} "
+        raise SceneError(f"shapes[{index}]", f"all {total[index]} triangles of {shape.name!r} "
                                              f"are degenerate at the scene's scale (no area in float32; "
                                              f"the scene spans {scene_extent(scene):.3g} units, "
                                              f"shapes[{largest}] {scene.shapes[largest].name!r} {sizes[largest]:.3g})")
 
 
-def primitive_slots(order, v0, v1, v2, normals, centres, radii):
+def _has_area_of_its_own(mesh):
+    """Whether a triangle of `mesh` keeps an area in float32 with the mesh moved to the origin
+    and scaled to a unit size: false for corners that are collinear or coincide (to float32
+    rounding), true for a mesh that is merely tiny or far away."""
+    lo, hi = meshes.bounds(mesh)
+    size = float(np.max(hi - lo))
+    if not size > 0:
+        return False
+    corners = (mesh.vertices[mesh.faces] - lo) / size
+    return bool(np.any(_has_float32_area(corners[:, 0], corners[:, 1], corners[:, 2])))
+
+
+def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     """The kernel's triangle and shading buffers over the primitive slots of a BVH (slot k holds
     primitive order[k]: triangle i < len(v0), else sphere i - len(v0)), and which slots hold
-    spheres. A sphere slot holds a layout.SPHERE in its first bytes and no shading normals."""
+    spheres. A sphere slot holds a layout.SPHERE in its first bytes and no shading normals; its
+    e1 and e2 the x and z axes of its object frame (`rotations`, (S, 3, 3); identity if None),
+    e2.w -1 where that frame is mirrored (kernels/scene.h, surface_uv)."""
     n_triangles = len(v0)
     is_sphere = np.asarray(order) >= n_triangles
     slots = np.flatnonzero(~is_sphere)
@@ -204,12 +244,25 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii):
         size = layout.SPHERE.itemsize
         triangles.view(np.uint8).reshape(len(order), -1)[is_sphere, :size] = \
             spheres.view(np.uint8).reshape(len(order), size)[is_sphere]
+        frames = np.tile(np.eye(3), (len(index), 1, 1)) if rotations is None else np.asarray(rotations)[index]
+        triangles["e1"][is_sphere, :3] = frames[:, :, 0]
+        triangles["e2"][is_sphere, :3] = frames[:, :, 2]
+        triangles["e2"][is_sphere, 3] = np.sign(np.linalg.det(frames))
     return triangles, shading, is_sphere
+
+
+def _slot_uvs(order, uvs):
+    """The (slots * 3, 2) corner uv of each primitive slot (a sphere's computed in the kernel)."""
+    out = np.zeros((len(order), 3, 2), np.float32)
+    triangle = np.asarray(order) < len(uvs)
+    out[triangle] = uvs[np.asarray(order)[triangle]]
+    return out.reshape(-1, 2)
 
 
 def _gather_spheres(scene, scale=1.0):
     """The analytic spheres of all shapes: centres (S, 3) and signed radii (S,) (negative when
-    flipped), times `scale`, and their TriangleInfo columns (S, 4)."""
+    flipped), times `scale`, their object-to-world rotations (S, 3, 3) and their TriangleInfo
+    columns (S, 4)."""
     found = [(index, shape) for index, shape in enumerate(scene.shapes) if isinstance(shape.mesh, meshes.Sphere)]
     centres = np.array([shape.mesh.center for _, shape in found], float).reshape(-1, 3) * scale
     radii = np.array([-shape.mesh.radius if shape.mesh.flipped else shape.mesh.radius for _, shape in found], float) * scale
@@ -221,13 +274,19 @@ def _gather_spheres(scene, scale=1.0):
                                                  f"{scene_extent(scene):.3g} units)")
     info = np.array([[shape.material, index, -1, layout.pack_media(shape.interior, shape.exterior)]
                      for index, shape in found], np.int32).reshape(-1, 4)
-    return centres, radii, info
+    rotations = np.array([shape.mesh.rotation for _, shape in found], float).reshape(-1, 3, 3)
+    return centres, radii, rotations, info
 
 
-def _gather_triangles(scene, scale=1.0):
-    """Concatenate all meshes: corners (times `scale`), per-vertex normals, and the TriangleInfo
-    columns (material, object, emitter = -1, packed media) per triangle."""
-    v0, v1, v2, normals, info = [], [], [], [], []
+# The corner uv of a triangle of a mesh without texture coordinates: uv = (b1, b2), Mitsuba's.
+BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+
+
+def _gather_triangles(scene, scale=1.0, with_uv=False):
+    """Concatenate all meshes: corners (times `scale`), per-vertex normals, the TriangleInfo
+    columns (material, object, emitter = -1, packed media) and, `with_uv`, the corner uv per
+    triangle ((F, 3, 2); else (F, 0, 2))."""
+    v0, v1, v2, normals, info, uvs = [], [], [], [], [], []
     for object_id, shape in enumerate(scene.shapes):
         mesh = shape.mesh
         if isinstance(mesh, meshes.Sphere):
@@ -243,23 +302,39 @@ def _gather_triangles(scene, scale=1.0):
             normals.append(np.repeat(flat[:, None, :], 3, axis=1))
         media = layout.pack_media(shape.interior, shape.exterior)
         info.append(np.tile([shape.material, object_id, -1, media], (len(mesh.faces), 1)))
+        if not with_uv:
+            uvs.append(np.zeros((len(mesh.faces), 0, 2)))
+        elif mesh.uvs is not None:
+            uvs.append(mesh.uvs[mesh.faces])
+        else:
+            uvs.append(np.broadcast_to(BARYCENTRIC_UV, (len(mesh.faces), 3, 2)))
     if not v0:
         empty = np.zeros((0, 3))
-        return empty, empty, empty, np.zeros((0, 3, 3)), np.zeros((0, 4), np.int32)
+        return empty, empty, empty, np.zeros((0, 3, 3)), np.zeros((0, 4), np.int32), np.zeros((0, 3 * with_uv, 2))
     return (np.concatenate(v0), np.concatenate(v1), np.concatenate(v2),
-            np.concatenate(normals), np.concatenate(info).astype(np.int32))
+            np.concatenate(normals), np.concatenate(info).astype(np.int32), np.concatenate(uvs))
 
 
 def _area_emitters(scene, triangles, is_sphere, info):
     """One emitter per primitive slot whose material emits, triangles first, then spheres;
     records its index in info[:, 2]. Returns the emitters and their powers (the selection
-    weights: pi x area x mean radiance, as one-sided Lambertian emitters)."""
+    weights: pi x area x mean radiance, as one-sided Lambertian emitters). A textured emission
+    counts with its texture's mean, and the emitter names the texture and its slot."""
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3)
-    emits = np.any(emission[info[:, 0]] > 0, axis=1) if len(info) else np.zeros(0, bool)
+    mean_emission = emission.copy()
+    reference = np.full(len(scene.materials), layout.TEXTURE_REF_NONE)
+    for index, material in enumerate(scene.materials):
+        if "emission" in material.textures:
+            texture = material.textures["emission"]
+            mean_emission[index] = scene.textures[texture].mean()
+            reference[index] = layout.texture_reference(texture, scalar=False)
+    emits = np.any(mean_emission[info[:, 0]] > 0, axis=1) if len(info) else np.zeros(0, bool)
     slots = np.concatenate([np.flatnonzero(emits & ~is_sphere), np.flatnonzero(emits & is_sphere)])
     info[slots, 2] = np.arange(len(slots))
     emitters = np.zeros(len(slots), layout.EMITTER)
     emitters["radiance"][:, :3] = emission[info[slots, 0]]
+    emitters["radiance"][:, 3] = reference[info[slots, 0]]
+    emitters["kind"][:, 1] = slots
     sphere = is_sphere[slots]
     emitters["kind"][:, 0] = np.where(sphere, layout.EMITTER_KINDS["sphere"], layout.EMITTER_KINDS["triangle"])
     record = triangles[slots]
@@ -270,7 +345,7 @@ def _area_emitters(scene, triangles, is_sphere, info):
     emitters["p0"][~sphere, 3] = area[~sphere]
     emitters["e1"][~sphere, :3] = e1[~sphere]
     emitters["e2"][~sphere, :3] = e2[~sphere]
-    return emitters, list(np.pi * area * emitters["radiance"][:, :3].mean(axis=1))
+    return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1))
 
 
 def spot_cone(light):
@@ -309,6 +384,7 @@ def _info_array(info):
 
 def _material_array(materials):
     out = np.zeros(len(materials), layout.MATERIAL)
+    layout.clear_texture_references(out)
     for i, m in enumerate(materials):
         kind = m.type if m.type in layout.MATERIAL_KINDS else "diffuse"  # emissive: black diffuse
         if m.index_matched:
@@ -316,6 +392,9 @@ def _material_array(materials):
         record = out[i]
         _set(record, "kind", layout.MATERIAL_KINDS[kind])
         _set(record, "one_sided", int(not m.two_sided))
+        _set(record, "back_material", -1)
+        _set(record, "normal_map", -1)
+        _set(record, "bump_map", -1)
         _set(record, "emission", m.emission)
         if kind == "interface":   # the transmittance of the boundary
             _set(record, "color", m.tint if m.index_matched else 1.0)
@@ -323,11 +402,14 @@ def _material_array(materials):
             _set(record, "color", m.tint)
             _set(record, "ior", m.ior)
             _set(record, "exterior_ior", m.exterior_ior)
-            _set(record, "roughness", m.roughness)
+            # Squared in float32, as the kernel would: alpha = roughness^2.
+            _set(record, "alpha", np.float32(m.roughness) * np.float32(m.roughness))
         else:
             _set(record, "color", m.albedo)
         if m.toon is not None:
             _toon_fields(record, m.toon)
+        for name, texture in m.textures.items():
+            layout.set_texture_reference(record, name, texture)
     return out
 
 
@@ -345,8 +427,7 @@ def needs_albedo_table(material):
     kind = int(_get(material, "kind"))
     if kind not in (layout.MATERIAL_KINDS["dielectric"], layout.MATERIAL_KINDS["conductor"]):
         return False
-    roughness = _get(material, "roughness")
-    return bool(roughness * roughness >= np.float32(1e-3))
+    return bool(_get(material, "alpha") >= np.float32(1e-3))
 
 
 def _assign_albedo_tables(materials, used):
@@ -356,7 +437,7 @@ def _assign_albedo_tables(materials, used):
     without specular shapes has no table code."""
     size, owners = 0, []
     for i in range(len(materials)):
-        _set(materials[i], "albedo_tables", -1.0)
+        _set(materials[i], "albedo_tables", -1)
         if i in used and needs_albedo_table(materials[i]):
             _set(materials[i], "albedo_tables", size)
             sides = 2 if _get(materials[i], "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
@@ -420,6 +501,19 @@ def _medium_at_camera(scene, position, v0, v1, v2, centres, radii, info):
     return interior if np.dot(normal, direction) > 0 else exterior
 
 
+def moved_camera_medium(scene, scale):
+    """SceneArrays.camera_medium for `scene`'s camera after it moved (Renderer.set_camera): the
+    scene's camera_medium if set, else found as build_scene_arrays finds it, from the shapes
+    gathered again at the arrays' length `scale`."""
+    if scene.camera_medium is not None:
+        return scene.camera_medium
+    v0, v1, v2, _, info, _ = _gather_triangles(scene, scale)
+    keep = _has_float32_area(v0, v1, v2)
+    centres, radii, _, sphere_info = _gather_spheres(scene, scale)
+    return _medium_at_camera(scene, scene.camera.position * scale, v0[keep], v1[keep], v2[keep], centres, radii,
+                             np.concatenate([info[keep], sphere_info]))
+
+
 def _toon_fields(record, toon):
     """The toon_* fields of one Material record (meaning in layout.MATERIAL_FIELDS)."""
     for name, value in (("toon_shadow_color", toon.shadow_color), ("toon_shadow_factor", toon.shadow_factor),
@@ -451,19 +545,31 @@ def environment_mean_radiance(light):
     height, width, _ = light.image.shape
     cos_theta = np.cos(np.linspace(0, np.pi, height + 1))
     row_solid_angle = (cos_theta[:-1] - cos_theta[1:]) * (2 * np.pi / width)
-    return np.einsum("hwc,h->c", light.image.astype(float), row_solid_angle) / (4 * np.pi)
+    return row_solid_angle @ light.image.sum(axis=1, dtype=np.float64) / (4 * np.pi)
 
 
 def _environment_tables(image):
     """Texels and the sampling CDFs of a lat-long image: luminance x sin(theta) per texel.
 
-    Returns (texels, [marginal | conditional rows], mean radiance over the sphere)."""
+    Returns (texels, [marginal | conditional rows], mean radiance over the sphere). Computed a
+    band of rows at a time, in float64, stored in float32: a large map needs no full-size
+    float64 temporaries."""
     height, width, _ = image.shape
     sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
-    weights = np.maximum(image @ LUMINANCE, 0) * sin_theta[:, None]
-    rows = np.stack([_cdf(row) for row in weights])
-    marginal = _cdf(weights.sum(axis=1))
+    cdf = np.empty(height + 1 + height * (width + 1), np.float32)
+    rows = cdf[height + 1:].reshape(height, width + 1)
+    row_sums = np.empty(height)
+    band = max(1, (1 << 20) // width)
+    for first in range(0, height, band):
+        part = slice(first, first + band)
+        weights = np.maximum(image[part] @ LUMINANCE, 0) * sin_theta[part, None]
+        row_sums[part] = weights.sum(axis=1)
+        weights[~(row_sums[part] > 0)] = 1.0   # a black row: uniform (it is never chosen)
+        rows[part, 0] = 0.0
+        rows[part, 1:] = np.cumsum(weights, axis=1) / weights.sum(axis=1, keepdims=True)
+        rows[part, -1] = 1.0
+    cdf[:height + 1] = _cdf(row_sums)
     texels = np.zeros((height * width, 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
-    mean = float((image.mean(axis=2) * sin_theta[:, None]).sum() / (sin_theta.sum() * width))
-    return texels, np.concatenate([marginal, rows.ravel()]).astype(np.float32), mean
+    mean = float(image.sum(axis=(1, 2), dtype=np.float64) @ sin_theta / (3 * sin_theta.sum() * width))
+    return texels, cdf, mean

@@ -1,4 +1,4 @@
-"""Command line: render, info, devices.
+"""Command line: render, info, view, devices.
 
 Exit codes (docs/errors.md): 0 success, 2 bad arguments, 3 bad scene, 4 device problem, 5 file
 I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a render in progress
@@ -147,6 +147,20 @@ def _parser():
     _add_parameter_option(info)
     info.set_defaults(run=_info)
 
+    view = commands.add_parser("view", help="watch a scene converge in the browser (docs/viewer.md)")
+    view.add_argument("scene", type=Path, help="a scene file (JSON or Mitsuba XML)")
+    view.add_argument("-o", "--output", help="where 'save' writes: PATH.exr (linear, with the AOVs as layers) and "
+                                             "PATH.png (as shown) (default: STEM.exr and STEM.png next to the scene)")
+    view.add_argument("--spp", type=_setting("spp"), help="samples per pixel to render to (default: the scene's)")
+    view.add_argument("--device", help="device (as for render)")
+    view.add_argument("--port", type=_port, default=0, help="port to listen on (default: any free port)")
+    view.add_argument("--host", default="127.0.0.1",
+                      help="address to listen on (default 127.0.0.1: this machine only; the URL's token is "
+                           "needed from anywhere)")
+    view.add_argument("--no-browser", action="store_true", help="print the URL, open no browser")
+    _add_parameter_option(view)
+    view.set_defaults(run=_view)
+
     devices = commands.add_parser("devices", help="list OpenCL platforms and devices")
     devices.set_defaults(run=_devices)
     return parser
@@ -192,6 +206,12 @@ def _load_scene(path, parameters):
     for warning in loaded.warnings:
         print(f"clrender: warning: {warning}", file=sys.stderr)
     return loaded.scene, loaded.notes
+
+
+def _port(text):
+    if not text.isdigit() or int(text) > 65535:
+        raise argparse.ArgumentTypeError(f"must be a port number from 0 (any free port) to 65535, got {text!r}")
+    return int(text)
 
 
 def _image_side(text):
@@ -259,6 +279,19 @@ def _render(args):
     return 0
 
 
+def _view(args):
+    """Serve the live view until the last page closes (exit 0) or a signal (128 + signal)."""
+    from .view import view
+    from .view.output import output_paths
+
+    parameters = _parameters(args)
+    _check_scene_files([args.scene])
+    scene, _ = _load_scene(args.scene, parameters)
+    output_paths(args.output, scene, "--output")
+    view(scene, args.spp, args.output, args.device, args.host, args.port, open_browser=not args.no_browser, block=True)
+    return 0
+
+
 def _check_scene_files(paths):
     """Each scene file exists before a batch starts (its contents are read when it renders)."""
     from .errors import SceneError
@@ -305,8 +338,6 @@ def _output_paths(output, scene_paths, layers=()):
 
 
 def _render_local(args, scene_path, output, aovs, parameters):
-    from tqdm import tqdm
-
     from .image import save_image
     from .render import Renderer, RenderInterrupted
 
@@ -315,16 +346,8 @@ def _render_local(args, scene_path, output, aovs, parameters):
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering, sampler=args.sampler)
     for note in renderer.notes:
         print(f"clrender: note: {note}", file=sys.stderr)
-    spp = args.spp or (None if args.time else scene.render.spp)
-    bar = tqdm(total=spp, unit="spp", disable=args.quiet, file=sys.stderr, dynamic_ncols=True)
-
-    def progress(done, total, seconds):
-        bar.update(done - bar.n)
-        width, height = scene.camera.resolution
-        bar.set_postfix_str(f"{done * width * height / max(seconds, 1e-9) / 1e6:.2f} M samples/s")
-
     try:
-        result = renderer.render(spp=spp, seed=args.seed, max_depth=args.max_depth, progress=progress,
+        result = renderer.render(spp=args.spp, seed=args.seed, max_depth=args.max_depth, progress=not args.quiet,
                                  time_limit=args.time, aovs=aovs, denoise=args.denoise,
                                  denoise_prefilter=args.denoise_prefilter,
                                  denoise_keep_emission=args.denoise_keep_emission)
@@ -332,7 +355,6 @@ def _render_local(args, scene_path, output, aovs, parameters):
     except RenderInterrupted as interrupted:
         result = interrupted.result
         status = 128 + interrupted.signal
-    bar.close()
     save_image(result.image, output, exposure=args.exposure, layers=_layers(args, aovs, result))
     _report(output, result, renderer.device.name.strip(), status)
     return status

@@ -3,10 +3,12 @@
 The kernel source is assembled on the host: #include "x.h" lines are expanded (each file once,
 where it is first included: so no include may sit inside an #if, see tests/test_compile.py)
 with #line markers so compiler messages name the right file, and the layout enumerations are
-prepended. The assembled text is therefore the complete input: its hash, with the device, driver and
-options, keys an in-memory cache and a disk cache of program binaries ($CLRENDER_CACHE_DIR,
-default ~/.cache/clrender). A disk entry carries the driver's identity and a checksum of the
-binary, verified before the binary reaches the driver (a truncated binary crashes PoCL).
+prepended, and so are the values of the environment variables an implementation reads when it
+builds (BUILD_ENVIRONMENT). The assembled text is therefore the complete input: its hash, with the
+device, driver and options, keys an in-memory cache and a disk cache of program binaries
+($CLRENDER_CACHE_DIR, default ~/.cache/clrender), and pyopencl's own cache keys on it too. A disk
+entry carries the driver's identity and a checksum of the binary, verified before the binary
+reaches the driver (a truncated binary crashes PoCL).
 """
 import contextlib
 import hashlib
@@ -23,6 +25,9 @@ from . import layout
 from .errors import ArgumentError, DeviceError, KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
+# Environment variables that change what an implementation builds: Oclgrind appends
+# OCLGRIND_BUILD_OPTIONS to every build's options (-cl-opt-disable, docs/portability.md).
+BUILD_ENVIRONMENT = ("OCLGRIND_BUILD_OPTIONS",)
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
 
 
@@ -126,7 +131,13 @@ def kernel_source(entry="integrator.cl"):
                 out.append(line)
         return "\n".join(out)
 
-    return layout.c_constants() + expand(entry) + "\n"
+    return build_environment() + layout.c_constants() + expand(entry) + "\n"
+
+
+def build_environment():
+    """The BUILD_ENVIRONMENT variables that are set, as comment lines heading the source: a
+    program built under other values is another program to every cache keyed by the source."""
+    return "".join(f"// {name}={os.environ[name]!r}\n" for name in BUILD_ENVIRONMENT if name in os.environ)
 
 
 def define_options(features):

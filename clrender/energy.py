@@ -2,14 +2,14 @@
 
 Each table is the directional albedo E(mu_o) of a material's single-scattering lobe, computed on
 the device by the kernel code that renders it, so host and kernel cannot disagree. Tables depend
-only on (kind, ior, exterior ior, roughness) and are cached for the session.
+only on (kind, ior, exterior ior, alpha) and are cached for the session.
 """
 import numpy as np
 import pyopencl as cl
 
 from . import layout
 
-_cache = {}  # (device, kind, ior, exterior_ior, roughness) -> float32 (sides, ALBEDO_TABLE_SIZE)
+_cache = {}  # (device, kind, ior, exterior_ior, alpha) -> float32 (sides, ALBEDO_TABLE_SIZE)
 
 
 def _field(material, name):
@@ -17,9 +17,9 @@ def _field(material, name):
 
 
 def _table_key(queue, material):
-    """A table depends on the device and the lobe: kind, ior, exterior ior, roughness."""
+    """A table depends on the device and the lobe: kind, ior, exterior ior, alpha."""
     return (queue.device.int_ptr, *(float(_field(material, name))
-                                    for name in ("kind", "ior", "exterior_ior", "roughness")))
+                                    for name in ("kind", "ior", "exterior_ior", "alpha")))
 
 
 def fill_albedo_tables(queue, program, arrays):

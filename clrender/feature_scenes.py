@@ -22,7 +22,9 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     and rough glass, a rough mirror (energy tables) and a smooth one; TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
-    kinds of media. The spheres are analytic (they share BVH leaves with the triangles), or
+    kinds of media; TEXTURES a checkerboard floor, an 8-bit sRGB bitmap on the box (mirrored
+    repeats), a textured emitting sphere, and with DIELECTRIC a float bitmap driving the rough
+    mirror's roughness. The spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
     lights and materials (features.packets_cover): their scene keeps only the rectangle light,
     and DIELECTRIC adds the smooth glass only; it needs its features when the renderer asks for
@@ -69,6 +71,9 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
                        "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
         shapes.append({"name": "mirror", "type": "rectangle", "material": "mirror",
                        "transform": {"scale": 0.4, "rotate": [0, 60, 0], "translate": [-1.6, -0.4, 0.2]}})
+    textures = []
+    if features["TEXTURES"]:
+        _add_textures(textures, materials, shapes, sphere, features["DIELECTRIC"])
     if features["TOON"]:
         materials.append({"name": "toon", "type": "toon", "color": [0.9, 0.4, 0.2]})
         sphere("toon", "toon", [-0.5, -0.6, 0.0], 0.4)
@@ -90,12 +95,33 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     data = {"camera": {"position": [0, 0.6, 4.5], "look_at": [0, -0.2, 0], "fov": 45,
                        "resolution": list(resolution), "filter": {"type": "gaussian"}, "aperture_radius": 0.05},
             "render": {"max_depth": 4, "rr_depth": 2},   # marching at its default step, 2 voxels
-            "materials": materials, "shapes": shapes, "lights": lights, "media": media}
+            "materials": materials, "shapes": shapes, "lights": lights, "media": media, "textures": textures}
     scene = load_scene_dict(data)
     if features["ENVIRONMENT"] == ENVIRONMENT_MODES["image"]:
         scene.environment.image = _sky(16, 8)
     method = _METHODS[features["GRID_MEDIA"]] if features["GRID_MEDIA"] else None
     return scene, method
+
+
+def _add_textures(textures, materials, shapes, sphere, dielectric):
+    """A textured floor (checkerboard), box (sRGB bitmap, mirrored beyond [0, 1]) and emitting
+    sphere (grey float bitmap); with `dielectric`, the rough mirror's alpha from a bitmap."""
+    rng = np.random.default_rng(7)
+    textures += [{"name": "checks", "type": "checkerboard", "to_uv": [[4, 0, 0], [0, 4, 0.5]]},
+                 {"name": "painted", "type": "bitmap", "wrap": "mirror", "to_uv": [[3, 0, -1], [0, 2.5, -0.7]],
+                  "image": rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)},
+                 {"name": "glow", "type": "bitmap", "filter": "nearest", "wrap": "clamp",
+                  "image": rng.uniform(1, 8, (4, 6)).astype(np.float32)}]
+    materials += [{"name": "checked", "type": "diffuse", "albedo": {"texture": "checks"}},
+                  {"name": "painted", "type": "diffuse", "albedo": {"texture": "painted"}},
+                  {"name": "glowing", "type": "emissive", "radiance": {"texture": "glow"}}]
+    shapes[0]["material"], shapes[1]["material"] = "checked", "painted"
+    sphere("glowing", "glowing", [-1.3, 0.8, -0.6], 0.2, transform={"rotate": [30, 0, 10]})
+    if dielectric:
+        textures.append({"name": "bumps", "type": "bitmap", "image": rng.uniform(0.05, 0.5, (3, 3, 1)).astype(np.float32)})
+        rough = next(m for m in materials if m["name"] == "rough_mirror")
+        rough.pop("roughness")
+        rough.update(alpha={"texture": "bumps"}, energy_compensation=False)
 
 
 def _sky(width, height):

@@ -11,6 +11,7 @@ import numpy as np
 
 from . import meshes
 from .arrays import active_environment
+from .textures import scene_uses_textures
 from .errors import ArgumentError
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 
@@ -28,6 +29,9 @@ FEATURE_VALUES = {
     # Sample-level AOVs (albedo, normal, colour variance: kernels/aovs.h): decided by the render
     # request, not the scene, so that colour-only renders carry none of their code.
     "AOVS": (0, 1),
+    # Surface detail: uv at hits, and textures driving material parameters (kernels/textures/,
+    # materials/textured_params.h).
+    "TEXTURES": (0, 1),
     # Camera paths per work-item (kernels/lanes.h): 8 traces them in the vector lanes of a CPU
     # (kernels/integrator_packets.cl, 1.3-1.4x faster on PoCL: docs/performance.md) for the
     # scenes it covers (packets_cover); 1 is the megakernel, one path per work-item.
@@ -35,7 +39,7 @@ FEATURE_VALUES = {
 }
 
 # What the packet integrator (LANES 8) leaves out: every other feature.
-PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0}
+PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
 
 SPECULAR_MATERIALS = ("dielectric", "conductor")
 
@@ -72,6 +76,7 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
         "DIELECTRIC": int(any(_is_specular(scene.materials[shape.material]) for shape in scene.shapes)),
         "GRID_MEDIA": VOLUME_METHODS[method] if any(m.type == "grid" for m in scene.media) else 0,
         "AOVS": int(bool(sample_aovs)),
+        "TEXTURES": int(scene_uses_textures(scene)),
         "LANES": 1,
     }
     if packets and packets_cover(scene, features):

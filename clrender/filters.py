@@ -125,7 +125,7 @@ def filter_record(f):
     """RenderParams.filter (layout.FILTER) for the filter `f` (cached: every launch's
     RenderParams holds it; not to be modified)."""
     record = np.zeros((), layout.FILTER)
-    record["kind"][0] = layout.FILTER_KINDS[f.type]
+    record["kind"][0] = layout.PIXEL_FILTERS[f.type]
     if f.type == "box":
         return record
     r = radius(f)

@@ -1,4 +1,6 @@
-"""Image output and input: tone-mapped sRGB PNG (imageio), linear float EXR (OpenEXR).
+"""Image output and input. Output: tone-mapped sRGB PNG/JPEG/TIFF (imageio), linear float EXR
+(OpenEXR). Input: every image clrender reads (environment maps, textures, EXR layers) through
+OpenImageIO: PNG, JPEG, EXR, Radiance HDR, TGA, TIFF (and the other formats it knows).
 
 Extra layers (AOVs, the noisy image beside a denoised one) go into the same EXR as channels
 "<layer>.<channel>", the layout Blender and Nuke read (the colour itself is R, G, B); with 8-bit
@@ -7,9 +9,16 @@ formats each goes to its own file "<stem>.<layer><suffix>", mapped for viewing (
 Writes are atomic: a temporary file in the target folder, renamed over the target when complete,
 so an interrupted or failed write never leaves a half-written image. `check_output_path` finds
 the problems of a target before a render is spent on it.
+
+Reading follows Mitsuba 3's bitmap texture: integer images (8 or 16 bits) are sRGB-encoded unless
+read `raw`, float images (EXR, HDR, float TIFF) linear, whatever colour space the file names
+(Mitsuba ignores PNG gamma chunks too); alpha is read unassociated, as stored, and dropped;
+grey stays one channel; row 0 is the image's top row.
 """
+import functools
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -98,6 +107,19 @@ def save_image(image, path, exposure=0.0, layers=None):
             _write_ldr(ldr_layer(name, layer, exposure), layer_path(path, name))
 
 
+def save_display_image(pixels, path):
+    """Save 8-bit display pixels (H, W, 3) uint8 as they are (already tone-mapped, e.g. what the
+    viewer shows) to an 8-bit format; raises as save_image does."""
+    path = Path(path)
+    pixels = np.asarray(pixels)
+    if pixels.dtype != np.uint8 or pixels.ndim != 3 or pixels.shape[2] != 3:
+        raise ArgumentError("pixels", f"expected HxWx3 uint8 pixels, got {pixels.dtype} of shape {pixels.shape}")
+    check_output_path(path)
+    if path.suffix.lower() not in LDR_SUFFIXES:
+        raise ArgumentError("path", f"display pixels go to an 8-bit format ({', '.join(LDR_SUFFIXES)}), not {path}")
+    _write_ldr(pixels, path)
+
+
 def layer_path(path, name):
     """Where an 8-bit output puts a layer: image.png -> image.albedo.png."""
     path = Path(path)
@@ -176,6 +198,36 @@ def _atomic_write(path, write):
         raise
 
 
+@dataclass
+class TextureImage:
+    """An image as a texture reads it (load_texture_image)."""
+    pixels: np.ndarray   # (H, W, C): C 1 (grey) or 3 (RGB); uint8 for 8-bit files, else float32
+    srgb: bool           # sRGB-encoded values, to decode to linear at lookup (8-bit files unless raw)
+
+
+def load_texture_image(path, raw=False):
+    """An image file as Mitsuba's bitmap texture holds it: 8-bit images keep their bytes (sRGB-
+    encoded unless `raw`: decoded at lookup, before interpolation, as Mitsuba does), 16-bit and
+    other integer images become float32, sRGB-decoded unless `raw` (as Mitsuba decodes them on
+    loading), float images stay linear float32. Alpha is dropped, grey stays one channel.
+    Raises FileError naming the file when it is missing, unreadable, corrupt or too large."""
+    pixels = _reading(path, _read_pixels)
+    if pixels.dtype == np.uint8:
+        return TextureImage(pixels, srgb=not raw)
+    if pixels.dtype == np.uint16:
+        pixels = (pixels * np.float32(1 / 65535)) if raw else _SRGB_16BIT()[pixels]
+    return TextureImage(pixels, srgb=False)
+
+
+def load_image(path):
+    """An image as linear float32 H x W x 3 (environment maps): integer images sRGB-decoded, grey
+    repeated into R, G, B, alpha dropped. Raises FileError naming the file when it is missing,
+    unreadable, corrupt or too large."""
+    texture = load_texture_image(path)
+    pixels = _SRGB_8BIT[texture.pixels] if texture.srgb else texture.pixels
+    return np.repeat(pixels, 3, axis=2) if pixels.shape[2] == 1 else pixels
+
+
 def load_exr_layers(path):
     """The layers of an EXR written by save_image: name -> float32 (H, W, channels) in the
     channel order of LAYER_CHANNELS (R, G, B otherwise); the colour under the name "".
@@ -184,11 +236,9 @@ def load_exr_layers(path):
 
 
 def _read_exr_layers(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path), separate_channels=True) as exr:
-        planes = {name: np.asarray(channel.pixels, dtype=np.float32)
-                  for name, channel in exr.channels().items()}
+    with _opened(path) as (image, spec):
+        pixels = _read(image, spec, "float")
+    planes = dict(zip(spec.channelnames, np.moveaxis(pixels, 2, 0)))
     grouped = {}
     for name in planes:
         layer, _, letter = name.rpartition(".")
@@ -199,12 +249,6 @@ def _read_exr_layers(path):
         prefix = f"{layer}." if layer else ""
         layers[layer] = np.stack([planes[prefix + letter] for letter in order], axis=-1)
     return layers
-
-
-def load_image(path):
-    """Read an image as linear float32 HxWx3 (EXR as stored; 8-bit formats sRGB-decoded).
-    Raises FileError when the file is missing or unreadable."""
-    return _reading(path, _read_image)
 
 
 def _reading(path, read):
@@ -218,29 +262,74 @@ def _reading(path, read):
         return read(path)
     except FileError:
         raise
-    except Exception as e:   # the image libraries raise many types for malformed files
+    except Exception as e:   # OpenImageIO's messages for malformed files, numpy's for odd layouts
         raise FileError(f"cannot read image {path}: {e}") from None
 
 
-def _read_image(path):
-    if path.suffix.lower() == ".exr":
-        import OpenEXR
+def _read_pixels(path):
+    """The colour channels of an image in their stored type: uint8, uint16, or float32 (floats,
+    and integers of other widths, which OpenImageIO scales to [0, 1])."""
+    with _opened(path) as (image, spec):
+        names = [name.upper() for name in spec.channelnames]
+        if all(letter in names for letter in "RGB"):
+            chosen = [names.index(letter) for letter in "RGB"]
+        elif "Y" in names:
+            chosen = [names.index("Y")]
+        else:   # unnamed: grey (and alpha), or colour (and alpha) first
+            chosen = [0] if spec.nchannels < 3 else [0, 1, 2]
+        kind = {"uint8": "uint8", "uint16": "uint16"}.get(str(spec.format), "float")
+        first, last = min(chosen), max(chosen) + 1   # OpenImageIO reads a contiguous range
+        pixels = _read(image, spec, kind, first, last)
+    if chosen == list(range(first, last)):
+        return pixels
+    return np.ascontiguousarray(pixels[..., [c - first for c in chosen]])
 
-        with OpenEXR.File(str(path)) as exr:
-            channels = exr.channels()
-            if "RGB" in channels:
-                pixels = channels["RGB"].pixels
-            elif "RGBA" in channels:
-                pixels = channels["RGBA"].pixels[..., :3]
-            else:
-                raise FileError(f"no RGB channels in {path} (has {', '.join(channels)})")
-        return np.asarray(pixels, dtype=np.float32)
-    import imageio.v3 as iio
 
-    pixels = np.asarray(iio.imread(path))
-    if pixels.ndim == 2:
-        pixels = np.repeat(pixels[..., None], 3, axis=2)
-    pixels = pixels[..., :3]
-    if np.issubdtype(pixels.dtype, np.integer):
-        return srgb_to_linear(pixels.astype(np.float32) / np.iinfo(pixels.dtype).max).astype(np.float32)
-    return pixels.astype(np.float32)
+class _opened:
+    """`with _opened(path) as (image, spec)`: an OpenImageIO input on the first subimage, its
+    size checked against the limits before anything is read; alpha left unassociated (as
+    stored), as Mitsuba reads it."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def __enter__(self):
+        import OpenImageIO as oiio   # 30 ms: only where an image is read
+
+        config = oiio.ImageSpec()
+        config.attribute("oiio:UnassociatedAlpha", 1)
+        self.image = oiio.ImageInput.open(str(self.path), config)
+        if self.image is None:
+            raise ValueError(oiio.geterror() or "unknown format")
+        spec = self.image.spec()
+        if spec.deep or spec.depth > 1 or min(spec.width, spec.height, spec.nchannels) < 1:
+            self.image.close()
+            raise ValueError(f"not a flat 2D image ({spec.width} x {spec.height} x {spec.depth}, "
+                             f"{spec.nchannels} channels)")
+        if spec.width * spec.height * spec.nchannels > limits.MAX_IMAGE_VALUES:
+            self.image.close()
+            raise ValueError(f"{spec.width} x {spec.height} pixels of {spec.nchannels} channels, more than the "
+                             f"{limits.MAX_IMAGE_VALUES} values clrender reads from an image")
+        return self.image, spec
+
+    def __exit__(self, *exc):
+        self.image.close()
+
+
+def _read(image, spec, kind, first=0, last=None):
+    """Channels [first, last) of the whole image as numpy (H, W, C) of `kind`; ValueError with
+    OpenImageIO's message when the data is corrupt or truncated (it may return pixels and only
+    report the problem)."""
+    pixels = image.read_image(0, 0, first, spec.nchannels if last is None else last, kind)
+    if pixels is None or image.has_error:
+        raise ValueError(image.geterror() or "unreadable pixel data")
+    return pixels.reshape(spec.height, spec.width, -1)
+
+
+def _srgb_table(levels):
+    return srgb_to_linear(np.arange(levels) / (levels - 1)).astype(np.float32)
+
+
+# sRGB decoding of every 8-bit value (and, made on first use, every 16-bit value).
+_SRGB_8BIT = _srgb_table(256)
+_SRGB_16BIT = functools.cache(lambda: _srgb_table(65536))

@@ -41,44 +41,75 @@ TRIANGLE_SHADING = _struct(("n0", F4), ("n1", F4), ("n2", F4))
 # info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))
 
-# A material. Its lanes are named in MATERIAL_FIELDS below; read and write them by name (field,
-# set_field here, the accessors of kernels/materials/material.h in the kernels).
-MATERIAL = _struct(("kind", I4), ("color", F4), ("emission", F4), ("params", F4),
-                   ("toon_shadow", F4), ("toon_bands", F4), ("toon_highlight", F4), ("toon_rim", F4),
-                   ("toon_ambient", F4))
+# A material: a header, its emission, and MATERIAL_SLOTS parameter slots. Its lanes are named in
+# MATERIAL_FIELDS below; read and write them by name (field, set_field here, the accessors of
+# kernels/materials/material.h in the kernels).
+#
+# Lane w of every slot (and of emission) is reserved for a texture reference (TEXTURE_REF_*): a
+# parameter held there is a constant, or is replaced at each hit by a texture's value, before any
+# material code reads it (kernels/materials/textured_params.h). So a material never knows where a
+# value came from; the other lanes of a slot may hold parameters that are never textured.
+MATERIAL_SLOTS = 13
+MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4", (MATERIAL_SLOTS, 4))))
 
-# name -> (struct member, first lane, lanes). one_sided: 1 = black seen from behind its front
-# face (Mitsuba's BSDFs without `twosided`, kernels/materials/bsdf.h). color: albedo (diffuse),
-# tint (dielectric: transmission, conductor: reflectance) or base colour (toon). ior /
-# exterior_ior / roughness: dielectrics and conductors. albedo_tables: offset of the material's
-# energy-compensation tables in Scene.specular_albedo (-1: none: smooth, or `energy_compensation`
-# off; kernels/materials/energy.h). toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h):
-# shadow colour (tints the shadow factor: a blocked point keeps shadow_factor x shadow_colour of
-# its colour) and factor, band count and softness, highlight size, softness and colour, rim
-# width, colour and threshold, ambient colour.
+# name -> (struct member, first lane, lanes); a member ("slot", k) is parameter slot k. Fields of
+# different kinds may share lanes (a material has one kind).
+#   kind, one_sided: MATERIAL_KINDS; 1 = black seen from behind its front face (Mitsuba's BSDFs
+#     without `twosided`, kernels/materials/bsdf.h).
+#   back_material: the material seen from behind (Mitsuba's twosided with two BSDFs), -1: this one.
+#   albedo_tables: offset of the material's tables in Scene.specular_albedo (-1: none: smooth, or
+#     `energy_compensation` off; kernels/materials/energy.h).
+#   normal_map, bump_map: texture indices (-1: none) that bend the shading normal.
+#   emission: radiance of an emitting material (textured: w).
+#   color (textured): albedo (diffuse), tint (dielectric: transmission, conductor: reflectance),
+#     base colour (toon), transmittance (interface).
+#   alpha (textured): the microfacet width of rough lobes (dielectric, conductor).
+#   ior / exterior_ior: indices of refraction inside and outside (dielectric).
+#   opacity (textured): the fraction of light the surface stops (1: opaque); bump_scale.
+#   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
+#     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
+#     factor, band count and softness, highlight size, softness and colour, rim width, colour and
+#     threshold, ambient colour.
 MATERIAL_FIELDS = {
     "kind": ("kind", 0, 1),
     "one_sided": ("kind", 1, 1),
-    "color": ("color", 0, 3),
+    "back_material": ("kind", 2, 1),
+    "albedo_tables": ("kind", 3, 1),
+    "normal_map": ("maps", 0, 1),
+    "bump_map": ("maps", 1, 1),
     "emission": ("emission", 0, 3),
-    "ior": ("params", 0, 1),
-    "exterior_ior": ("params", 1, 1),
-    "roughness": ("params", 2, 1),
-    "albedo_tables": ("params", 3, 1),
-    "toon_shadow_color": ("toon_shadow", 0, 3),
-    "toon_shadow_factor": ("toon_shadow", 3, 1),
-    "toon_bands": ("toon_bands", 0, 1),
-    "toon_band_softness": ("toon_bands", 1, 1),
-    "toon_highlight_size": ("toon_bands", 2, 1),
-    "toon_highlight_softness": ("toon_bands", 3, 1),
-    "toon_highlight_color": ("toon_highlight", 0, 3),
-    "toon_rim_width": ("toon_highlight", 3, 1),
-    "toon_rim_color": ("toon_rim", 0, 3),
-    "toon_rim_threshold": ("toon_rim", 3, 1),
-    "toon_ambient": ("toon_ambient", 0, 3),
+    "color": (("slot", 0), 0, 3),
+    "alpha": (("slot", 1), 0, 1),
+    "ior": (("slot", 2), 0, 1),
+    "exterior_ior": (("slot", 2), 1, 1),
+    "opacity": (("slot", 12), 0, 1),
+    "bump_scale": (("slot", 12), 1, 1),
+    "toon_shadow_color": (("slot", 3), 0, 3),
+    "toon_shadow_factor": (("slot", 4), 0, 1),
+    "toon_bands": (("slot", 4), 1, 1),
+    "toon_band_softness": (("slot", 4), 2, 1),
+    "toon_highlight_size": (("slot", 5), 0, 1),
+    "toon_highlight_softness": (("slot", 5), 1, 1),
+    "toon_highlight_color": (("slot", 6), 0, 3),
+    "toon_rim_width": (("slot", 7), 0, 1),
+    "toon_rim_color": (("slot", 8), 0, 3),
+    "toon_rim_threshold": (("slot", 7), 1, 1),
+    "toon_ambient": (("slot", 9), 0, 3),
 }
+# The fields a texture may drive; each owns lane w of its member for the texture reference.
+TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity")
 
-# kind.x EMITTER_*; see kernels/types.h for the meaning of p0/e1/e2 per kind.
+# A texture (kernels/textures/texture.h). info: x kind (TEXTURE_KINDS), y first byte of its
+# texels in Scene.texels, z width, w height. format: x channels (1, 3 or 4), y encoding
+# (TEXEL_ENCODINGS), z filter (TEXTURE_FILTERS), w wrap mode (TEXTURE_WRAPS). to_uv_u, to_uv_v:
+# the rows (xyz) of the affine map from the surface's uv to the texture's. color0, color1: the
+# checkerboard's colours (xyz).
+TEXTURE = _struct(("info", I4), ("format", I4), ("to_uv_u", F4), ("to_uv_v", F4), ("color0", F4),
+                  ("color1", F4))
+
+# kind.x EMITTER_*, kind.y an area emitter's primitive slot; radiance.w a texture reference of a
+# textured area emitter (TEXTURE_REF_*, as materials'); see kernels/types.h for the meaning of
+# p0/e1/e2 per kind.
 EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2", F4))
 
 # A medium; lanes named in MEDIUM_FIELDS (accessors: kernels/media/medium_record.h).
@@ -109,7 +140,7 @@ MEDIUM_FIELDS = {
 CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4), ("lens", F4))
 
 # The pixel reconstruction filter (kernels/filter.h, the table built by clrender/filters.py):
-# kind.x FILTER_*; the rest is read by the tabulated filters only. support: x radius, y 1 / the
+# kind.x PIXEL_FILTER_*; the rest is read by the tabulated filters only. support: x radius, y 1 / the
 # filter's integral. shape: gaussian x -1 / (2 stddev^2), y its value at the radius; tent x
 # 1 / radius. cells: the cubic coefficients (a, b, c, d) of the sampling map in each of
 # FILTER_CELLS cells. edge_cdf and edge_mass (FILTER_EDGES floats each): the cumulative
@@ -148,6 +179,7 @@ STRUCTS = {
     "TriangleShading": TRIANGLE_SHADING,
     "TriangleInfo": TRIANGLE_INFO,
     "Material": MATERIAL,
+    "Texture": TEXTURE,
     "Emitter": EMITTER,
     "Medium": MEDIUM,
     "Camera": CAMERA,
@@ -167,14 +199,29 @@ VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 # The random numbers of camera paths (render.sampler, kernels/rng.h); RenderParams.sampling.x.
 SAMPLERS = {"independent": 0, "sobol": 1}
 # Pixel reconstruction filters (camera.filter, kernels/filter.h); RenderParams.filter.kind.x.
-FILTER_KINDS = {"box": 0, "gaussian": 1, "tent": 2}
+PIXEL_FILTERS = {"box": 0, "gaussian": 1, "tent": 2}
+# Textures (Texture.info.x), how their texels are stored (Texture.format.y: 8-bit sRGB-encoded,
+# decoded at lookup; 8-bit linear; float32), filters and wrap modes (Mitsuba's bitmap names).
+TEXTURE_KINDS = {"bitmap": 0, "checkerboard": 1}
+TEXEL_ENCODINGS = {"srgb8": 0, "linear8": 1, "float32": 2}
+TEXTURE_FILTERS = {"nearest": 0, "bilinear": 1}
+TEXTURE_WRAPS = {"repeat": 0, "mirror": 1, "clamp": 2}
+
+
+def member_lanes(records, member):
+    """The lanes of `member` (a struct member's name, or (name, index) for an element of an
+    array member) of a record or array of records."""
+    if isinstance(member, tuple):
+        name, index = member
+        return records[name][..., index, :]
+    return records[member]
 
 
 def field(records, fields, name):
     """The named field `name` of a record or array of records (fields: MATERIAL_FIELDS or
     MEDIUM_FIELDS): a scalar per record, or a view of its lanes."""
     member, first, count = fields[name]
-    lanes = records[member][..., first:first + count]
+    lanes = member_lanes(records, member)[..., first:first + count]
     return lanes[..., 0] if count == 1 else lanes
 
 
@@ -182,7 +229,30 @@ def set_field(records, fields, name, value):
     """Write the named field `name` of a record or array of records."""
     member, first, count = fields[name]
     value = np.asarray(value)
-    records[member][..., first:first + count] = value[..., None] if count == 1 else value
+    member_lanes(records, member)[..., first:first + count] = value[..., None] if count == 1 else value
+
+
+# Texture references (lane w of a texturable member): none, or a texture index and how its value
+# is used, as a colour (RGB) or a number (the luminance of RGB, Mitsuba's eval_1). Exact in float32.
+TEXTURE_REF_NONE = -1.0
+
+
+def texture_reference(index, scalar):
+    """The lane-w value naming texture `index`, used as a number (`scalar`) or a colour."""
+    return float(2 * index + int(scalar))
+
+
+def set_texture_reference(records, name, index):
+    """Make texturable field `name` of Material `records` take its value from texture `index`
+    (as a number for a one-lane field, else as a colour)."""
+    member, _, count = MATERIAL_FIELDS[name]
+    member_lanes(records, member)[..., 3] = texture_reference(index, count == 1)
+
+
+def clear_texture_references(records):
+    """Every texturable lane of Material `records` holds a constant."""
+    records["emission"][..., 3] = TEXTURE_REF_NONE
+    records["slot"][..., 3] = TEXTURE_REF_NONE
 
 
 def pack_media(interior, exterior):
@@ -206,9 +276,12 @@ def c_constants():
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
-                          ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("FILTER", FILTER_KINDS)):
+                          ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("TEXTURE", TEXTURE_KINDS),
+                          ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS),
+                          ("PIXEL_FILTER", PIXEL_FILTERS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
+    lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")
     lines.append(f"#define FILTER_CELLS {FILTER_CELLS}")
     lines.append(f"#define FILTER_EDGES {FILTER_EDGES}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")

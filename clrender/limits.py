@@ -26,6 +26,8 @@ MAX_RESOLUTION = 16384     # pixels per image side
 MAX_EXPOSURE = 64.0        # stops: 2^64 keeps any float32 radiance's tone mapping finite in float64
 MAX_TRIANGLES = 2**28      # triangle, node and emitter indices are int32 with room for the BVH
 MAX_TRANSFORM_CONDITION = 1e12   # largest / smallest stretch of a transform: beyond, it is singular
+MAX_IMAGE_VALUES = 2**29   # width x height x channels of an image file read (textures, environment
+                           # maps): 2 GiB as float32, e.g. 16384 x 8192 RGBA; checked before reading
 
 MIN_MARCH_STEP = 1e-3       # ray marching's step, in voxels: below, a march takes millions of steps
 MAX_LOCAL_WORKERS = 1024   # processes of a local Dask cluster, each with its own device context
@@ -94,8 +96,14 @@ def check_settings(**given):
 
 def float32_values(values, where, error=ArgumentError):
     """Raise unless every value of an array stays finite in float32 (a derived quantity such as
-    sigma * scale, or a vertex read from a file)."""
-    values = np.asarray(values, dtype=float)
+    sigma * scale, or a vertex read from a file). Returns the values as float64, or as they are
+    when they are float32 already (a large image is checked without a copy)."""
+    values = np.asarray(values)
+    if values.dtype != np.float32:
+        values = values.astype(float)
+    if np.isfinite(values).all() and (values.dtype == np.float32 or not values.size
+                                      or np.abs(values).max() <= FLOAT32_MAX):
+        return values
     bad = ~np.isfinite(values) | (np.abs(values) > FLOAT32_MAX)
     if np.any(bad):
         worst = values[bad].flat[0]
@@ -125,7 +133,8 @@ PIXEL_BYTES = 16 + 16 + 4   # accumulator float4, aux geometry float4, aux objec
 ARRAY_ORIGINS = {"nodes": "shapes", "triangles": "shapes", "shading": "shapes", "info": "shapes",
                  "emitters": "shapes", "emitter_cdf": "shapes", "materials": "materials",
                  "specular_albedo": "materials", "media": "media", "grid_data": "media",
-                 "majorant_data": "media", "env_texels": "lights", "env_cdf": "lights"}
+                 "majorant_data": "media", "env_texels": "lights", "env_cdf": "lights", "uvs": "shapes",
+                 "textures": "textures", "texels": "textures"}
 
 
 def check_image_fits(resolution, device):

@@ -1,7 +1,10 @@
-"""Shape geometry: triangle meshes (primitives, files loaded with trimesh) and analytic spheres,
-and their transforms."""
-import re
-from dataclasses import dataclass
+"""Shape geometry: triangle meshes (primitives, mesh files) and analytic spheres, their
+transforms and texture coordinates.
+
+Texture coordinates follow Mitsuba 3: uv (0, 0) is the top-left corner of an image, u to the
+right, v down (a file's v is flipped, v -> 1 - v, where Mitsuba's `flip_tex_coords` says so).
+Primitives carry Mitsuba's uv mapping of the same shape (see each)."""
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +15,17 @@ class Mesh:
     vertices: np.ndarray   # (V, 3) float64, world space
     faces: np.ndarray      # (F, 3) int64
     normals: np.ndarray    # (V, 3) float64 unit shading normals, or None for flat shading
+    uvs: np.ndarray = None   # (V, 2) float64 texture coordinates (Mitsuba's convention), or None
+
+
+@dataclass
+class MeshData:
+    """A mesh as a file gives it (obj_reader.py, ply_reader.py, serialized.py, trimesh), before
+    load_mesh_file checks it and decides its texture coordinates and shading normals."""
+    positions: np.ndarray   # (V, 3) float64
+    faces: np.ndarray       # (F, 3) int64
+    uvs: np.ndarray         # (V, 2) float64 as stored (not flipped), or None
+    normals: np.ndarray     # (V, 3) float64 as stored (not normalised), or None
 
 
 @dataclass
@@ -20,6 +34,19 @@ class Sphere:
     center: np.ndarray     # (3,) float64, world space
     radius: float          # > 0
     flipped: bool = False  # the front face (normals, one-sided emission) is inside
+    # Object-to-world rotation (orthonormal; a mirror has determinant -1): the frame of the
+    # texture coordinates (sphere_uv), Mitsuba's to_world without its scale and translation.
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+
+def sphere_uv(sphere, points):
+    """Mitsuba's texture coordinates of points (N, 3) on a sphere: in its object frame,
+    u = phi / 2 pi (phi = atan2(y, x) in [0, 2 pi)) and v = theta / pi (theta from +z)."""
+    local = (np.asarray(points, dtype=float) - sphere.center) @ sphere.rotation / sphere.radius
+    phi = np.arctan2(local[:, 1], local[:, 0])
+    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+    theta = np.arccos(np.clip(local[:, 2] / np.linalg.norm(local, axis=1), -1, 1))
+    return np.stack([phi / (2 * np.pi), theta / np.pi], axis=1)
 
 
 def bounds(geometry):
@@ -68,7 +95,8 @@ def apply_transform(mesh, matrix):
         if scale is None:
             raise ValueError("scales a sphere unevenly (that makes an ellipsoid): add \"mesh\": true "
                              "to tessellate it")
-        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped)
+        return Sphere(linear @ mesh.center + matrix[:3, 3], mesh.radius * scale, mesh.flipped,
+                      linear @ mesh.rotation / scale)
     vertices = mesh.vertices @ linear.T + matrix[:3, 3]
     faces = mesh.faces
     if np.linalg.det(linear) < 0:
@@ -76,15 +104,15 @@ def apply_transform(mesh, matrix):
     normals = None
     if mesh.normals is not None:
         normals = _normalized(mesh.normals @ np.linalg.inv(linear))
-    return Mesh(vertices, faces, normals)
+    return Mesh(vertices, faces, normals, mesh.uvs)
 
 
 def flip(mesh):
     """Reverse the winding (and the shading normals): the other side becomes the front."""
     if isinstance(mesh, Sphere):
-        return Sphere(mesh.center, mesh.radius, not mesh.flipped)
+        return Sphere(mesh.center, mesh.radius, not mesh.flipped, mesh.rotation)
     return Mesh(mesh.vertices, mesh.faces[:, ::-1].copy(),
-                None if mesh.normals is None else -mesh.normals)
+                None if mesh.normals is None else -mesh.normals, mesh.uvs)
 
 
 def _normalized(v):
@@ -93,7 +121,8 @@ def _normalized(v):
 
 
 def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
-    """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets."""
+    """Icosphere; smooth: shading normals are the exact sphere normals, else flat facets. No
+    texture coordinates (an analytic Sphere has Mitsuba's)."""
     import trimesh
 
     unit = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
@@ -102,83 +131,142 @@ def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
 
 
 def rectangle():
-    """The square [-1, 1]^2 in the plane z = 0, facing +z."""
+    """The square [-1, 1]^2 in the plane z = 0, facing +z; uv = ((x + 1) / 2, (y + 1) / 2), as
+    Mitsuba's rectangle (exact: the map is linear)."""
     v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=float)
-    return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), None)
+    return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), None, (v[:, :2] + 1) / 2)
 
 
 def disk(segments=128):
     """The unit disk in the plane z = 0, facing +z: a fan of `segments` triangles whose polygon
-    has the disk's area (pi), so an emitting disk has the exact power."""
-    angles = 2 * np.pi * np.arange(segments) / segments
+    has the disk's area (pi), so an emitting disk has the exact power.
+
+    Mitsuba's disk is analytic, with uv = (r, phi / 2 pi), phi in [0, 2 pi) from +x towards +y.
+    The fan carries those values at its vertices and interpolates them linearly. u is r at the
+    rim (the rim's radius, slightly above 1) and 0 at the centre: exact along the edges from the
+    centre, at most a factor 1 / cos(pi / segments) too large inside (3e-4 at 128 segments).
+    v cannot be exact: the centre has no angle. Each triangle has its own centre vertex with
+    v at the triangle's middle angle, so v is exact on the rim and on the line to the middle of
+    the triangle's rim edge, and off by up to half the triangle's angle, 1 / (2 segments),
+    towards the centre. The last triangle ends at a copy of the first rim vertex with v = 1, so v
+    never interpolates across the seam at phi = 0."""
+    angles = 2 * np.pi * np.arange(segments + 1) / segments
     radius = np.sqrt(2 * np.pi / (segments * np.sin(2 * np.pi / segments)))
-    rim = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(segments)], axis=1)
-    vertices = np.concatenate([np.zeros((1, 3)), rim])
+    rim = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.zeros(segments + 1)], axis=1)
+    rim[segments] = rim[0]   # the seam's copy: the same point exactly
+    vertices = np.concatenate([np.zeros((segments, 3)), rim])
     index = np.arange(segments)
-    faces = np.stack([np.zeros(segments, int), 1 + index, 1 + (index + 1) % segments], axis=1)
-    return Mesh(vertices, faces, None)
+    faces = np.stack([index, segments + index, segments + index + 1], axis=1)
+    uvs = np.concatenate([np.stack([np.zeros(segments), (index + 0.5) / segments], axis=1),
+                          np.stack([np.full(segments + 1, radius), angles / (2 * np.pi)], axis=1)])
+    return Mesh(vertices, faces, None, uvs)
+
+
+# Mitsuba's cube (src/shapes/cube.cpp, read back with mi.traverse): per face four corners, uv
+# (0, 1), (1, 1), (1, 0), (0, 0), triangles (0, 1, 2) and (3, 0, 2), faces -y, +y, +x, +z, -x, -z.
+_CUBE_CORNERS = np.array([
+    [1, -1, -1], [1, -1, 1], [-1, -1, 1], [-1, -1, -1],
+    [1, 1, -1], [-1, 1, -1], [-1, 1, 1], [1, 1, 1],
+    [1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1],
+    [1, -1, 1], [1, 1, 1], [-1, 1, 1], [-1, -1, 1],
+    [-1, -1, 1], [-1, 1, 1], [-1, 1, -1], [-1, -1, -1],
+    [1, 1, -1], [1, -1, -1], [-1, -1, -1], [-1, 1, -1]], dtype=float)
 
 
 def box():
-    """The cube [-1, 1]^3 with outward-facing flat faces."""
-    faces = []
-    vertices = []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            u, w = (axis + 1) % 3, (axis + 2) % 3
-            corners = []
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                p = np.zeros(3)
-                p[axis], p[u], p[w] = sign, a, b
-                corners.append(p)
-            base = len(vertices)
-            vertices += corners
-            quad = [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-            faces += quad if sign > 0 else [f[::-1] for f in quad]
-    return Mesh(np.array(vertices), np.array(faces), None)
+    """The cube [-1, 1]^3 with outward-facing flat faces: Mitsuba's cube, vertex for vertex
+    (order, winding and texture coordinates)."""
+    faces = (4 * np.arange(6)[:, None, None] + np.array([[0, 1, 2], [3, 0, 2]])).reshape(-1, 3)
+    uvs = np.tile([[0, 1], [1, 1], [1, 0], [0, 0]], (6, 1)).astype(float)
+    return Mesh(_CUBE_CORNERS.copy(), faces, None, uvs)
 
 
-def load_mesh_file(path: Path, smooth: bool):
-    """Load OBJ/PLY/glTF/GLB/STL (all meshes of a file merged). Plain OBJ files (vertices and
-    triangles only) are read here, as trimesh reads them (importing trimesh takes 0.7 s, longer
-    than rendering a small scene); everything else with trimesh.
+# Mitsuba's default of `flip_tex_coords` (v -> 1 - v) per file format: its obj shape flips, its ply
+# shape does not, its serialized shape has no such option (and flips nothing). Formats Mitsuba
+# does not read come through trimesh, whose texture coordinates follow OBJ's convention.
+FLIP_TEX_COORDS = {".obj": True, ".ply": False, ".serialized": False}
 
-    Raises ValueError with a message meant for the user when the file holds no triangles, a
-    vertex that is not a finite float32 number, or a face naming a vertex that does not exist."""
-    if Path(path).suffix.lower() == ".obj":
-        mesh = read_plain_obj(path, smooth)
-        if mesh is not None:
-            return mesh
+
+def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None, shape_index=0):
+    """Load a mesh file: OBJ, PLY and Mitsuba serialized files as Mitsuba 3 reads them
+    (obj_reader.py, ply_reader.py, serialized.py: texture coordinates, the file's normals, UV
+    seams split into separate vertices), glTF/GLB/STL/OFF with trimesh (all meshes of a file
+    merged). `smooth`: shading normals, the file's where it has them (as Mitsuba uses them),
+    else computed; otherwise flat. `flip_tex_coords`: v -> 1 - v, None for Mitsuba's default of
+    the format (FLIP_TEX_COORDS). `shape_index`: the shape of a serialized file.
+
+    Raises ValueError with a message meant for the user when the file is malformed or holds no
+    triangles, a vertex that is not a finite float32 number, or a face naming a vertex that does
+    not exist."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".obj":
+        from .obj_reader import read_obj as read
+    elif suffix == ".ply":
+        from .ply_reader import read_ply as read
+    elif suffix == ".serialized":
+        from .serialized import load_serialized
+
+        def read(path):
+            return load_serialized(path, shape_index)
+    else:
+        read = _read_with_trimesh
+    loaded = read(path)
+    if len(loaded.faces) == 0:
+        raise ValueError("the file holds no triangles")
+    uvs = loaded.uvs
+    if uvs is not None and (FLIP_TEX_COORDS.get(suffix, True) if flip_tex_coords is None else flip_tex_coords):
+        uvs = uvs * [1, -1] + [0, 1]
+    return _checked_mesh(loaded.positions, loaded.faces, smooth, loaded.normals, uvs)
+
+
+def _read_with_trimesh(path):
+    """A mesh file of another format: texture coordinates in OBJ's convention, no normals
+    (trimesh's are computed, not the file's)."""
     import trimesh
 
     with np.errstate(all="ignore"):   # a malformed file is reported below, not by numpy warnings
         loaded = trimesh.load(str(path), force="mesh", process=False)
     vertices = np.asarray(loaded.vertices, dtype=float)
     faces = np.asarray(loaded.faces, dtype=np.int64)
-    if len(faces) == 0:
-        raise ValueError("the file holds no triangles")
     if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
         raise ValueError(f"expected 3D vertices and triangles, got vertices of shape {vertices.shape} "
                          f"and faces of shape {faces.shape}")
-    if faces.min() < 0 or faces.max() >= len(vertices):
+    if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
         raise ValueError(f"a face refers to a vertex that does not exist (the file has {len(vertices)})")
-    return _checked_mesh(vertices, faces, smooth)
+    uvs = getattr(loaded.visual, "uv", None)
+    if uvs is not None and np.shape(uvs) != (len(vertices), 2):
+        uvs = None
+    return MeshData(vertices, faces, None if uvs is None else np.asarray(uvs, dtype=float), None)
 
 
-def _checked_mesh(vertices, faces, smooth):
-    """A Mesh of valid triangles (faces name existing vertices), with `smooth` shading normals;
-    ValueError for a vertex that is not a finite float32 point."""
-    bad = ~np.all(np.isfinite(vertices) & (np.abs(vertices) <= np.finfo(np.float32).max), axis=1)
-    if np.any(bad):
-        index = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"vertex {index + 1} is not a finite float32 point: {vertices[index].tolist()}")
-    return Mesh(vertices, faces, vertex_normals(vertices, faces) if smooth else None)
+def _checked_mesh(vertices, faces, smooth, normals=None, uvs=None):
+    """A Mesh of valid triangles (faces name existing vertices) with finite float32 texture
+    coordinates (or None) and, when `smooth`, unit shading normals: `normals` (the file's) where
+    they have a direction, computed ones elsewhere. ValueError for a vertex that is not a finite
+    float32 point or a texture coordinate that is not a finite float32 pair."""
+    for name, values in (("vertex", vertices), ("texture coordinate", uvs)):
+        if values is None:
+            continue
+        bad = ~np.all(np.isfinite(values) & (np.abs(values) <= np.finfo(np.float32).max), axis=1)
+        if np.any(bad):
+            index = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{name} {index + 1} is not finite in float32: {values[index].tolist()}")
+    if not smooth:
+        return Mesh(vertices, faces, None, uvs)
+    computed = vertex_normals(vertices, faces)
+    if normals is not None:
+        with np.errstate(all="ignore"):
+            length = np.linalg.norm(normals, axis=1, keepdims=True)
+            usable = np.isfinite(length) & (length > 0)
+            computed = np.where(usable, normals / np.where(usable, length, 1.0), computed)
+    return Mesh(vertices, faces, computed, uvs)
 
 
 def vertex_normals(vertices, faces):
     """Unit shading normals: at each vertex, the unit normals of the faces around it weighted by
-    the face's angle at that vertex (Thuerrner and Wuethrich 1998, as trimesh computes them, but
-    without scipy). Faces of zero area, or with an angle below 1e-8, do not contribute."""
+    the face's angle at that vertex (Thuerrner and Wuethrich 1998, as Mitsuba and trimesh compute
+    them, but without scipy). Faces of zero area, or with an angle below 1e-8, do not contribute;
+    a vertex whose faces cancel (or that has none) gets +x, as in Mitsuba."""
     corners = vertices[faces]
     face_normals = _normalized(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
     u = _normalized(corners[:, 1] - corners[:, 0])
@@ -192,33 +280,5 @@ def vertex_normals(vertices, faces):
     angles[np.sum(face_normals ** 2, axis=1) <= 0.5] = 0.0
     summed = np.stack([sum(np.bincount(faces[:, k], angles[:, k] * face_normals[:, axis], len(vertices))
                            for k in range(3)) for axis in range(3)], axis=1)
+    summed[~np.any(summed != 0, axis=1)] = [1, 0, 0]   # no direction (faces cancel, or none): Mitsuba's choice
     return _normalized(summed)
-
-
-# The only lines of a plain OBJ file: `v x y z`, `f a b c` (1-based indices), comments, blanks.
-_OBJ_VERTEX = re.compile(rb"^v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)[ \t]*\r?$", re.M)
-_OBJ_TRIANGLE = re.compile(rb"^f[ \t]+(\d+)[ \t]+(\d+)[ \t]+(\d+)[ \t]*\r?$", re.M)
-_OBJ_STATEMENT = re.compile(rb"^[ \t]*[^#\s]", re.M)
-
-
-def read_plain_obj(path, smooth):
-    """A Mesh from an OBJ file holding only vertex positions and triangles of positive indices,
-    or None for any other file (polygons, negative indices, texture coordinates, normals,
-    groups, materials, ...: trimesh reads those). The same triangles as trimesh's, and with
-    `smooth` its angle-weighted vertex normals."""
-    text = Path(path).read_bytes()
-    vertices, triangles = _OBJ_VERTEX.findall(text), _OBJ_TRIANGLE.findall(text)
-    if not triangles or len(vertices) + len(triangles) != len(_OBJ_STATEMENT.findall(text)):
-        return None
-    try:
-        vertices = np.array(vertices).astype(float)
-    except ValueError:   # not numbers: trimesh's error message
-        return None
-    faces = np.array(triangles).astype(np.int64) - 1
-    bad = np.flatnonzero(np.any(faces >= len(vertices), axis=1) | np.any(faces < 0, axis=1))
-    if len(bad):
-        match = next(m for k, m in enumerate(_OBJ_TRIANGLE.finditer(text)) if k == bad[0])
-        line = text.count(b"\n", 0, match.start()) + 1
-        raise ValueError(f"line {line}: face {match.group(0).decode().strip()!r} names a vertex "
-                         f"beyond the {len(vertices)} of the file")
-    return _checked_mesh(vertices, faces, smooth)

@@ -112,11 +112,10 @@ def _shape(scene, shape, index, asset_dir):
     material = scene.materials[shape.material]
     geometry = shape.mesh
     if hasattr(geometry, "radius"):   # an analytic sphere (meshes.Sphere)
-        out = {"type": "sphere", "center": [float(c) for c in geometry.center],
-               "radius": float(geometry.radius), "flip_normals": bool(geometry.flipped)}
+        out = {"type": "sphere", "to_world": _sphere_to_world(geometry), "flip_normals": bool(geometry.flipped)}
     else:
         path = asset_dir / f"shape_{index}.ply"
-        write_ply(path, geometry.vertices, geometry.faces, geometry.normals)
+        write_ply(path, geometry.vertices, geometry.faces, geometry.normals, geometry.uvs)
         out = {"type": "ply", "filename": str(path.resolve()), "face_normals": geometry.normals is None}
     out["bsdf"] = _bsdf(material)
     if any(material.emission > 0):
@@ -125,6 +124,17 @@ def _shape(scene, shape, index, asset_dir):
         if medium >= 0:
             out[side] = {"type": "ref", "id": f"medium_{medium}"}
     return out
+
+
+def _sphere_to_world(sphere):
+    """Mitsuba's to_world of the unit sphere turned (its texture coordinates turn with it),
+    scaled and moved onto `sphere`."""
+    import numpy as np
+
+    matrix = np.eye(4)
+    matrix[:3, :3] = sphere.rotation * sphere.radius
+    matrix[:3, 3] = sphere.center
+    return matrix.tolist()
 
 
 def _medium(medium, index, asset_dir):
@@ -177,18 +187,22 @@ def _spot_frame(light):
     return frame.tolist()
 
 
-def write_ply(path, vertices, faces, normals=None):
-    """A binary little-endian PLY of float32 vertices (and normals), int32 triangles."""
+def write_ply(path, vertices, faces, normals=None, uvs=None):
+    """A binary little-endian PLY of float32 vertices (and normals, texture coordinates u, v:
+    Mitsuba reads them unflipped, as clrender keeps them), int32 triangles."""
     import numpy as np
 
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    columns = [vertices]
     if normals is not None:
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
+        columns.append(normals)
+    if uvs is not None:
+        fields += [("u", "<f4"), ("v", "<f4")]
+        columns.append(uvs)
     vertex = np.zeros(len(vertices), fields)
-    for k, name in enumerate("xyz"):
-        vertex[name] = vertices[:, k]
-        if normals is not None:
-            vertex["n" + name] = normals[:, k]
+    for (name, _), values in zip(fields, np.concatenate(columns, axis=1).T):
+        vertex[name] = values
     face = np.zeros(len(faces), [("n", "u1"), ("i", "<i4", (3,))])
     face["n"] = 3
     face["i"] = faces

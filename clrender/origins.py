@@ -24,14 +24,19 @@ def place(places, where):
     return places.get(best)
 
 
+def at_source(origins, where, message):
+    """(place, message) for a message about scene field `where`: at the place in the file the
+    field came from, the message naming the field, where that is known; else (where, message)."""
+    origin = None if origins is None else place(origins.places, where)
+    return (where, message) if origin is None else (origin, f"{message} (scene field {where})")
+
+
 def located(error, origins):
     """A SceneError naming a scene field, at the place in the file the field came from."""
     if origins is None or isinstance(error, origins.error):
         return error
-    origin = place(origins.places, error.where)
-    if origin is None:
-        return error
-    return origins.error(origin, f"{error.message} (scene field {error.where})")
+    where, message = at_source(origins, error.where, error.message)
+    return error if where == error.where else origins.error(where, message)
 
 
 @contextmanager

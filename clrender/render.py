@@ -1,8 +1,10 @@
 """Progressive rendering: short kernel launches that each add a few samples per pixel of a tile
 (the whole image unless distributed.py splits it) to running per-pixel sums."""
 import signal
+import sys
 import time
-from dataclasses import dataclass
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pyopencl as cl
@@ -11,13 +13,13 @@ from . import filters, layout, limits
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
-from .arrays import build_scene_arrays
+from .arrays import build_scene_arrays, moved_camera_medium
 from .device import build_program, choose_device, device_errors
 from .energy import fill_albedo_tables
 from .errors import ArgumentError
 from .features import scene_features
 from .origins import errors_at_source
-from .scene import as_scene
+from .scene import Camera, as_scene
 
 
 @dataclass
@@ -39,6 +41,20 @@ class RenderResult:
     def samples_per_second(self):
         h, w, _ = self.image.shape
         return self.samples * w * h / self.seconds if self.seconds > 0 else 0.0
+
+    def __repr__(self):   # a summary: the arrays are in the fields
+        h, w, _ = self.image.shape
+        parts = [f"{w} x {h}", f"{self.samples} spp", f"{self.seconds:.3g} s",
+                 f"{self.samples_per_second / 1e6:.3g} M samples/s"]
+        if self.aovs:
+            parts.append(f"aovs: {', '.join(self.aovs)}")
+        if self.discarded_samples:
+            parts.append(f"{self.discarded_samples} non-finite samples discarded")
+        if self.noisy_image is not None:
+            parts.append(f"denoised in {self.denoise_seconds:.3g} s")
+        if self.outline_alpha is not None:
+            parts.append("outlined")
+        return f"RenderResult({', '.join(parts)})"
 
 
 MAX_SPP = limits.MAX_SPP   # per-pixel sample counts are float32 in the accumulator
@@ -115,6 +131,39 @@ def image_result(scene, state, aovs=(), denoising=None):
     return RenderResult(image, int(counts.min()) if counts.size else 0, state.seconds, state.discarded,
                         aux=aux, outline_alpha=alpha, aovs=images, noisy_image=noisy,
                         denoise_seconds=denoise_seconds)
+
+
+@contextmanager
+def progress_bar(total, pixels):
+    """A render's `progress` as a tqdm bar on stderr, as the command line shows it: samples per
+    pixel done of `total` (None: unknown, a time-limited render) and the sample rate."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit="spp", file=sys.stderr, dynamic_ncols=True)
+
+    def progress(done, end, seconds):
+        bar.update(done - bar.n)
+        bar.set_postfix_str(f"{done * pixels / max(seconds, 1e-9) / 1e6:.2f} M samples/s")
+
+    try:
+        yield progress
+    finally:
+        bar.close()
+
+
+@contextmanager
+def progress_callback(progress, total, pixels):
+    """The callback `progress(samples_done, total, seconds)` for a render's `progress` argument:
+    None or False none, True a progress_bar, a callable itself."""
+    if progress is None or progress is False:
+        yield None
+    elif progress is True:
+        with progress_bar(total, pixels) as bar:
+            yield bar
+    elif callable(progress):
+        yield progress
+    else:
+        raise ArgumentError("progress", f"must be True, False, None or a callable, got {limits.show(progress)}")
 
 
 def sampler_code(scene, override=None):
@@ -246,7 +295,8 @@ class Renderer:
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
     ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
-              "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data")
+              "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
+              "uvs", "textures", "texels")
 
     def update_array(self, name, array):
         """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an
@@ -258,6 +308,25 @@ class Renderer:
         setattr(self.arrays, name, array)
         self._buffers[index] = self._upload(array)
 
+    def set_camera(self, camera):
+        """Render from `camera` (a scene.Camera of the same resolution) from now on. The scene
+        stays on the device: only the RenderParams of later launches change, and in a scene with
+        media the medium around the camera is found again. The length scale stays the one chosen
+        for the scene (arrays.device_length_scale), a float32 safeguard, not a part of the image."""
+        if not isinstance(camera, Camera):
+            raise ArgumentError("camera", f"must be a clrender.scene.Camera, got {type(camera).__name__}")
+        if tuple(camera.resolution) != tuple(self.scene.camera.resolution):
+            raise ArgumentError("camera.resolution", f"must stay {self.scene.camera.resolution} (the buffers' size), "
+                                                     f"got {camera.resolution}")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            basis = np.concatenate(camera.basis())
+        if not np.all(np.isfinite(basis)) or not np.all(np.isfinite(camera.position)):
+            raise ArgumentError("camera", "its position, look_at and up must be finite and span a view")
+        scene = replace(self.scene, camera=camera)
+        if scene.media:
+            self.arrays.camera_medium = moved_camera_medium(scene, self.arrays.length_scale)
+        self.scene = scene
+
     def _upload(self, array):
         flags = cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR
         data = array if array.size else np.zeros(1, array.dtype)
@@ -268,7 +337,8 @@ class Renderer:
                samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
                denoise_keep_emission=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
-        after every launch (samples_done a fraction after a band of rows). Samples per launch
+        after every launch (samples_done a fraction after a band of rows); `progress=True` shows
+        a bar on stderr instead, as the command line does. Samples per launch
         adapt to `pass_seconds` (down to bands of rows of one sample, for GPU watchdogs) unless
         fixed by `samples_per_pass` (whole frames); the image does not depend on the split. With
         `time_limit` (seconds of kernel time) rendering stops after the launch that reaches it,
@@ -283,12 +353,14 @@ class Renderer:
         limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
         names, denoising = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
-        if spp is None:
-            spp = MAX_SPP if time_limit is not None else self.scene.render.spp
+        if spp is None and time_limit is None:
+            spp = self.scene.render.spp
         width, height = self.scene.camera.resolution
         empty = Accumulation.start((0, 0, width, height), needs_sample_aovs(names))
         try:
-            state = self.accumulate(empty, spp, seed, max_depth, rr_depth, progress, samples_per_pass, time_limit)
+            with progress_callback(progress, spp, width * height) as callback:   # spp None: until the time limit
+                state = self.accumulate(empty, MAX_SPP if spp is None else spp, seed, max_depth, rr_depth,
+                                        callback, samples_per_pass, time_limit)
         except RenderInterrupted as interrupted:
             raise RenderInterrupted(image_result(self.scene, interrupted.result, names, denoising),
                                     interrupted.signal) from None
@@ -299,8 +371,9 @@ class Renderer:
         """Add samples state.samples ... state.samples + samples - 1 to the sums of the tile of
         `state` and return the new Accumulation; the arguments are those of `render`, with
         `progress(samples_done, samples_end, seconds)`. Ctrl-C raises RenderInterrupted with the
-        Accumulation of the launches completed. The sample-level AOVs are accumulated too when
-        `state` holds their sums."""
+        Accumulation of the launches completed; any other exception raised by `progress` stops
+        the render between two launches and propagates (the viewer cancels passes so). The
+        sample-level AOVs are accumulated too when `state` holds their sums."""
         self._check_accumulation(state, samples)
         limits.check_settings(seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
@@ -449,6 +522,7 @@ class Renderer:
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
            step=None, denoise=False, sampler=None):
     """Render `scene` (a Scene, a scene dict or a file path) and return the linear float32
-    (H, W, 3) image (denoised if `denoise`); `sampler` overrides render.sampler."""
+    (H, W, 3) image (denoised if `denoise`); `sampler` overrides render.sampler; `progress`: a
+    callable, or True for a bar on stderr (Renderer.render)."""
     return Renderer(scene, device, volume_method=volume_method, step=step, sampler=sampler).render(
         spp=spp, seed=seed, max_depth=max_depth, progress=progress, denoise=denoise).image

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import grids, limits, meshes
+from . import grids, limits, meshes, textures
 from .errors import ArgumentError, FileError, SceneError
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
@@ -27,7 +27,7 @@ FILTER_TYPES = ("box", "gaussian", "tent")   # clrender/filters.py
 MAX_FILTER_RADIUS = 16.0
 MIN_FILTER_RADIUS = 0.01
 MAX_TOON_BANDS = 32
-MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
+MESH_SUFFIXES = (".obj", ".ply", ".serialized", ".gltf", ".glb", ".stl", ".off")
 
 
 def _norm(v):
@@ -118,6 +118,10 @@ class Material:
     # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
     two_sided: bool = True
     energy_compensation: bool = True
+    # Parameters driven by textures: device field (layout.TEXTURABLE_FIELDS: "color" for the
+    # albedo, tint or colour, "alpha" for the roughness as Mitsuba's microfacet width,
+    # "emission") -> index into Scene.textures.
+    textures: dict = field(default_factory=dict)
 
     @property
     def index_matched(self):
@@ -204,6 +208,7 @@ class Scene:
     path: Path = None
     outlines: Outlines = field(default_factory=Outlines)
     origins: object = None         # read from another format: where its fields came from (origins.Origins)
+    textures: list = field(default_factory=list)   # textures.Texture, named by materials
 
     def transform(self, matrix):
         """Move everything (shapes, camera, point and directional lights) by an affine 4x4 matrix."""
@@ -419,7 +424,9 @@ def load_scene_dict(data, base_dir="."):
     root = _Node(data, "")
     camera = _read_camera(root.child("camera"))
     render = _read_render(root.child("render", {}))
-    materials = [_read_material(node) for node in root.items("materials")]
+    texture_list = [_read_texture(node, base_dir) for node in root.items("textures")]
+    texture_names = _unique_names(texture_list, "textures")
+    materials = [_read_material(node, texture_names) for node in root.items("materials")]
     names = [m.name for m in materials]
     for i, name in enumerate(names):
         if names.index(name) != i:
@@ -441,7 +448,16 @@ def load_scene_dict(data, base_dir="."):
     root.finish()
     _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium)
     return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium,
-                 outlines=outlines)
+                 outlines=outlines, textures=texture_list)
+
+
+def _unique_names(items, where):
+    """The names of `items` (with .name), each given once (SceneError at the second)."""
+    names = [item.name for item in items]
+    for i, name in enumerate(names):
+        if names.index(name) != i:
+            raise SceneError(f"{where}[{i}].name", f"duplicate name {name!r}")
+    return names
 
 
 def _read_camera(node):
@@ -505,26 +521,28 @@ def _read_render(node):
     return settings
 
 
-def _read_material(node):
+def _read_material(node, texture_names=()):
     name = node.string("name")
     kind = node.string("type", choices=MATERIAL_TYPES)
+    maps = {}
+    texturable = _TexturableReader(node, texture_names, maps)
     if kind == "diffuse":
-        material = Material(name, kind, albedo=node.vector("albedo", [0.8, 0.8, 0.8], non_negative=True),
-                            emission=node.vector("emission", [0, 0, 0], non_negative=True),
+        material = Material(name, kind, albedo=texturable.color("albedo", "color", [0.8, 0.8, 0.8], high=1,
+                                                                       allow_scalar=False),
+                            emission=texturable.color("emission", "emission", [0, 0, 0], allow_scalar=False),
                             two_sided=node.boolean("two_sided", True))
-        if np.any(material.albedo > 1):
-            raise SceneError(node.at("albedo"), f"must be <= 1 per channel, got {material.albedo.tolist()}")
     elif kind == "toon":
-        material = Material(name, kind, albedo=_unit_color(node, "color", [0.8, 0.8, 0.8]),
+        material = Material(name, kind, albedo=texturable.color("color", "color", [0.8, 0.8, 0.8], high=1),
                             toon=_read_toon(node))
     elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
-                            emission=node.vector("radiance", non_negative=True, allow_scalar=True))
+                            emission=texturable.color("radiance", "emission", allow_scalar=True))
     elif kind in ("dielectric", "conductor"):
-        material = Material(name, kind, albedo=np.zeros(3),
-                            tint=_unit_color(node, "tint"),
-                            roughness=node.number("roughness", 0.0, low=0, high=1),
-                            energy_compensation=node.boolean("energy_compensation", True))
+        material = Material(name, kind, albedo=np.zeros(3), tint=texturable.color("tint", "color", [1.0] * 3, high=1),
+                            roughness=_read_roughness(node, texturable))
+        material.energy_compensation = node.boolean("energy_compensation", "alpha" not in maps)
+        if material.energy_compensation and "alpha" in maps:
+            raise SceneError(node.at("energy_compensation"), "needs a constant roughness, not a texture")
         if kind == "conductor":
             material.two_sided = node.boolean("two_sided", True)
         if kind == "dielectric":
@@ -532,8 +550,57 @@ def _read_material(node):
             material.exterior_ior = node.number("exterior_ior", 1.0, low=0, low_open=True)
     else:  # an index-matched boundary: only separates media
         material = Material(name, kind, albedo=np.zeros(3))
+    material.textures = maps
     node.finish()
     return material
+
+
+def _read_roughness(node, texturable):
+    """`roughness` (perceptual: alpha = roughness^2) or `alpha` (the microfacet width, Mitsuba's;
+    a number or a texture), as the roughness."""
+    if "roughness" in node.data and "alpha" in node.data:
+        raise SceneError(node.where, "give either roughness or alpha")
+    if "alpha" in node.data:
+        return float(np.sqrt(texturable.number("alpha", "alpha", 0.0, low=0, high=1)))
+    return node.number("roughness", 0.0, low=0, high=1)
+
+
+class _TexturableReader:
+    """Reads material parameters that are a constant or {"texture": NAME}; records each texture
+    used in `maps` (device field -> texture index)."""
+
+    def __init__(self, node, texture_names, maps):
+        self.node, self.texture_names, self.maps = node, list(texture_names), maps
+
+    def _texture(self, key, field):
+        """True (and the texture recorded) when node[key] names a texture."""
+        value = self.node.data.get(key)
+        if not isinstance(value, dict):
+            return False
+        reference = self.node.child(key)
+        name = reference.string("texture")
+        reference.finish()
+        if name not in self.texture_names:
+            raise SceneError(reference.at("texture"), f"unknown texture {name!r}; defined: "
+                                                      f"{', '.join(self.texture_names) or 'none'}")
+        self.maps[field] = self.texture_names.index(name)
+        return True
+
+    def color(self, key, field, default=None, high=None, allow_scalar=True):
+        """An RGB constant (non-negative, <= high per channel) or a texture (then the default)."""
+        if self._texture(key, field):
+            return np.ones(3)
+        value = self.node.vector(key, _MISSING if default is None else default, non_negative=True,
+                                 allow_scalar=allow_scalar)
+        if high is not None and np.any(value > high):
+            raise SceneError(self.node.at(key), f"must be <= {high} per channel, got {value.tolist()}")
+        return value
+
+    def number(self, key, field, default, low=None, high=None):
+        """A number in [low, high] or a texture (then the default)."""
+        if self._texture(key, field):
+            return default
+        return self.node.number(key, default, low=low, high=high)
 
 
 def _unit_color(node, key, default=(1.0, 1.0, 1.0)):
@@ -737,8 +804,12 @@ def _read_mesh_file(node, base_dir):
         raise SceneError(node.at("file"), f"unsupported mesh format {path.suffix!r}; valid: {', '.join(MESH_SUFFIXES)}")
     if not path.is_file():
         raise SceneError(node.at("file"), f"file not found: {path}")
+    shape_index = 0
+    if path.suffix.lower() == ".serialized":
+        shape_index = node.number("shape_index", 0, low=0, integer=True)
+    flip_tex_coords = node.boolean("flip_tex_coords", meshes.FLIP_TEX_COORDS.get(path.suffix.lower(), True))
     try:
-        return meshes.load_mesh_file(path, smooth=node.boolean("smooth", False))
+        return meshes.load_mesh_file(path, node.boolean("smooth", False), flip_tex_coords, shape_index)
     except Exception as e:  # trimesh raises many types for malformed files
         raise SceneError(node.at("file"), f"cannot load mesh {path}: {e}") from None
 
@@ -770,6 +841,71 @@ def _is_matrix(value):
     return isinstance(value, list) and len(value) == 4 and all(
         isinstance(row, list) and len(row) == 4 and all(
             isinstance(x, (int, float)) and not isinstance(x, bool) for x in row) for row in value)
+
+
+def _read_texture(node, base_dir):
+    """A texture (docs/scene-format.md, Textures): a `bitmap` from a `file` (or, from Python, an
+    `image` array: uint8 sRGB-encoded unless `raw`, floats linear) or a `checkerboard`."""
+    name = node.string("name")
+    kind = node.string("type", choices=textures.KINDS)
+    texture = textures.Texture(name, kind, to_uv=_read_uv_transform(node))
+    if kind == "checkerboard":
+        texture.color0 = node.vector("color0", [0.4] * 3, non_negative=True, allow_scalar=True)
+        texture.color1 = node.vector("color1", [0.2] * 3, non_negative=True, allow_scalar=True)
+    else:
+        texture.filter = node.string("filter", "bilinear", choices=textures.FILTERS)
+        texture.wrap = node.string("wrap", "repeat", choices=textures.WRAPS)
+        raw = node.boolean("raw", False)
+        if ("file" in node.data) == ("image" in node.data):
+            raise SceneError(node.where, "a bitmap needs either a `file` or an `image`")
+        if "file" in node.data:
+            texture.pixels, texture.srgb = _texture_file(node, base_dir, raw)
+            texture.source = node.data["file"]
+        else:
+            texture.pixels, texture.srgb = _texture_array(node, raw)
+    node.finish()
+    return texture
+
+
+def _read_uv_transform(node):
+    """`to_uv`: the rows [[a, b, c], [d, e, f]] of the affine map (u, v) -> (a u + b v + c, ...)."""
+    value = node.raw("to_uv", None)
+    if value is None:
+        return np.eye(3)[:2]
+    if not (isinstance(value, list) and len(value) == 2 and all(isinstance(row, list) and len(row) == 3 for row in value)):
+        raise SceneError(node.at("to_uv"), f"must be 2 rows of 3 numbers, got {limits.show(value)}")
+    return np.array([[limits.number(x, node.at("to_uv"), SceneError) for x in row] for row in value])
+
+
+def _texture_file(node, base_dir, raw):
+    from .image import load_texture_image
+
+    path = (base_dir / node.string("file")).resolve()
+    if not path.is_file():
+        raise SceneError(node.at("file"), f"file not found: {path}")
+    try:
+        image = load_texture_image(path, raw=raw)
+    except FileError as e:
+        raise SceneError(node.at("file"), e.message) from None
+    return image.pixels, image.srgb
+
+
+def _texture_array(node, raw):
+    """An (H, W, C) image given from Python, C in 1, 3, 4 (an (H, W) array is grey)."""
+    try:
+        image = np.asarray(node.raw("image"))
+    except ValueError:   # ragged nested lists
+        image = np.zeros(0)
+    if image.ndim == 2:
+        image = image[..., None]
+    if (image.ndim != 3 or image.shape[2] not in (1, 3, 4) or min(image.shape[:2]) < 1
+            or not (image.dtype == np.uint8 or np.issubdtype(image.dtype, np.floating))):
+        raise SceneError(node.at("image"), f"must be an (H, W, C) array of uint8 or floats, C in 1, 3, 4, "
+                                           f"got shape {image.shape} of {image.dtype}")
+    if image.dtype != np.uint8:
+        limits.float32_values(image, node.at("image"), SceneError)
+        return image.astype(np.float32), False
+    return image, not raw
 
 
 def _read_light(node, base_dir):
@@ -834,4 +970,4 @@ def _environment_image(node, image, key, scale):
     if np.any(image < 0):
         raise SceneError(node.at(key), "image must be non-negative")
     limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
-    return Light("environment", np.ones(3) * scale, image=image * scale)
+    return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale))

@@ -32,7 +32,7 @@
 // The filter at offset t (pixels), as Mitsuba's eval: gaussian exp(-t^2 / (2 stddev^2)) less its
 // value at the radius, tent 1 - |t| / radius, both 0 beyond the radius.
 lane_float filter_value(__constant Filter* filter, lane_float t) {
-    if (filter->kind.x == FILTER_GAUSSIAN) return fmax(exp_fast(filter->shape.x * t * t) - filter->shape.y, 0.0f);
+    if (filter->kind.x == PIXEL_FILTER_GAUSSIAN) return fmax(exp_fast(filter->shape.x * t * t) - filter->shape.y, 0.0f);
     return fmax(1.0f - fabs(t) * filter->shape.x, 0.0f);
 }
 
@@ -70,7 +70,7 @@ lane_float sample_filter_axis(__constant Filter* filter, lane_float u, lane_int 
 // corner, from the sampler's u, and *weight (1 for the box).
 lane_float2 sample_filter(__constant Filter* filter, lane_float2 u, lane_int x, int y, int width, int height,
                           lane_float* weight) {
-    if (filter->kind.x == FILTER_BOX) {
+    if (filter->kind.x == PIXEL_FILTER_BOX) {
         *weight = 1.0f;
         return u;
     }

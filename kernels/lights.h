@@ -11,6 +11,7 @@
 
 #include "sphere.h"
 #include "triangle_lights.h"
+#include "textures/texture.h"
 
 typedef struct {
     float3 wi;        // unit direction towards the light
@@ -149,6 +150,27 @@ float area_emitter_pdf_w(__global const Emitter* e, float3 p, float3 q, float co
     return triangle_emitter_pdf_w(e->p0.w, length(q - p), cos_light);
 }
 
+// The radiance of area emitter e at its point q, sampled with u: Emitter.radiance, or where its
+// lane w names a texture (as materials/textured_params.h), the texture's value at q's uv (the
+// primitive slot in kind.y).
+float3 area_emitter_radiance(const Scene* scene, __global const Emitter* e, float2 u, float3 q) {
+#if TEXTURES
+    if (e->radiance.w >= 0.0f) {
+        int slot = e->kind.y;
+        float2 uv;
+        if (e->kind.x == EMITTER_SPHERE) {
+            float3 dpdu, dpdv;
+            uv = sphere_uv(scene->triangles + slot, normalize(q - e->p0.xyz), &dpdu, &dpdv);
+        } else {
+            float2 b = sample_triangle(u);   // as sample_triangle_emitter placed q
+            uv = triangle_uv(scene, slot, b.x, b.y);
+        }
+        return eval_texture(scene, (int)e->radiance.w >> 1, uv);
+    }
+#endif
+    return e->radiance.xyz;
+}
+
 // ----- point, spot and directional lights ----------------------------------------------------
 // Mitsuba's spot falloff along the unit direction d from the light: 1 within the beam width,
 // then linear in the angle down to 0 at the cutoff angle, and 0 beyond (both tests on cosines,
@@ -211,16 +233,17 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
         ls.wi = wi;
         ls.dist = dist;
         ls.pdf_w = pmf * pdf_w;
-        ls.radiance = ls.pdf_w > 0.0f ? e->radiance.xyz : (float3)(0.0f);
+        ls.radiance = ls.pdf_w > 0.0f ? area_emitter_radiance(scene, e, u, p + dist * wi) : (float3)(0.0f);
     } else if (kind == EMITTER_SPHERE) {
         float pdf_w;
-        float3 d = sample_sphere_emitter(e, p, u, &pdf_w) - p;
+        float3 q = sample_sphere_emitter(e, p, u, &pdf_w);
+        float3 d = q - p;
         float dist = length(d);
         if (!(pdf_w > 0.0f && dist > 0.0f)) return ls;
         ls.wi = d / dist;
         ls.dist = dist;
         ls.pdf_w = pmf * pdf_w;
-        ls.radiance = e->radiance.xyz;
+        ls.radiance = area_emitter_radiance(scene, e, u, q);
     }
 #if ENVIRONMENT != ENVIRONMENT_NONE
     else if (kind == EMITTER_ENVIRONMENT) {

@@ -19,6 +19,7 @@
 #include "scene.h"
 #include "lights.h"
 #include "materials/material.h"
+#include "materials/textured_params.h"
 #include "materials/bsdf.h"
 #include "materials/toon.h"
 #include "media/medium.h"
@@ -142,7 +143,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        Material m = scene->materials[sp.material];
+        Material m = surface_material(scene, &sp);
 #if MEDIA
         if (material_is_interface(&m)) {
             throughput *= material_boundary_transmittance(&m);

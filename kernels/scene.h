@@ -21,6 +21,9 @@ typedef struct {
     __global const float* specular_albedo;  // energy-compensation tables (materials/energy.h)
     __global const float* grid_data;     // voxels of all grid media (medium_voxel_offset: first voxel)
     __global const float* majorant_data; // (max, min) per majorant block (medium_majorant_offset)
+    __global const float2* uvs;          // texture coordinates of each primitive slot's 3 corners
+    __global const Texture* textures;    // textures/texture.h
+    __global const uchar* texels;        // every bitmap's texels, as stored (Texture.info.y: first byte)
 } Scene;
 
 // The arguments of render_pass, in the order the host passes them (render.py: RenderParams,
@@ -31,10 +34,11 @@ typedef struct {
     __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media, \
     __global const Emitter* emitters, __global const float* emitter_cdf, __global const float4* env_texels, \
     __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data, \
-    __global const float* majorant_data, __global float4* accumulator, __global int* discarded_samples, \
+    __global const float* majorant_data, __global const float2* uvs, __global const Texture* textures, \
+    __global const uchar* texels, __global float4* accumulator, __global int* discarded_samples, \
     __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums
 #define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, triangles, shading, info, materials, media, emitters, \
-    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data}
+    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels}
 
 // Per lane (lanes.h).
 typedef struct {
@@ -48,6 +52,10 @@ typedef struct {
     lane_int object;
     lane_int emitter;
     lane_int media;    // packed media behind / in front of the front face (TriangleInfo.w)
+#if TEXTURES   // (never with LANES > 1: features.py)
+    float2 uv;         // texture coordinates, as Mitsuba's (surface_uv)
+    float3 dpdu, dpdv; // the surface's derivatives along u and v (kernel lengths per unit uv)
+#endif
 } SurfacePoint;
 
 bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
@@ -123,6 +131,56 @@ lane_int any_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_
 
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
+#if TEXTURES
+// Mitsuba's parameterisations: a triangle interpolates its corners' uv (a mesh without texture
+// coordinates has corners (0, 0), (1, 0), (0, 1): uv = (b1, b2)), with dp/du, dp/dv solved
+// from its edges (any basis of its plane where its uv are degenerate); a sphere has
+// u = phi / 2 pi, v = theta / pi in its object frame (the slot's e1 = object x, e2.xyz = object z,
+// e2.w = +1, or -1 where the frame is mirrored).
+
+// The uv of the point of sphere slot `slot` in unit direction n from its centre, and dp/du, dp/dv.
+float2 sphere_uv(__global const Triangle* slot, float3 n, float3* dpdu, float3* dpdv) {
+    float radius = fabs(slot->v0.w);
+    float3 x_axis = slot->e1.xyz, z_axis = slot->e2.xyz;
+    float3 y_axis = cross(z_axis, x_axis) * slot->e2.w;
+    float3 q = (float3)(dot(n, x_axis), dot(n, y_axis), dot(n, z_axis));
+    float phi = atan2(q.y, q.x);
+    if (phi < 0.0f) phi += 2.0f * PI_F;
+    float rd = sqrt(q.x * q.x + q.y * q.y);
+    float3 du = (float3)(-q.y, q.x, 0.0f) * (2.0f * PI_F * radius);
+    float3 dv = rd > 0.0f ? (float3)(q.z * q.x / rd, q.z * q.y / rd, -rd) : (float3)(1.0f, 0.0f, 0.0f);
+    dv *= PI_F * radius;
+    *dpdu = du.x * x_axis + du.y * y_axis + du.z * z_axis;
+    *dpdv = dv.x * x_axis + dv.y * y_axis + dv.z * z_axis;
+    return (float2)(phi * (0.5f * INV_PI_F), acos(clamp(q.z, -1.0f, 1.0f)) * INV_PI_F);
+}
+
+// The uv of triangle slot `prim` at barycentrics (b1, b2) of its second and third corners.
+float2 triangle_uv(const Scene* scene, int prim, float b1, float b2) {
+    __global const float2* corners = scene->uvs + 3 * prim;
+    return corners[0] * (1.0f - b1 - b2) + corners[1] * b1 + corners[2] * b2;
+}
+
+void surface_uv(const Scene* scene, const Hit* hit, SurfacePoint* sp) {
+    __global const Triangle* slot = scene->triangles + hit->prim;
+    if (hit->sphere) {
+        sp->uv = sphere_uv(slot, normalize(hit->from_centre), &sp->dpdu, &sp->dpdv);
+        return;
+    }
+    sp->uv = triangle_uv(scene, hit->prim, hit->b1, hit->b2);
+    __global const float2* corners = scene->uvs + 3 * hit->prim;
+    float2 duv0 = corners[1] - corners[0], duv1 = corners[2] - corners[0];
+    float det = duv0.x * duv1.y - duv0.y * duv1.x;
+    if (det != 0.0f) {
+        float inv_det = 1.0f / det;
+        sp->dpdu = (duv1.y * slot->e1.xyz - duv0.y * slot->e2.xyz) * inv_det;
+        sp->dpdv = (duv0.x * slot->e2.xyz - duv1.x * slot->e1.xyz) * inv_det;
+    } else {
+        make_basis(sp->ns, &sp->dpdu, &sp->dpdv);
+    }
+}
+#endif
+
 INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_float3 dir) {
     lane_int prim = hit->prim;
     lane_int is_sphere = hit->sphere != 0;
@@ -179,6 +237,9 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
     sp.object = LANE_LOAD_INT(scene->info, prim, .info.y);
     sp.emitter = LANE_LOAD_INT(scene->info, prim, .info.z);
     sp.media = LANE_LOAD_INT(scene->info, prim, .info.w);
+#if TEXTURES
+    surface_uv(scene, hit, &sp);
+#endif
     return sp;
 }
 

@@ -11,14 +11,16 @@
 #include "materials/bsdf.h"
 #include "media/phase.h"
 #include "media/medium.h"
+#include "textures/texture.h"
+#include "materials/textured_params.h"
 
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
 KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
                           __global TriangleShading* sh, __global TriangleInfo* info,
-                          __global Material* m, __global Emitter* e, __global Medium* md,
-                          __global Camera* c, __global Filter* f,
+                          __global Material* m, __global Texture* t, __global Emitter* e,
+                          __global Medium* md, __global Camera* c, __global Filter* f,
                           __global RenderParams* p, __global AovSums* a, __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
@@ -34,9 +36,11 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = sizeof(TriangleInfo);
     out[k++] = OFFSET(info, info);
     out[k++] = sizeof(Material);
-    out[k++] = OFFSET(m, kind); out[k++] = OFFSET(m, color); out[k++] = OFFSET(m, emission);
-    out[k++] = OFFSET(m, params); out[k++] = OFFSET(m, toon_shadow); out[k++] = OFFSET(m, toon_bands);
-    out[k++] = OFFSET(m, toon_highlight); out[k++] = OFFSET(m, toon_rim); out[k++] = OFFSET(m, toon_ambient);
+    out[k++] = OFFSET(m, kind); out[k++] = OFFSET(m, maps); out[k++] = OFFSET(m, emission);
+    out[k++] = OFFSET(m, slot);
+    out[k++] = sizeof(Texture);
+    out[k++] = OFFSET(t, info); out[k++] = OFFSET(t, format); out[k++] = OFFSET(t, to_uv_u);
+    out[k++] = OFFSET(t, to_uv_v); out[k++] = OFFSET(t, color0); out[k++] = OFFSET(t, color1);
     out[k++] = sizeof(Emitter);
     out[k++] = OFFSET(e, kind); out[k++] = OFFSET(e, radiance); out[k++] = OFFSET(e, p0);
     out[k++] = OFFSET(e, e1); out[k++] = OFFSET(e, e2);
@@ -268,15 +272,16 @@ KERNEL void sample_vndf_values(float alpha, __global const float4* wo, uint seed
 // sign picks the side), and report both hits: (first slot, second slot, second t, front face).
 KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
                             __global const TriangleShading* shading,
-                            __global const TriangleInfo* info, __global const float4* origins,
-                            __global const float4* directions, __global const float4* leave,
-                            __global float4* out) {
+                            __global const TriangleInfo* info, __global const float2* uvs,
+                            __global const float4* origins, __global const float4* directions,
+                            __global const float4* leave, __global float4* out) {
     int i = get_global_id(0);
     Scene scene;
     scene.nodes = nodes;
     scene.triangles = triangles;
     scene.shading = shading;
     scene.info = info;
+    scene.uvs = uvs;
     out[i] = (float4)(-1.0f, -1.0f, INFINITY, 0.0f);
     Hit hit;
     if (!intersect_scene(&scene, origins[i].xyz, directions[i].xyz, INFINITY, &hit)) return;
@@ -383,4 +388,30 @@ KERNEL void delta_pass_estimates(__constant RenderParams* params, __global const
     out[i] = (float4)(s.event == MEDIUM_EVENT_PASS ? s.weight : (float3)(0.0f), (float)collisions);
 }
 #endif
+#endif
+
+#if TEXTURES
+// ----- textures: eval_texture (xyz) and eval_texture_number (w) of texture `index` at uv[i] ------
+KERNEL void eval_texture_values(__global const Texture* textures, __global const uchar* texels, int index,
+                                __global const float2* uv, __global float4* out) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.textures = textures;
+    scene.texels = texels;
+    out[i] = (float4)(eval_texture(&scene, index, uv[i]), eval_texture_number(&scene, index, uv[i]));
+}
+
+// resolve_textured_params on material 0 at uv[i]: every slot's lanes, then the emission's.
+KERNEL void resolve_material_values(__global const Material* materials, __global const Texture* textures,
+                                    __global const uchar* texels, __global const float2* uv,
+                                    __global float4* out) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.textures = textures;
+    scene.texels = texels;
+    Material m = materials[0];
+    resolve_textured_params(&scene, &m, uv[i]);
+    for (int k = 0; k < MATERIAL_SLOTS; ++k) out[i * (MATERIAL_SLOTS + 1) + k] = m.slot[k];
+    out[i * (MATERIAL_SLOTS + 1) + MATERIAL_SLOTS] = m.emission;
+}
 #endif

@@ -23,11 +23,12 @@ typedef struct { float4 n0, n1, n2; } TriangleShading;
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
 typedef struct { int4 info; } TriangleInfo;
 
-// Lanes named in clrender/layout.py (MATERIAL_FIELDS); read through materials/material.h.
-typedef struct {
-    int4 kind; float4 color; float4 emission; float4 params;
-    float4 toon_shadow; float4 toon_bands; float4 toon_highlight; float4 toon_rim; float4 toon_ambient;
-} Material;
+// Lanes named in clrender/layout.py (MATERIAL_FIELDS); read through materials/material.h. Lane w
+// of emission and of every slot is a texture reference (materials/textured_params.h).
+typedef struct { int4 kind; int4 maps; float4 emission; float4 slot[MATERIAL_SLOTS]; } Material;
+
+// A texture (textures/texture.h); lanes as clrender/layout.py (TEXTURE) describes them.
+typedef struct { int4 info; int4 format; float4 to_uv_u; float4 to_uv_v; float4 color0; float4 color1; } Texture;
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Sphere: p0.xyz centre, p0.w signed
 // radius (negative: flipped, emitting inwards). Point: p0 = position,
@@ -49,7 +50,7 @@ typedef struct {
 // pinhole), y the distance of the plane in focus along forward (camera.h).
 typedef struct { float4 origin; float4 forward; float4 right; float4 up; float4 lens; } Camera;
 
-// The pixel reconstruction filter (filter.h; layout.py FILTER names the fields): kind.x FILTER_*.
+// The pixel reconstruction filter (filter.h; layout.py FILTER names the fields): kind.x PIXEL_FILTER_*.
 typedef struct {
     int4 kind; float4 support; float4 shape; float4 cells[FILTER_CELLS];
     float4 edge_cdf[FILTER_EDGES / 4]; float4 edge_mass[FILTER_EDGES / 4];

@@ -7,6 +7,8 @@ named; command-line tests get it through $CLRENDER_DEVICE. The device is printed
 header.
 """
 import os
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
@@ -17,6 +19,8 @@ from clrender.device import build_program
 from clrender.features import FEATURE_VALUES
 
 TEST_DEVICE = os.environ.get("CLRENDER_TEST_DEVICE", "cpu")
+# Real Mitsuba 3 scenes written by others (SOURCES.md there), kept beside the checkout, not in it.
+REAL_SCENES = Path(__file__).resolve().parent.parent.parent / "shared" / "real-scenes"
 # The command line run by the tests (subprocesses) renders on the same device.
 os.environ.setdefault("CLRENDER_DEVICE", TEST_DEVICE)
 
@@ -125,3 +129,23 @@ def sphere(analytic, subdivisions=3, **fields):
     if not analytic:
         shape.update(mesh=True, subdivisions=subdivisions, smooth=False)
     return shape
+
+
+def real_scene(relative):
+    """The file `relative` of the real scenes; the test is skipped where they are absent (CI)."""
+    path = REAL_SCENES / relative
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the real scenes lie beside the checkout (../shared/real-scenes)")
+    return path
+
+
+def oclgrind_library():
+    """Oclgrind's ICD library (from its Debian package's file list), or None."""
+    try:
+        files = subprocess.run(["dpkg", "-L", "oclgrind"], capture_output=True, text=True).stdout.split()
+    except OSError:
+        files = []
+    for path in files + ["/usr/lib/oclgrind/liboclgrind-rt-icd.so"]:
+        if path.endswith("liboclgrind-rt-icd.so") and os.path.isfile(path):
+            return path
+    return None

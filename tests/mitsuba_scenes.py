@@ -269,9 +269,49 @@ def diffuse_sphere(center, radius, reflectance):
     </shape>"""
 
 
+def textured_spheres():
+    """Checkerboards on analytic spheres (Mitsuba's sphere uv, turned by to_world): a diffuse
+    reflectance, a rough conductor's alpha, and an area emitter's radiance lighting the floor."""
+    return _scene(FLOOR + SUN + SKY + """
+    <texture type="checkerboard" id="checks">
+        <rgb name="color0" value="0.8, 0.3, 0.1"/>
+        <rgb name="color1" value="0.1, 0.5, 0.7"/>
+        <transform name="to_uv"><scale x="6" y="3"/></transform>
+    </texture>
+    <shape type="sphere">
+        <float name="radius" value="0.8"/>
+        <transform name="to_world"><rotate x="1" angle="60"/><rotate y="1" angle="25"/><translate x="-0.9"/></transform>
+        <bsdf type="diffuse"><ref name="reflectance" id="checks"/></bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.6"/>
+        <transform name="to_world"><rotate z="1" angle="40"/><translate x="0.9" y="-0.3"/></transform>
+        <bsdf type="roughconductor">
+            <string name="distribution" value="ggx"/>
+            <texture type="checkerboard" name="alpha">
+                <float name="color0" value="0.05"/>
+                <float name="color1" value="0.5"/>
+                <transform name="to_uv"><scale x="4" y="4"/></transform>
+            </texture>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.3"/>
+        <transform name="to_world"><translate y="1.3" z="-0.5"/></transform>
+        <emitter type="area">
+            <texture type="checkerboard" name="radiance">
+                <rgb name="color0" value="1, 0.9, 0.6"/>
+                <rgb name="color1" value="0.1, 0.3, 0.9"/>
+                <transform name="to_uv"><scale x="2" y="2"/></transform>
+            </texture>
+        </emitter>
+    </shape>""", max_depth=4)
+
+
 SCENES = {
     "depth_of_field": depth_of_field,
     "spot_lights": spot_lights,
+    "textured_spheres": textured_spheres,
     "glass_sphere": glass_sphere,
     "rough_glass": rough_glass,
     "homogeneous_medium": homogeneous_medium,

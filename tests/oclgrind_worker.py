@@ -21,7 +21,7 @@ import numpy as np
 import pyopencl as cl
 
 import clrender
-from clrender import filters, layout, wide_bvh
+from clrender import filters, layout, textures, wide_bvh
 from clrender.aovs import SAMPLE_AOVS
 from clrender.arrays import build_scene_arrays
 from clrender.bvh import build_bvh
@@ -152,7 +152,8 @@ def run_test_kernels(case, device):
     cam_dirs = float4(np.array([[0.0, -0.3, -1.0], [0.1, -0.2, -1.0], [-0.2, -0.25, -1.0], [0.3, -0.4, -1.0]]))
     cam_dirs[:, :3] /= np.linalg.norm(cam_dirs[:, :3], axis=1, keepdims=True)
     kernel("spawn_from_hits")(queue, (n,), None, *(upload(context, a) for a in
-                              (arrays.nodes, arrays.triangles, arrays.shading, arrays.info, cam_origins, cam_dirs, leave)),
+                              (arrays.nodes, arrays.triangles, arrays.shading, arrays.info, arrays.uvs, cam_origins,
+                               cam_dirs, leave)),
                               *outputs(context, (n, 4)))
     params = upload(context, render_params(scene, arrays, 0, 1, 4, 2, 0))
     # The pixel filter at an image edge, thin-lens camera rays, the spot light (feature_scenes.py).
@@ -182,8 +183,36 @@ def run_test_kernels(case, device):
             # Delta tracking serves grid media only (homogeneous media are sampled analytically).
             if features["GRID_MEDIA"] == layout.VOLUME_METHODS["null"] and medium == cloud:
                 kernel("delta_pass_estimates")(queue, (n,), None, *args, *outputs(context, (n, 4)))
+    if features["TEXTURES"]:
+        run_texture_kernels(context, queue, kernel, rng)
     queue.finish()
     return {}
+
+
+def run_texture_kernels(context, queue, kernel, rng):
+    """Lookups of every texel encoding, filter and wrap mode, far outside [0, 1] too (the texel
+    indices they wrap stay in the buffer), and a material resolved from textures."""
+    texture_list = [textures.Texture("checks", "checkerboard")]
+    for encoding, pixels in (("srgb8", rng.integers(0, 256, (3, 5, 3), dtype=np.uint8)),
+                             ("linear8", rng.integers(0, 256, (4, 2, 1), dtype=np.uint8)),
+                             ("float32", rng.uniform(0, 2, (2, 3, 4)).astype(np.float32))):
+        for filter_ in textures.FILTERS:
+            for wrap in textures.WRAPS:
+                texture_list.append(textures.Texture(f"{encoding}-{filter_}-{wrap}", "bitmap", pixels=pixels,
+                                                     srgb=encoding == "srgb8", filter=filter_, wrap=wrap))
+    records, texels = textures.texture_arrays(texture_list)
+    uv = rng.uniform(-40, 40, (4, 2)).astype(np.float32)
+    uv[0] = (0.0, 1.0)   # the image's edges exactly
+    for index in range(len(texture_list)):
+        kernel("eval_texture_values")(queue, (len(uv),), None, upload(context, records), upload(context, texels),
+                                      np.int32(index), upload(context, uv), *outputs(context, (len(uv), 4)))
+    material = np.zeros(1, layout.MATERIAL)
+    layout.clear_texture_references(material)
+    layout.set_texture_reference(material, "color", 1)
+    layout.set_texture_reference(material, "alpha", 5)
+    kernel("resolve_material_values")(queue, (len(uv),), None, upload(context, material), upload(context, records),
+                                      upload(context, texels), upload(context, uv),
+                                      *outputs(context, (len(uv) * (layout.MATERIAL_SLOTS + 1), 4)))
 
 
 CANARY = """

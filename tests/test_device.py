@@ -1,5 +1,7 @@
 """Device choice, the program cache and the error metrics."""
 import os
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,7 +11,9 @@ import pytest
 import clrender
 from clrender import device as device_module
 from clrender.device import build_program
-from conftest import no_features
+from conftest import no_features, oclgrind_library
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def test_device_choice_by_kind_index_and_environment(monkeypatch, device):
@@ -77,6 +81,43 @@ def test_a_program_always_belongs_to_the_context_it_is_built_for(device, monkeyp
     for context in [cl.Context([device]), cl.Context([device])]:
         program = build_program(context, no_features())
         assert program.get_info(cl.program_info.CONTEXT).int_ptr == context.int_ptr
+
+
+def test_oclgrind_build_options_key_the_program_caches(device, tmp_path, monkeypatch):
+    # Oclgrind appends $OCLGRIND_BUILD_OPTIONS to every build: the value is part of the source,
+    # which keys clrender's caches and pyopencl's, so a build under other options is another one.
+    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("OCLGRIND_BUILD_OPTIONS", raising=False)
+    plain = device_module.kernel_source()
+    monkeypatch.setenv("OCLGRIND_BUILD_OPTIONS", "-cl-opt-disable")
+    assert device_module.kernel_source() == "// OCLGRIND_BUILD_OPTIONS='-cl-opt-disable'\n" + plain
+    context = cl.Context([device])
+    build_program(context, no_features())
+    monkeypatch.delenv("OCLGRIND_BUILD_OPTIONS")
+    build_program(context, no_features())
+    assert len(list(tmp_path.glob("*.clbin"))) == 2
+
+
+@pytest.mark.skipif(oclgrind_library() is None, reason="Oclgrind is not installed (apt-get install oclgrind)")
+def test_a_program_built_by_oclgrind_under_other_options_is_not_reused(tmp_path):
+    # Oclgrind 21.10 cannot run what its optimiser makes of the kernel (llvm.bitreverse), so it
+    # runs with OCLGRIND_BUILD_OPTIONS=-cl-opt-disable (docs/portability.md); a program built
+    # without, and cached by clrender and pyopencl, was once taken for a build with it.
+    (tmp_path / "vendors").mkdir()
+    (tmp_path / "vendors" / "oclgrind.icd").write_text(oclgrind_library() + "\n")
+    env = dict(os.environ, OCL_ICD_VENDORS=str(tmp_path / "vendors"), XDG_CACHE_HOME=str(tmp_path / "xdg"),
+               CLRENDER_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=REPO, CLRENDER_DEVICE="oclgrind")
+    env.pop("PYOPENCL_NO_CACHE", None)
+    env.pop("OCLGRIND_BUILD_OPTIONS", None)
+    code = ("import clrender\n"
+            "scene = {'camera': {'position': [0, 0, 3], 'look_at': [0, 0, 0], 'resolution': [2, 2]},\n"
+            "         'materials': [{'name': 'm', 'type': 'diffuse'}], 'shapes': [{'type': 'sphere', 'material': 'm'}],\n"
+            "         'lights': [{'type': 'environment', 'radiance': 1.0}], 'render': {'max_depth': 2}}\n"
+            "print(clrender.render(scene, spp=1).mean())\n")
+    run = lambda env: subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+    run(env)   # builds and caches (and fails, with Oclgrind's optimiser)
+    result = run(dict(env, OCLGRIND_BUILD_OPTIONS="-cl-opt-disable"))
+    assert result.returncode == 0 and float(result.stdout) > 0, result.stderr
 
 
 def test_metrics():

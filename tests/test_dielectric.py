@@ -138,7 +138,7 @@ def test_dielectric_and_conductor_fields_reach_the_material_records():
     field = lambda name: layout.field(records, layout.MATERIAL_FIELDS, name)  # noqa: E731
     kinds = layout.MATERIAL_KINDS
     assert field("kind").tolist() == [kinds["dielectric"], kinds["dielectric"], kinds["conductor"], kinds["conductor"]]
-    np.testing.assert_allclose([field(name)[1] for name in ("ior", "exterior_ior", "roughness")], [1.33, 1.5, 0.4],
+    np.testing.assert_allclose([field(name)[1] for name in ("ior", "exterior_ior", "alpha")], [1.33, 1.5, 0.4 ** 2],
                                rtol=1e-7)
     np.testing.assert_allclose(field("color")[2], [1.0, 0.8, 0.3])
     # Rough lobes own energy tables (two sides for a dielectric); smooth ones none.
@@ -687,7 +687,7 @@ def test_spawned_rays_never_hit_their_own_surface(context, queue, scale, offset,
     leave = np.stack([s * np.cos(phi), s * np.sin(phi), side * cos_n], axis=1)
     # The kernel sees the scene scaled by a power of two (arrays.device_length_scale): exact.
     (out,) = run(queue, cl.Kernel(program, "spawn_from_hits"), count,
-                 *(upload(context, x) for x in (a.nodes, a.triangles, a.shading, a.info)),
+                 *(upload(context, x) for x in (a.nodes, a.triangles, a.shading, a.info, a.uvs)),
                  upload(context, float4(start * a.length_scale)),
                  upload(context, float4(aim / np.linalg.norm(aim, axis=1)[:, None])),
                  upload(context, float4(leave)), outputs=[(count, 4)])

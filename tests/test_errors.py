@@ -7,6 +7,7 @@ missing drivers and crashing caches need their own process."""
 import importlib.util
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -177,6 +178,24 @@ def test_render_accepts_a_dict_or_a_path_and_rejects_other_things(tmp_path):
         clrender.render(42, device=TEST_DEVICE)
     with pytest.raises(SceneError):
         clrender.render({"camera": {}}, device=TEST_DEVICE)
+
+
+def test_progress_is_a_bar_nothing_or_a_callable(capfd):
+    data = tiny_scene()
+    quiet = clrender.render(data, spp=2, device=TEST_DEVICE, progress=False)
+    assert capfd.readouterr().err == ""
+    shown = clrender.render(data, spp=2, device=TEST_DEVICE, progress=True)   # the command line's bar
+    assert re.search(r"2/2 .*M samples/s", capfd.readouterr().err) and np.array_equal(quiet, shown)
+    calls = []
+    clrender.Renderer(data, TEST_DEVICE).render(spp=2, progress=lambda *args: calls.append(args))
+    assert calls[-1][:2] == (2, 2)
+    with pytest.raises(ArgumentError, match="^progress: must be True, False, None or a callable, got 'yes'"):
+        clrender.render(data, spp=2, device=TEST_DEVICE, progress="yes")
+
+
+def test_a_render_result_prints_as_a_summary():
+    result = clrender.Renderer(tiny_scene(), TEST_DEVICE).render(spp=2, aovs=("albedo", "depth"))
+    assert re.fullmatch(r"RenderResult\(4 x 4, 2 spp, \S+ s, \S+ M samples/s, aovs: albedo, depth\)", repr(result))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -373,6 +392,28 @@ def test_a_shape_with_no_area_left_at_the_scenes_scale_is_an_error(tessellated):
     with pytest.raises(SceneError) as error:
         clrender.Renderer(clrender.load_scene_dict(data), TEST_DEVICE)
     assert error.value.where == f"shapes[{len(data['shapes']) - 1}]" and "degenerate" in str(error.value)
+
+
+@pytest.mark.parametrize("obj", [
+    "v 0 0 0\nv 0 1 0\nv 0 2 0\nv 0 3 0\nf 1 2 3\nf 2 3 4\n",   # a line, as 20 of Bitterli's staircase's
+    "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n",                      # a point
+])
+def test_a_mesh_without_area_of_its_own_is_skipped_with_a_warning(tmp_path, obj):
+    # Mitsuba loads such a mesh and never hits it: clrender skips it, and says so (the CLI's
+    # info and render print the warning). A shape with area that loses it at the scene's
+    # scale stays an error (above).
+    (tmp_path / "line.obj").write_text(obj)
+    data = tiny_scene()
+    data["shapes"].append({"type": "mesh", "file": "line.obj", "material": "white", "name": "wire"})
+    index = len(data["shapes"]) - 1
+    with pytest.warns(clrender.arrays.SkippedShapeWarning,
+                      match=rf"shapes\[{index}\]: no triangle of 'wire' has an area .*: skipped"):
+        image = clrender.render(clrender.load_scene_dict(data, base_dir=tmp_path), device=TEST_DEVICE)
+    del data["shapes"][index]
+    assert np.array_equal(image, clrender.render(data, device=TEST_DEVICE))
+    code, stderr = run_cli("info", write_scene(tmp_path, dict(data, shapes=data["shapes"] + [
+        {"type": "mesh", "file": str(tmp_path / "line.obj"), "material": "white", "name": "wire"}])))
+    assert code == 0 and f"clrender: warning: shapes[{index}]: no triangle of 'wire' has an area" in stderr
 
 
 # ---------------------------------------------------------------------------------------------

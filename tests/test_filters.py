@@ -104,5 +104,5 @@ def test_cumulative_is_the_integral_of_the_filter(f):
 
 def test_the_box_is_identity_and_needs_no_tables():
     record = filters.filter_record(Filter("box"))
-    assert record["kind"][0] == layout.FILTER_KINDS["box"]
+    assert record["kind"][0] == layout.PIXEL_FILTERS["box"]
     assert not np.any(record["cells"])

@@ -19,6 +19,7 @@ import os
 import re
 import struct
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,8 @@ from hypothesis import strategies as st
 
 import clrender
 import mitsuba_scenes
+from mesh_writers import write_ply_file, write_serialized
+from clrender.arrays import SkippedShapeWarning
 from clrender.errors import SceneError
 
 _REQUESTED = int(os.environ.get("CLRENDER_FUZZ_EXAMPLES", "0"))
@@ -57,11 +60,16 @@ class Renders:
         event("rendered")
         scene.camera.resolution = (4, 4)
         try:
-            result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
         except SceneError as e:   # found at upload: degenerate shapes, sizes, scaled values
             assert names_its_place(e), e
             event("SceneError at upload")
             return
+        for warning in caught:   # a shape none of whose triangles has an area
+            assert warning.category is SkippedShapeWarning, warning.message
+            event("shape without area skipped")
         assert np.all(np.isfinite(result.image)), result.image
         if result.discarded_samples:   # reported to the user; counted here to watch the rate
             event("rendered with non-finite samples discarded")
@@ -300,10 +308,60 @@ def obj_files(draw):
 
 
 @st.composite
+def damaged(draw, content):
+    """`content`, or half the time cut short, with bytes overwritten, or both."""
+    if not draw(st.booleans(), label="defective"):
+        return content
+    content = bytearray(content[:draw(st.integers(0, len(content)))] if draw(st.booleans()) else content)
+    for _ in range(draw(st.integers(0, 3))):
+        if content:
+            content[draw(st.integers(0, len(content) - 1))] = draw(st.integers(0, 255))
+    return bytes(content)
+
+
+@st.composite
+def serialized_files(draw):
+    """Mitsuba serialized files (versions 3 and 4, any flags, several shapes), often damaged."""
+    shapes = []
+    for _ in range(draw(st.integers(1, 3))):
+        count = draw(st.integers(3, 6))
+        values = draw(st.lists(st.floats(-3, 3, width=32), min_size=11 * count, max_size=11 * count))
+        columns = np.array(values).reshape(count, 11)
+        shapes.append({"positions": columns[:, :3], "double": draw(st.booleans()),
+                       "normals": columns[:, 3:6] if draw(st.booleans()) else None,
+                       "uvs": columns[:, 6:8] if draw(st.booleans()) else None,
+                       "colors": columns[:, 8:] if draw(st.booleans()) else None,
+                       "faces": draw(st.lists(st.lists(st.integers(0, count - 1), min_size=3, max_size=3),
+                                              min_size=1, max_size=4))})
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "mesh.serialized"
+        write_serialized(path, shapes, draw(st.sampled_from([3, 4])))
+        return draw(damaged(path.read_bytes()))
+
+
+@st.composite
+def binary_ply_files(draw):
+    """Binary PLY files (either byte order, polygons of any size), often damaged."""
+    count = draw(st.integers(3, 6))
+    vertex = {name: ("float", draw(st.lists(st.floats(-3, 3, width=32), min_size=count, max_size=count)))
+              for name in ("x", "y", "z", "u", "v")}
+    faces = draw(st.lists(st.lists(st.integers(0, count - 1), min_size=3, max_size=5), min_size=1, max_size=4))
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "mesh.ply"
+        write_ply_file(path, draw(st.sampled_from(["binary_little_endian", "binary_big_endian"])), vertex, faces,
+                       extra_element=draw(st.booleans()))
+        return draw(damaged(path.read_bytes()))
+
+
+@st.composite
 def mesh_files(draw):
-    kind = draw(st.sampled_from(["obj", "obj", "stl", "ply", "off"]))
+    kind = draw(st.sampled_from(["obj", "obj", "stl", "ply", "off", "serialized", "binary_ply"]))
     if kind == "obj":
         return "mesh.obj", draw(obj_files())
+    if kind == "serialized":
+        return "mesh.serialized", draw(serialized_files())
+    if kind == "binary_ply":
+        return "mesh.ply", draw(binary_ply_files())
     if kind == "stl":   # binary: 80-byte header, a triangle count, 50 bytes per triangle
         count = draw(st.integers(0, 4))
         floats = draw(st.lists(st.floats(width=32), min_size=12 * count, max_size=12 * count))

@@ -96,6 +96,26 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path):
     np.testing.assert_allclose(radiance[:, :3], image.reshape(-1, 3)[texel], rtol=1e-6)
 
 
+def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():
+    """The tables built a band of rows at a time (here 3 bands) are the marginal CDF of the rows
+    and each row's conditional CDF of luminance x sin(theta); a black row is uniform."""
+    from clrender.arrays import LUMINANCE, _cdf, _environment_tables
+
+    height, width = 5000, 500
+    image = np.random.default_rng(6).uniform(0, 2, (height, width, 3)).astype(np.float32)
+    image[[0, 2500, 4999]] = 0.0
+    texels, cdf, mean = _environment_tables(image)
+    weights = (image @ LUMINANCE) * np.sin((np.arange(height) + 0.5) / height * np.pi)[:, None]
+    np.testing.assert_array_equal(cdf[:height + 1], _cdf(weights.sum(axis=1)))
+    rows = cdf[height + 1:].reshape(height, width + 1)
+    for row in (0, 1, 2097, 2500, 4998, 4999):
+        np.testing.assert_array_equal(rows[row], _cdf(weights[row]))
+    np.testing.assert_array_equal(texels[:, :3], image.reshape(-1, 3))
+    assert mean == pytest.approx((image.mean(axis=2, dtype=float) * np.sin((np.arange(height) + 0.5) / height
+                                                                          * np.pi)[:, None]).mean()
+                                 / np.sin((np.arange(height) + 0.5) / height * np.pi).mean(), rel=1e-12)
+
+
 def test_directional_light_gives_exact_cosine_irradiance(device):
     direction = np.array([0.3, -1.0, 0.2])
     scene = clrender.load_scene_dict(floor_scene([{"type": "directional", "direction": direction.tolist(),

@@ -211,6 +211,52 @@ def test_spot_light_falloff_matches(tmp_path, context, queue):
         assert np.allclose(np.array(weight), value, rtol=2e-5, atol=1e-6), point
 
 
+def stretch_or_shear(kind, amount):
+    linear = np.eye(3)
+    if kind == "stretch":
+        linear[0, 0] += amount
+    else:
+        linear[0, 1] = amount
+    return linear
+
+
+@pytest.mark.parametrize("kind,amount,loads", [
+    ("stretch", 4e-4, True), ("stretch", 6e-4, False),   # |L L^T - I| 8e-4 and 1.2e-3
+    ("shear", 9e-4, True), ("shear", 1.2e-3, False)])
+def test_camera_to_world_tolerance_and_corner_shift_are_mitsubas(tmp_path, kind, amount, loads):
+    # Both load a to_world within 1e-3 of a rotation and refuse one beyond; where they load, the
+    # warning's shift is the distance between Mitsuba's rays through the image's corners and ours.
+    size = (1000, 600)   # wide enough for a warning (shifts of 0.2 and 0.45 pixels)
+    matrix = np.eye(4)
+    matrix[:3, :3] = [[0, 0, -1], [0, 1, 0], [1, 0, 0]] @ stretch_or_shear(kind, amount)
+    to_world = f'<matrix value="{" ".join(f"{v:.17g}" for v in matrix.ravel())}"/>'
+    path = tmp_path / "camera.xml"
+    path.write_text(sensor_xml('<float name="fov" value="50"/>', size, to_world))
+    try:
+        sensor = mi.load_file(str(path)).sensors()[0]
+    except RuntimeError as e:
+        assert not loads and "Scale factors in the camera-to-world transformation" in str(e)
+    else:
+        assert loads
+    if not loads:
+        with pytest.raises(clrender.MitsubaXmlError, match="scales or shears"):
+            read_scene(path)
+        return
+    translation = read_scene(path)
+    ours = clrender.load_scene_dict({"camera": translation.scene["camera"]}).camera
+    forward, right, up = ours.basis()
+    width, height = size
+    shifts = []
+    for px, py in [(0, 0), (width, 0), (0, height), (width, height)]:
+        ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(px / width, py / height), mi.Point2f(0.5, 0.5))
+        d = np.array(ray.d) / np.dot(np.array(ray.d), forward)   # on our image plane
+        x = (np.dot(d, right) / np.dot(right, right) + 1) / 2 * width
+        y = (1 - np.dot(d, up) / np.dot(up, up)) / 2 * height
+        shifts.append(np.hypot(x - px, y - py))
+    warned = [w for w in translation.warnings if "rotation to" in w]
+    assert len(warned) == 1 and f"pass {max(shifts):.2g} pixels from Mitsuba's" in warned[0]
+
+
 @pytest.mark.parametrize("placement", ["to_world", "use_grid_bbox", "both"])
 def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
     density = mitsuba_scenes.cloud_density((5, 4, 3))
@@ -236,12 +282,15 @@ def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
         assert abs(theirs.eval_1(interaction) - value) < 2e-5 * max(1.0, value), point
 
 
-def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path):
+@pytest.mark.parametrize("suffix", [".exr", ".hdr"])
+def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path, suffix):
     image = mitsuba_scenes.sky_image(12, 7)
     image[3, 5] = (9.0, 0.1, 2.0)   # a sharp texel shows any misplacement
-    clrender.save_image(image, tmp_path / "sky.exr")
+    path = tmp_path / f"sky{suffix}"
+    write_float_image(image, path)
+    image = clrender.load_image(path)   # Radiance HDR rounds to 8-bit mantissas: Mitsuba reads the same
     rotation = '<rotate y="1" angle="70"/><rotate x="1" angle="25"/>'
-    xml = (f'<emitter version="3.0.0" type="envmap"><string name="filename" value="{tmp_path / "sky.exr"}"/>'
+    xml = (f'<emitter version="3.0.0" type="envmap"><string name="filename" value="{path}"/>'
            f'<transform name="to_world">{rotation}</transform></emitter>')
     emitter = mi.load_string(xml)
     matrix = np.array(mi.traverse(emitter)["to_world"].matrix)
@@ -275,6 +324,16 @@ def test_pixel_filters_are_mitsubas(plugin):
     # Mitsuba's gaussian evaluates exp with an approximation good to 4e-4 (of the peak, 1).
     np.testing.assert_allclose([theirs.eval(float(x)) for x in t], filters.evaluate(ours, t),
                                atol=5e-4 if ours.type == "gaussian" else 1e-6)
+
+
+def write_float_image(image, path):
+    """A float RGB image written with OpenImageIO (any format it writes: .exr, .hdr)."""
+    import OpenImageIO as oiio
+
+    output = oiio.ImageOutput.create(str(path))
+    assert output.open(str(path), oiio.ImageSpec(image.shape[1], image.shape[0], 3, "float"))
+    assert output.write_image(np.ascontiguousarray(image, dtype=np.float32))
+    output.close()
 
 
 def test_conductor_presets_are_mitsubas_normal_reflectance():

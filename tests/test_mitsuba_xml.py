@@ -11,6 +11,7 @@ import trimesh
 
 import clrender
 from clrender import cie, grids, limits, meshes, mitsuba
+from clrender.arrays import build_scene_arrays
 from clrender.mitsuba import MitsubaXmlError, MitsubaXmlWarning
 
 SENSOR = """<sensor type="perspective">
@@ -113,8 +114,12 @@ def test_references_share_one_material_and_one_medium(tmp_path):
     ('<shape type="sphere"><boolean name="flip_normals" value="yes"/></shape>', "not a boolean"),
     ('<shape type="sphere"><float name="sharpness" value="2"/></shape>', "parameter 'sharpness' of"),
     ('<shape type="sphere"><string name="radius" value="2"/></shape>', "must be <float> or <integer>, got <string>"),
+    ('<shape type="sphere"><bsdf type="dielectric"><texture type="checkerboard" name="int_ior"/></bsdf></shape>',
+     "got <texture> type 'checkerboard' (not supported here)"),
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>',
-     "got <texture> type 'bitmap' (not supported here)"),
+     "parameter 'filename' is required"),
+    ('<shape type="sphere"><bsdf type="diffuse"><texture type="marble" name="reflectance"/></bsdf></shape>',
+     "unsupported texture 'marble'"),
     ('<shape type="sphere"><sampler type="independent"/></shape>', "<sampler> inside"),
 ])
 def test_structural_errors_name_file_line_and_element(tmp_path, body, message):
@@ -127,8 +132,9 @@ def test_malformed_xml_and_versions(tmp_path):
     (tmp_path / "bad.xml").write_text('<scene version="3.0.0">\n<shape type="sphere">\n</scene>')
     with pytest.raises(MitsubaXmlError, match=r"bad.xml:3: malformed XML: mismatched tag"):
         clrender.load_scene(tmp_path / "bad.xml")
-    with pytest.raises(MitsubaXmlError, match=r"scene version 0.6.0: only Mitsuba 3 scenes"):
-        clrender.load_scene(write(tmp_path, "", version="0.6.0"))
+    for version in ("0.6.0", "1.0.0", "4.0.0"):
+        with pytest.raises(MitsubaXmlError, match=rf"scene version {version}: only versions 2.x and 3.x"):
+            clrender.load_scene(write(tmp_path, "", version=version))
     (tmp_path / "noversion.xml").write_text("<scene/>")
     with pytest.raises(MitsubaXmlError, match="needs a version attribute"):
         clrender.load_scene(tmp_path / "noversion.xml")
@@ -137,6 +143,14 @@ def test_malformed_xml_and_versions(tmp_path):
         clrender.load_scene(tmp_path / "notscene.xml")
     with pytest.raises(MitsubaXmlError, match="scene file not found"):
         clrender.load_scene(tmp_path / "missing.xml")
+
+
+def test_version_2_scenes_read_as_mitsuba_3_reads_them(tmp_path):
+    # Mitsuba 3 reads 2.x files unchanged (it upgrades only older ones), also when included.
+    (tmp_path / "ball.xml").write_text('<scene version="2.1.0"><shape type="sphere"/></scene>')
+    body = '<include filename="ball.xml"/>'
+    assert translate(tmp_path, body)[0] == mitsuba.read_scene(write(tmp_path, body, version="2.0.0")).scene
+    assert clrender.load_scene(write(tmp_path, body, version="2.0.0")).shapes[0].mesh.radius == 1.0
 
 
 def test_validation_errors_point_at_the_xml_element(tmp_path):
@@ -160,6 +174,18 @@ def test_errors_found_at_upload_point_at_the_xml_element(tmp_path, context):
     info = subprocess.run([sys.executable, "-m", "clrender.cli", "info", str(tmp_path / "scene.xml")],
                           capture_output=True, text=True)
     assert info.returncode == 3 and "scene.xml:" in info.stderr and "Traceback" not in info.stderr
+
+
+def test_meshes_without_area_are_skipped_with_a_warning_at_the_xml_element(tmp_path):
+    (tmp_path / "line.obj").write_text("v 0 0 0\nv 0 1 0\nv 0 2 0\nf 1 2 3\n")
+    body = '<shape type="obj"><string name="filename" value="line.obj"/></shape>\n<shape type="sphere"/>'
+    scene = clrender.load_scene(write(tmp_path, body))
+    with pytest.warns(clrender.arrays.SkippedShapeWarning) as caught:
+        build_scene_arrays(scene)
+    line = line_of(body, "line.obj")
+    assert [str(w.message) for w in caught] == [
+        f"scene.xml:{line} <shape type='obj'>: no triangle of 'obj_line{line}' has an area (their corners "
+        "are collinear or coincide): skipped, as it cannot be seen (scene field shapes[0])"]
 
 
 # ============================================================================================
@@ -239,9 +265,6 @@ def test_thinlens_is_a_camera_with_a_lens(tmp_path):
     thinlens = sensor('<float name="aperture_radius" value="0.2"/><float name="far_clip" value="50"/>')
     camera = translate(tmp_path, "", sensor=thinlens.replace("perspective", "thinlens"))[0]["camera"]
     assert camera["focus_distance"] == 50.0
-    # A perspective camera ignores a focus_distance, as Mitsuba's does.
-    scene, warned = translate(tmp_path, "", sensor=sensor(extra='<float name="focus_distance" value="3"/>'))
-    assert "aperture_radius" not in scene["camera"] and warned == []
 
 
 @pytest.mark.parametrize("film,expected", [
@@ -263,10 +286,11 @@ def test_reconstruction_filters_are_the_cameras(tmp_path, film, expected):
     (sensor().replace("perspective", "thinlens"), "a thinlens sensor needs an aperture_radius"),
     (sensor('<float name="aperture_radius" value="-1"/>').replace("perspective", "thinlens"),
      "aperture_radius must be >= 0 and focus_distance > 0, got -1 and 10000"),
-    (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation"),
-    (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation"),
+    (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation: it scales or shears"),
+    (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation: it mirrors the image"),
     (sensor('<float name="fov" value="30"/><string name="focal_length" value="50mm"/>'), "either fov or focal_length"),
     (sensor('<string name="focal_length" value="wide"/>'), "focal_length must be like '50mm'"),
+    (sensor('<string name="focal_length" value="1.2.3mm"/>'), "focal_length must be like '50mm'"),
     (sensor('<float name="fov" value="200"/>'), "fov must be in (0, 180)"),
     (sensor('<float name="fov" value="30"/><string name="fov_axis" value="z"/>'), "unknown fov_axis 'z'"),
     (sensor(extra='<float name="principal_point_offset_x" value="0.1"/>'), "principal_point_offset_x is not supported"),
@@ -306,6 +330,63 @@ def test_sensor_warnings(tmp_path):
     assert scene["camera"]["resolution"] == [768, 576] and any("no <film>" in w for w in warned)
     _, warned = translate(tmp_path, "", sensor=sensor(extra='<float name="near_clip" value="0.01"/>'))
     assert warned == []
+
+
+def linear_to_world(linear):
+    """A sensor's to_world: `linear` (3x3) then a translation, as a 16-number <matrix>."""
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = linear, [0.5, -1, 5]
+    return f'<matrix value="{" ".join(f"{v:.17g}" for v in matrix.ravel())}"/>'
+
+
+def shear(amount):
+    linear = np.eye(3)
+    linear[0, 1] = amount
+    return linear
+
+
+ROTATION = np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0]])   # about y, looking down -x
+
+
+@pytest.mark.parametrize("linear,corner_shift", [
+    (ROTATION, None),
+    (ROTATION @ np.diag([1.0004, 1, 1]), 0.2),        # |L L^T - I| 8e-4: within Mitsuba's 1e-3
+    (ROTATION @ shear(9e-4), 0.45),
+    (ROTATION @ np.diag([1.0001, 1, 1]), None),       # 0.05 pixels: no warning
+    (ROTATION @ shear(2e-5) @ np.diag([1, 1.00001, 1]), None),   # as Bitterli's 6-digit matrices
+])
+def test_sensor_to_world_may_be_a_rotation_to_mitsubas_tolerance(tmp_path, linear, corner_shift):
+    film = '<film type="hdrfilm"><integer name="width" value="1000"/><integer name="height" value="500"/><rfilter type="box"/></film>'
+    scene, warned = translate(tmp_path, "", sensor=sensor('<float name="fov" value="40"/>', linear_to_world(linear), film))
+    camera = scene["camera"]
+    assert np.allclose(camera["position"], [0.5, -1, 5])
+    forward = linear @ [0, 0, 1]
+    assert np.allclose(np.subtract(camera["look_at"], camera["position"]), forward / np.linalg.norm(forward))
+    assert np.allclose(camera["up"], linear @ [0, 1, 0])
+    shifts = [w for w in warned if "rotation to" in w]
+    if corner_shift is None:
+        assert shifts == []
+    else:   # the corners of a 1000-pixel-wide film move by 500 x the stretch or shear
+        assert len(shifts) == 1 and f"pass {corner_shift:.2g} pixels from Mitsuba's" in shifts[0]
+
+
+@pytest.mark.parametrize("linear,message", [
+    (ROTATION @ np.diag([1.0006, 1, 1]), "it scales or shears (|L L^T - I| = 0.0012"),   # Mitsuba refuses it too
+    (ROTATION @ shear(1.2e-3), "it scales or shears (|L L^T - I| = 0.0012"),
+    (ROTATION @ shear(0.1), "it scales or shears"),
+    (ROTATION @ np.diag([1, 1, -1]), "it mirrors the image"),    # Mitsuba renders it mirrored
+])
+def test_sensor_to_world_that_scales_shears_or_mirrors_is_an_error(tmp_path, linear, message):
+    text = error_of(tmp_path, "", sensor=sensor('<float name="fov" value="40"/>', linear_to_world(linear)))
+    assert "scene.xml:3 <sensor type='perspective'>: the sensor's to_world must be a rotation and translation" in text
+    assert message in text
+
+
+def test_focus_distance_is_accepted_on_a_pinhole_camera(tmp_path):
+    with_focus = translate(tmp_path, "", sensor=sensor(extra='<float name="focus_distance" value="3"/>'))
+    assert with_focus == translate(tmp_path, "", sensor=sensor())
+    assert "must be <float> or <integer>" in error_of(
+        tmp_path, "", sensor=sensor(extra='<string name="focus_distance" value="near"/>'))
 
 
 @pytest.mark.parametrize("sampler,spp,seed,kind", [
@@ -451,8 +532,35 @@ def test_sphere_to_world_applies_after_center_and_radius(tmp_path):
     assert sphere.radius == pytest.approx(1.0)
 
 
+def test_mesh_file_shapes_pass_their_options(tmp_path):
+    from mesh_writers import write_serialized
+
+    (tmp_path / "ball.obj").write_text(trimesh.creation.icosphere(1).export(file_type="obj"))
+    (tmp_path / "box.ply").write_bytes(trimesh.creation.box().export(file_type="ply"))
+    triangle = {"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}
+    write_serialized(tmp_path / "parts.serialized", [triangle, dict(triangle, positions=[[0, 0, 0], [2, 0, 0], [0, 2, 0]])])
+    body = """<shape type="obj"><string name="filename" value="ball.obj"/><boolean name="flip_tex_coords" value="false"/></shape>
+    <shape type="ply"><string name="filename" value="box.ply"/><boolean name="flip_tex_coords" value="true"/></shape>
+    <shape type="serialized"><string name="filename" value="parts.serialized"/><integer name="shape_index" value="1"/>
+        <boolean name="face_normals" value="true"/><transform name="to_world"><translate z="1"/></transform></shape>
+    <shape type="serialized"><string name="filename" value="parts.serialized"/></shape>"""
+    shapes = translate(tmp_path, body)[0]["shapes"]
+    assert shapes[0]["flip_tex_coords"] is False and shapes[1]["flip_tex_coords"] is True
+    assert {k: shapes[2][k] for k in ("type", "smooth", "shape_index")} == {"type": "mesh", "smooth": False, "shape_index": 1}
+    assert shapes[3]["shape_index"] == 0 and shapes[3]["smooth"] is True and "flip_tex_coords" not in shapes[3]
+    scene = clrender.load_scene(tmp_path / "scene.xml")
+    np.testing.assert_array_equal(scene.shapes[2].mesh.vertices, [[0, 0, 1], [2, 0, 1], [0, 2, 1]])
+    np.testing.assert_array_equal(scene.shapes[3].mesh.vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+
+
 @pytest.mark.parametrize("body,message", [
-    ('<shape type="cylinder"/>', "unsupported shape 'cylinder' (supported: rectangle, cube, sphere, disk, obj, ply)"),
+    ('<shape type="cylinder"/>', "unsupported shape 'cylinder' (supported: rectangle, cube, sphere, disk, obj, ply, serialized)"),
+    ('<shape type="serialized"><string name="filename" value="parts.serialized"/>'
+     '<boolean name="flip_tex_coords" value="true"/></shape>', "a serialized shape has no flip_tex_coords: Mitsuba 3 refuses it"),
+    ('<shape type="serialized"><string name="filename" value="parts.serialized"/>'
+     '<integer name="shape_index" value="2"/></shape>', "shape_index 2 is out of range: the file has 1 shape (0..0)"),
+    ('<shape type="ply"><string name="filename" value="parts.serialized"/></shape>',
+     "a 'ply' shape's file must end in .ply (clrender reads mesh files by their suffix), got 'parts.serialized'"),
     ('<shape type="obj"/>', "parameter 'filename' is required"),
     ('<shape type="obj"><string name="filename" value="none.obj"/></shape>', "file not found: none.obj"),
     ('<shape type="sphere"><transform name="to_world"><scale x="2"/></transform></shape>', "non-uniform scales on spheres"),
@@ -475,6 +583,9 @@ def test_sphere_to_world_applies_after_center_and_radius(tmp_path):
     ('<shape type="rectangle"><medium type="homogeneous"/></shape>', "<medium> inside"),
 ])
 def test_shape_errors(tmp_path, body, message):
+    from mesh_writers import write_serialized
+
+    write_serialized(tmp_path / "parts.serialized", [{"positions": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]]}])
     assert message in error_of(tmp_path, body)
 
 
@@ -536,6 +647,41 @@ def test_envmap_is_resampled_with_a_warning(tmp_path):
     assert np.isclose(light["image"].mean(), 2 * image.mean(), rtol=0.05)
     column = light["image"][24, 40 + 4]     # clrender's u = 0.5 + 0.5 / 10 looks down +z (Mitsuba's u 0.05 ...)
     assert np.all(column > 0)
+
+
+def direct_resample(image, rotation, width, height):
+    """resample_envmap's definition computed texel by texel in float64: the sin(theta)-weighted
+    mean of Mitsuba's lookups at the centres of the texel's quarters."""
+    out = np.zeros((height, width, image.shape[2]))
+    for j in range(height):
+        for i in range(width):
+            total = weight = 0.0
+            for dv in (0.25, 0.75):
+                theta = (j + dv) / height * np.pi
+                for du in (0.25, 0.75):
+                    phi = 2 * np.pi * ((i + du) / width - 0.5)
+                    world = np.array([[np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)]])
+                    total = total + mitsuba.mitsuba_envmap_lookup(image, world @ rotation)[0] * np.sin(theta)
+                    weight += np.sin(theta)
+            out[j, i] = total / weight
+    return out
+
+
+@pytest.mark.parametrize("rotation", [
+    meshes.transform_matrix(), meshes.transform_matrix(rotate=[0, 70, 0]), meshes.transform_matrix(rotate=[0, -200, 0]),
+    meshes.transform_matrix(rotate=[180, 30, 0]), meshes.transform_matrix(scale=[-1, 1, 1]),
+    meshes.transform_matrix(rotate=[25, 70, 0]), meshes.transform_matrix(rotate=[-90, 0, 10])],
+    ids=["identity", "about y", "about y beyond a turn", "y down", "mirror", "tilted", "z up"])
+@pytest.mark.parametrize("factor", [1, 2, 3])
+def test_envmap_resampling_is_its_definition(rotation, factor):
+    """The separable filter (rotations about y) and the banded float32 lookups (any rotation)
+    give the texel-by-texel definition, at the resolution of the image and finer."""
+    image = np.random.default_rng(4).uniform(0, 3, (7, 12, 3)).astype(np.float32)
+    image[3, 5] = (40.0, 0.1, 9.0)   # a sharp texel shows any misplaced tap
+    ours = mitsuba.resample_envmap(image, rotation[:3, :3], 12 * factor, 7 * factor)
+    assert ours.dtype == np.float32 and ours.shape == (7 * factor, 12 * factor, 3)
+    np.testing.assert_allclose(ours, direct_resample(image.astype(float), rotation[:3, :3], 12 * factor, 7 * factor),
+                               rtol=0, atol=1e-5 * 40)
 
 
 def test_envmap_lookup_convention():

@@ -28,6 +28,7 @@ import pytest
 
 import clrender
 from clrender.features import all_feature_combinations, describe
+from conftest import oclgrind_library
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WORKER = os.path.join(ROOT, "tests", "oclgrind_worker.py")
@@ -35,19 +36,6 @@ MARK = "@@oclgrind-case"
 WORKERS = 2           # processes in parallel (one simulated work-group at a time each)
 BATCHES = 6           # cases are spread over this many worker processes
 TIMEOUT = 1200        # seconds per worker
-
-
-def oclgrind_library():
-    """Oclgrind's ICD library (from its Debian package's file list), or None."""
-    try:
-        files = subprocess.run(["dpkg", "-L", "oclgrind"], capture_output=True, text=True).stdout.split()
-    except OSError:
-        files = []
-    for path in files + ["/usr/lib/oclgrind/liboclgrind-rt-icd.so"]:
-        if path.endswith("liboclgrind-rt-icd.so") and os.path.isfile(path):
-            return path
-    return None
-
 
 LIBRARY = oclgrind_library()
 pytestmark = pytest.mark.skipif(LIBRARY is None, reason="Oclgrind is not installed (apt-get install oclgrind)")
@@ -57,7 +45,8 @@ SCENES = [{"kind": "scene", "path": os.path.relpath(p, ROOT)}
           for p in sorted(glob.glob(os.path.join(ROOT, "scenes", "*.json")))]
 # tests.cl compiles different kernels for these (see its #if blocks).
 TEST_KERNELS = [{"kind": "test_kernels", "features": f} for f in
-                ({}, {"ENVIRONMENT": 2, "DIELECTRIC": 1}, {"MEDIA": 1, "GRID_MEDIA": 1}, {"MEDIA": 1, "GRID_MEDIA": 2})]
+                ({}, {"ENVIRONMENT": 2, "DIELECTRIC": 1}, {"MEDIA": 1, "GRID_MEDIA": 1}, {"MEDIA": 1, "GRID_MEDIA": 2},
+                 {"TEXTURES": 1})]
 # A kernel with an out-of-bounds read and a branch on an uninitialised value: proves that
 # diagnostics reach the test.
 CANARY = {"kind": "canary"}

@@ -149,7 +149,8 @@ def test_transform_moves_and_mirrors_keep_normals_outward():
 def test_features_follow_what_the_scene_contains():
     cornell_box = clrender.load_scene("scenes/cornell_box.json")
     assert scene_features(cornell_box) == {
-        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "LANES": 1}
+        "ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "TEXTURES": 0,
+        "LANES": 1}
     assert scene_features(cornell_box, sample_aovs=True)["AOVS"] == 1   # asked by the render, not the scene
     with_env = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "radiance": 1}]))
     assert scene_features(with_env)["ENVIRONMENT"] == 1
@@ -157,8 +158,8 @@ def test_features_follow_what_the_scene_contains():
     assert scene_features(black_env)["ENVIRONMENT"] == 0   # no emitter to read
     with_sun = clrender.load_scene_dict(base_scene(lights=[{"type": "directional", "direction": [0, -1, 0],
                                                            "irradiance": 3}]))
-    assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0,
-                                         "DIELECTRIC": 0, "GRID_MEDIA": 0, "AOVS": 0, "LANES": 1}
+    assert scene_features(with_sun) == {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "DIELECTRIC": 0,
+                                         "GRID_MEDIA": 0, "AOVS": 0, "TEXTURES": 0, "LANES": 1}
     glass = [{"name": "glass", "type": "dielectric", "ior": 1.5}]
     unused_glass = clrender.load_scene_dict(base_scene(materials=base_scene()["materials"] + glass))
     assert scene_features(unused_glass)["DIELECTRIC"] == 0
@@ -168,6 +169,12 @@ def test_features_follow_what_the_scene_contains():
     mirror = base_scene(materials=base_scene()["materials"] + [{"name": "m", "type": "conductor"}])
     mirror["shapes"][0]["material"] = "m"
     assert scene_features(clrender.load_scene_dict(mirror))["DIELECTRIC"] == 1
+    checks = [{"name": "c", "type": "checkerboard"}]
+    unused_texture = base_scene(materials=base_scene()["materials"] + [
+        {"name": "t", "type": "diffuse", "albedo": {"texture": "c"}}], textures=checks)
+    assert scene_features(clrender.load_scene_dict(unused_texture))["TEXTURES"] == 0
+    unused_texture["shapes"][0]["material"] = "t"
+    assert scene_features(clrender.load_scene_dict(unused_texture))["TEXTURES"] == 1
 
 
 def test_degenerate_triangles_are_dropped_and_counted(tmp_path):
@@ -183,63 +190,3 @@ def test_scene_file_round_trip(tmp_path):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(base_scene()))
     assert clrender.load_scene(path).path == path
-
-
-PLAIN_OBJ = "# plain: vertices and triangles only\r\nv 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 9 9 9\n\n" \
-            "v 0 1 0\nv 0.5 0.5 -1e-3\nf 1 2 3\nf 1 3 5\t\nf 2 6 3\nf 3 6 5\n   # unreferenced vertex 4\nf 5 6 1\n"
-
-
-def assert_same_mesh_as_trimesh(path, smooth):
-    """load_mesh_file gives trimesh's triangles (corner positions, in order) and, with `smooth`,
-    its vertex normals at those corners."""
-    import trimesh
-
-    from clrender import meshes
-
-    ours = meshes.load_mesh_file(path, smooth)
-    theirs = trimesh.load(str(path), force="mesh", process=False)
-    vertices, faces = np.asarray(theirs.vertices), np.asarray(theirs.faces)
-    np.testing.assert_array_equal(ours.vertices[ours.faces], vertices[faces])
-    if smooth:
-        np.testing.assert_allclose(ours.normals[ours.faces], np.asarray(theirs.vertex_normals)[faces], atol=1e-12)
-    else:
-        assert ours.normals is None
-
-
-@pytest.mark.parametrize("smooth", [False, True])
-def test_plain_obj_files_are_read_without_trimesh_as_trimesh_reads_them(tmp_path, smooth):
-    from clrender import meshes
-
-    path = tmp_path / "shape.obj"
-    path.write_text(PLAIN_OBJ)
-    assert meshes.read_plain_obj(path, smooth) is not None
-    assert_same_mesh_as_trimesh(path, smooth)
-    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\nf 1 2 4\n")
-    with pytest.raises(ValueError, match="line 6: face 'f 1 2 4' names a vertex beyond the 3"):
-        meshes.load_mesh_file(path, smooth)
-
-
-@pytest.mark.parametrize("change", [
-    ("f 1 2 3\n", "f 1 2 3 4\n"),                     # a quad
-    ("f 1 2 3\n", "f 1 2 3 4 6\n"),                   # a pentagon
-    ("f 2 6 3\n", "f -5 -1 -4\n"),                    # relative indices
-    ("f 2 6 3\n", "vt 0 0\nvn 0 0 1\nf 2/1/1 6/1/1 3/1/1\n"),
-    ("f 2 6 3\n", "vt 0 0\nf 2/1 6/1 3/1\n"),
-    ("f 2 6 3\n", "vn 0 0 1\nf 2//1 6//1 3//1\n"),
-    ("f 2 6 3\n", "o part\ng side\nusemtl red\nf 2 6 3\n"),
-    ("# plain", "mtllib a.mtl\n# plain"),
-    ("f 2 6 3\n", "s off\nf 2 6 3\n"),
-    ("v 0 0 0\n", "v 0 0 0 1\n"),                      # a w coordinate
-    ("v 0 0 0\n", "v 0 0 0 0.5 0.5 0.5\n"),            # vertex colours
-    ("f 5 6 1\n", "f 5 6 1\nl 1 2\n"),
-], ids=["quad", "pentagon", "negative", "v/vt/vn", "v/vt", "v//vn", "groups", "mtllib", "smoothing",
-        "w", "colours", "line"])
-def test_obj_files_beyond_vertices_and_triangles_are_left_to_trimesh(tmp_path, change):
-    from clrender import meshes
-
-    assert change[0] in PLAIN_OBJ
-    path = tmp_path / "shape.obj"
-    path.write_text(PLAIN_OBJ.replace(*change, 1))
-    assert meshes.read_plain_obj(path, True) is None
-    for smooth in (False, True):
-        assert_same_mesh_as_trimesh(path, smooth)

@@ -13,6 +13,7 @@
 """
 import numpy as np
 
+from .texture import color_or_texture, is_textured, number_or_texture
 from .values import fmt, parse_float
 
 BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "twosided", "null")
@@ -68,22 +69,26 @@ def read_bsdf(plugin, reader, two_sided=False):
                                  "(only diffuse, conductor, roughconductor; Mitsuba rejects transmission)")
         return read_bsdf(inner[0], reader, two_sided=True)
     if kind == "diffuse":
-        material = {"type": "diffuse", "albedo": plugin.color("reflectance", 0.5, reader.out.warnings).tolist(),
+        material = {"type": "diffuse", "albedo": color_or_texture(plugin, "reflectance", 0.5, reader),
                     "two_sided": two_sided}
     elif kind in ("dielectric", "roughdielectric"):
         material = {"type": "dielectric", "ior": _ior(plugin, "int_ior", "bk7"),
                     "exterior_ior": _ior(plugin, "ext_ior", "air")}
         if np.any(plugin.color("specular_reflectance", 1.0, reader.out.warnings) != 1.0):
             raise plugin.error("specular_reflectance other than 1 is not supported on dielectrics")
-        material["tint"] = plugin.color("specular_transmittance", 1.0, reader.out.warnings).tolist()
+        material["tint"] = color_or_texture(plugin, "specular_transmittance", 1.0, reader)
         if kind == "roughdielectric":
-            material.update(_roughness(plugin))
+            material.update(_roughness(plugin, reader))
     elif kind in ("conductor", "roughconductor"):
+        reflectance = color_or_texture(plugin, "specular_reflectance", 1.0, reader)
+        f0 = _conductor_reflectance(plugin, reader)
+        if is_textured(reflectance) and np.any(f0 != 1):
+            raise plugin.error("a textured specular_reflectance with a conductor material or eta/k is not "
+                               "supported (only on a perfect mirror, material 'none')")
         material = {"type": "conductor", "two_sided": two_sided,
-                    "tint": (plugin.color("specular_reflectance", 1.0, reader.out.warnings)
-                             * _conductor_reflectance(plugin, reader)).tolist()}
+                    "tint": reflectance if is_textured(reflectance) else (np.asarray(reflectance) * f0).tolist()}
         if kind == "roughconductor":
-            material.update(_roughness(plugin))
+            material.update(_roughness(plugin, reader))
     elif kind == "null":
         material = {"type": "interface"}
     else:
@@ -104,8 +109,9 @@ def _ior(plugin, name, default):
     return parse_float(element)
 
 
-def _roughness(plugin):
-    """GGX alpha -> the format's roughness (alpha = roughness^2); single scattering, as Mitsuba."""
+def _roughness(plugin, reader):
+    """GGX alpha -> the format's roughness (alpha = roughness^2), or a texture of alpha; single
+    scattering, as Mitsuba."""
     distribution = plugin.string("distribution", "beckmann")
     if distribution != "ggx":
         raise plugin.error(f"microfacet distribution '{distribution}' is not supported: clrender's "
@@ -113,7 +119,10 @@ def _roughness(plugin):
                            "Mitsuba's default is beckmann)")
     if plugin.has("alpha") and (plugin.has("alpha_u") or plugin.has("alpha_v")):
         raise plugin.error("give either alpha or alpha_u and alpha_v")
-    alpha = plugin.number("alpha", 0.1)
+    alpha = number_or_texture(plugin, "alpha", 0.1, reader)
+    if is_textured(alpha):
+        plugin.accept("sample_visible")
+        return {"alpha": alpha, "energy_compensation": False}
     if plugin.has("alpha_u") or plugin.has("alpha_v"):
         alpha_u, alpha_v = plugin.number("alpha_u", 0.1), plugin.number("alpha_v", 0.1)
         if alpha_u != alpha_v:

@@ -33,7 +33,10 @@ def read_medium(plugin, reader):
     warnings_ = reader.out.warnings
     index = len(reader.out.scene["media"])
     name = plugin.id or f"medium_line{plugin.element.line}"
-    medium = {"name": name, "scale": plugin.number("scale", 1.0), "g": read_phase(plugin)}
+    phases = plugin.nested("phase")
+    if len(phases) > 1:
+        raise plugin.error("a medium takes one phase function")
+    medium = {"name": name, "scale": plugin.number("scale", 1.0), "g": read_phase(phases[0] if phases else None, reader)}
     plugin.accept("sample_emitters", "has_spectral_extinction")   # sampling choices
     grid = plugin.volume("sigma_t")
     if plugin.has("sigma_a") or plugin.has("sigma_s"):
@@ -61,19 +64,17 @@ def read_medium(plugin, reader):
     return name
 
 
-def read_phase(plugin):
-    """Henyey-Greenstein g of the medium's phase function (isotropic: 0; hg default 0.8)."""
-    phases = plugin.nested("phase")
-    if len(phases) > 1:
-        raise plugin.error("a medium takes one phase function")
-    if not phases or phases[0].type == "isotropic":
+def read_phase(plugin, reader):
+    """Henyey-Greenstein g of a phase function; plugin None: the medium has none (isotropic)."""
+    if plugin is None:
+        return 0.0
+    if plugin.type == "isotropic":
         g = 0.0
-    elif phases[0].type == "hg":
-        g = phases[0].number("g", 0.8)
+    elif plugin.type == "hg":
+        g = plugin.number("g", 0.8)
     else:
-        raise phases[0].error(f"unsupported phase function '{phases[0].type}' (supported: isotropic, hg)")
-    if phases:
-        phases[0].finish()
+        raise plugin.error(f"unsupported phase function '{plugin.type}' (supported: isotropic, hg)")
+    plugin.finish()
     return g
 
 

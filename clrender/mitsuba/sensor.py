@@ -4,11 +4,11 @@
 |---|---|---|
 | `perspective` | `fov` + `fov_axis` (x, y, diagonal, smaller, larger; x) | `camera.fov`, the vertical field of view |
 | | `focal_length` (50mm, 35 mm film's diagonal, when neither is given) | the same, from the diagonal fov |
-| | `to_world` (a rotation and translation) | `camera.position`, `look_at` (+z), `up` (+y) |
+| | `to_world`: a rotation (to within ROTATION_TOLERANCE, as Mitsuba) and translation | `camera.position`, `look_at` (+z), `up` (+y); a mirror is an error |
 | | `near_clip` (0.01), `far_clip` (10000) | not clipped: other values are a warning |
 | | nested `film`, `sampler` | `camera.resolution`, `filter`; `render.spp`, `seed`, `sampler` |
 | | nested `medium` | `camera.medium` and the scene's `medium` |
-| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene), `focus_distance` (no effect on a pinhole: Mitsuba ignores it too) |
+| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene), `focus_distance` (a pinhole camera is sharp at every distance: Mitsuba ignores it too) |
 | | errors | non-zero `principal_point_offset_x`, `principal_point_offset_y` |
 | `thinlens` | everything `perspective` takes, and | |
 | | `aperture_radius` (required) | `camera.aperture_radius` |
@@ -21,9 +21,12 @@ import numpy as np
 from .film import read_film
 from .medium import read_medium
 from .sampler import read_sampler
-from .transforms import is_rigid
+from .transforms import ROTATION_TOLERANCE, rotation_error
 
 DEFAULT_NEAR_CLIP, DEFAULT_FAR_CLIP = 0.01, 10000.0
+# A to_world that is a rotation only to within ROTATION_TOLERANCE moves the image's corners by up
+# to this many pixels from Mitsuba's before a warning says so (Bitterli's 6-digit matrices: 0.007).
+MAX_CORNER_SHIFT = 0.1
 
 
 def read_sensor(plugin, reader):
@@ -41,10 +44,13 @@ def read_sensor(plugin, reader):
     render.update(spp=spp, seed=seed, sampler=sampler)
     matrix = plugin.transform("to_world")
     matrix = np.eye(4) if matrix is None else matrix
-    if not is_rigid(matrix):
-        raise plugin.error("the sensor's to_world must be a rotation and translation (Mitsuba "
-                           "rejects scale factors; mirroring or shearing the image is not supported)")
+    _check_rotation(plugin, matrix)
     fov_y = _vertical_fov(plugin, width / height)
+    shift = _corner_shift(matrix, fov_y, width, height)
+    if shift > MAX_CORNER_SHIFT:
+        reader.warn(f"{plugin.element.where()}: to_world is a rotation to {rotation_error(matrix):.2g} only: "
+                    f"clrender's camera keeps its view direction and up, so rays at the image's corners "
+                    f"pass {shift:.2g} pixels from Mitsuba's")
     clips = {}
     for name, default in (("near_clip", DEFAULT_NEAR_CLIP), ("far_clip", DEFAULT_FAR_CLIP)):
         clips[name] = plugin.number(name, default)
@@ -81,7 +87,7 @@ def _read_lens(plugin, far_clip):
     """thinlens: the camera's aperture_radius and focus_distance (Mitsuba's default: far_clip's
     value); perspective: none (the focus_distance some scenes give it has no effect)."""
     if plugin.type == "perspective":
-        plugin.accept("focus_distance")
+        plugin.number("focus_distance")   # checked, of no effect
         return {}
     aperture = plugin.number("aperture_radius")
     if aperture is None:
@@ -97,6 +103,37 @@ def _describe_filter(pixel_filter):
     return pixel_filter["type"] + (f" {parameter} {pixel_filter[parameter]:g}" if parameter else "")
 
 
+def _check_rotation(plugin, matrix):
+    """Mitsuba's camera refuses a to_world that scales or shears (beyond ROTATION_TOLERANCE); it
+    renders a mirrored one mirrored, which clrender's camera cannot."""
+    if np.linalg.det(matrix[:3, :3]) <= 0:
+        raise plugin.error("the sensor's to_world must be a rotation and translation: it mirrors the "
+                           "image, which clrender's camera cannot")
+    error = rotation_error(matrix)
+    if error > ROTATION_TOLERANCE:
+        raise plugin.error(f"the sensor's to_world must be a rotation and translation: it scales or "
+                           f"shears (|L L^T - I| = {error:.2g} for its linear part L; Mitsuba too refuses "
+                           f"more than {ROTATION_TOLERANCE:g})")
+
+
+def _corner_shift(matrix, fov_y, width, height):
+    """How far, in pixels, Mitsuba's rays through the image's corners (the linear part L of
+    to_world applied to camera directions) pass from clrender's, whose orthonormal frame keeps
+    the view direction L z and the up vector L y: 0 for a rotation."""
+    linear = matrix[:3, :3]
+    forward = linear @ [0.0, 0.0, 1.0]
+    forward /= np.linalg.norm(forward)
+    left = np.cross(linear @ [0.0, 1.0, 0.0], forward)   # Mitsuba's camera x: left, up x forward
+    left /= np.linalg.norm(left)
+    frame = np.column_stack([left, np.cross(forward, left), forward])
+    tan_y = np.tan(np.radians(fov_y) / 2)
+    tan_x = tan_y * width / height
+    corners = np.array([[x, y, 1.0] for x in (-tan_x, tan_x) for y in (-tan_y, tan_y)])
+    theirs = corners @ linear.T @ frame   # in clrender's camera frame
+    film = theirs[:, :2] / theirs[:, 2:]
+    return float(np.max(np.linalg.norm((film - corners[:, :2]) / [2 * tan_x / width, 2 * tan_y / height], axis=1)))
+
+
 def _vertical_fov(plugin, aspect):
     """Mitsuba's fov along fov_axis (x, y, diagonal, smaller, larger; default x), or its
     focal_length (35 mm film, diagonal; default 50mm), as the vertical fov clrender uses."""
@@ -104,7 +141,7 @@ def _vertical_fov(plugin, aspect):
         raise plugin.error("give either fov or focal_length")
     if plugin.has("focal_length"):
         text = plugin.string("focal_length")
-        match = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm)?\s*", text)
+        match = re.fullmatch(r"\s*((?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(mm)?\s*", text)
         if not match or not float(match.group(1)) > 0:
             raise plugin.error(f"focal_length must be like '50mm', got {text!r}")
         tan_half = np.hypot(36.0, 24.0) / (2 * float(match.group(1)))   # along `axis`

@@ -7,7 +7,8 @@ and media.
 | `cube` | | `box`: [-1, 1]^3, outwards |
 | `disk` | | `disk`: radius 1 in z = 0, facing +z |
 | `sphere` | `center` (0), `radius` (1); to_world a rotation, translation and uniform scale | analytic `sphere` |
-| `obj`, `ply` | `filename`, `face_normals` (false: smooth); `flip_tex_coords` accepted | `mesh` (`smooth`) |
+| `obj`, `ply` | `filename`, `face_normals` (false: smooth), `flip_tex_coords` (obj true, ply false) | `mesh` (`smooth`, `flip_tex_coords`) |
+| `serialized` | `filename`, `shape_index` (0), `face_normals` (false: smooth); no `flip_tex_coords` (Mitsuba refuses it) | `mesh` (`smooth`, `shape_index`) |
 | all | `to_world` | `transform` |
 | | `flip_normals` (false) | `flip_normals` |
 | | nested or referenced `bsdf` (bsdf.py; none: diffuse 0.5, black if emitting) | `material` |
@@ -21,11 +22,13 @@ import numpy as np
 from .bsdf import read_bsdf
 from .emitter import read_area_emitter
 from .medium import read_medium
+from .texture import is_textured
 from .transforms import matrix_rows, rotation_scale
 from .values import fmt
 from .xml import MitsubaXmlError
 
-SHAPES = ("rectangle", "cube", "sphere", "disk", "obj", "ply")
+SHAPES = ("rectangle", "cube", "sphere", "disk", "obj", "ply", "serialized")
+MESH_FILES = ("obj", "ply", "serialized")
 
 
 def read_shape(plugin, reader):
@@ -35,12 +38,9 @@ def read_shape(plugin, reader):
     index = len(reader.out.scene["shapes"])
     shape = {"name": plugin.id or f"{kind}_line{plugin.element.line}"}
     matrix = plugin.transform("to_world")
-    if kind in ("obj", "ply"):
-        shape["type"] = "mesh"
-        shape["file"] = str(plugin.file("filename", reader.files))
-        shape["smooth"] = not plugin.boolean("face_normals", False)
-        plugin.accept("flip_tex_coords")   # no textures
-        summary = f"mesh {Path(shape['file']).name}"
+    if kind in MESH_FILES:
+        shape.update(_mesh_file(plugin, reader))
+        summary = f"mesh {Path(shape['file']).name}" + (f" shape {shape['shape_index']}" if "shape_index" in shape else "")
     elif kind == "sphere":
         shape["type"] = "sphere"
         shape["center"] = plugin.point("center", np.zeros(3)).tolist()
@@ -75,7 +75,29 @@ def read_shape(plugin, reader):
     plugin.finish()
     reader.out.scene["shapes"].append(shape)
     reader.note(plugin, f"shapes[{index}]", f"{summary}, material '{shape['material']}'"
-                + (f", emits {fmt(emission)}" if emission is not None else ""))
+                + (f", emits {_describe_emission(emission)}" if emission is not None else ""))
+
+
+def _describe_emission(emission):
+    return f"texture '{emission['texture']}'" if is_textured(emission) else fmt(emission)
+
+
+def _mesh_file(plugin, reader):
+    """The `mesh` fields of an obj, ply or serialized shape. clrender picks a file's reader by
+    its suffix, so the suffix must name the plugin's format."""
+    path = plugin.file("filename", reader.files)
+    if path.suffix.lower() != f".{plugin.type}":
+        raise plugin.error(f"a '{plugin.type}' shape's file must end in .{plugin.type} (clrender reads mesh "
+                           f"files by their suffix), got {path.name!r}")
+    mesh = {"type": "mesh", "file": str(path), "smooth": not plugin.boolean("face_normals", False)}
+    if plugin.type == "serialized":
+        if plugin.has("flip_tex_coords"):
+            raise plugin.error("a serialized shape has no flip_tex_coords: Mitsuba 3 refuses it (it keeps the "
+                               "file's texture coordinates as stored)")
+        mesh["shape_index"] = plugin.integer("shape_index", 0)
+    elif plugin.has("flip_tex_coords"):
+        mesh["flip_tex_coords"] = plugin.boolean("flip_tex_coords")
+    return mesh
 
 
 def _read_shape_media(plugin, reader, shape):
@@ -93,7 +115,7 @@ def _read_shape_media(plugin, reader, shape):
 def _material(plugin, reader, emission, emitter_where):
     """The name of the scene material for (BSDF, area emission), made once per distinct pair.
     A shape without a BSDF is diffuse 0.5, or black when it emits (as in Mitsuba)."""
-    key = (id(plugin.element) if plugin else None, None if emission is None else tuple(emission))
+    key = (id(plugin.element) if plugin else None, repr(emission))
     if key in reader.material_names:
         return reader.material_names[key]
     if plugin is None:
@@ -107,7 +129,7 @@ def _material(plugin, reader, emission, emitter_where):
         if material["type"] != "diffuse":
             raise MitsubaXmlError(emitter_where, f"an area emitter on a '{plugin.type}' BSDF is not "
                                                  "supported (only on diffuse BSDFs or none)")
-        material["emission"] = list(emission)
+        material["emission"] = emission
         base += "_emitting" if plugin else ""
     name, suffix = base, 1
     taken = {m["name"] for m in reader.out.scene["materials"]}

@@ -103,6 +103,18 @@ def rotation_scale(matrix):
     return float(np.sqrt(scale2))
 
 
+# How far the linear part L of a sensor's to_world may be from a rotation, as max |L L^T - I|:
+# Mitsuba's own bound (Transform::has_scale; its perspective camera refuses more). Matrices written
+# with 6 significant digits (Bitterli's scenes) are 1e-6 to 2e-5 from a rotation.
+ROTATION_TOLERANCE = 1e-3
+
+
+def rotation_error(matrix):
+    """max |L L^T - I| of the linear part L of `matrix`: 0 for a rotation (and for a mirror)."""
+    linear = matrix[:3, :3]
+    return float(np.max(np.abs(linear @ linear.T - np.eye(3))))
+
+
 def is_rigid(matrix):
     """Whether the linear part of `matrix` is a rotation (up to float rounding)."""
     scale = rotation_scale(matrix)

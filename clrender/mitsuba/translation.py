@@ -50,8 +50,9 @@ class Reader:
     def __init__(self, ids, files):
         self.ids = ids
         self.files = files
-        self.out = Translation({"materials": [], "shapes": [], "lights": [], "media": []})
+        self.out = Translation({"materials": [], "shapes": [], "lights": [], "media": [], "textures": []})
         self.material_names = {}   # (id() of the BSDF element or None, emission or None) -> name
+        self.texture_names = {}    # id() of the texture element -> name
         self.medium_names = {}     # id() of the medium element -> name
         self.ignore_media = False  # Mitsuba's `path` integrator renders without media
         self.has_area_emitters = False

@@ -3,7 +3,7 @@ does before it makes any plugin.
 
 | element | |
 |---|---|
-| `<scene version="3.x">` | the root of the scene and of every included file |
+| `<scene version="3.x">` | the root of the scene and of every included file; 2.x too (READ_VERSIONS) |
 | `<default name value>`, `$name` | substituted in every attribute, in document order; parameters given to the reader (`-D`) override defaults |
 | `<include filename>` | spliced in place, nested up to MAX_INCLUDE_DEPTH |
 | `<path value>` | a folder where file names are also looked up (`Files`) |
@@ -28,6 +28,10 @@ class MitsubaXmlWarning(UserWarning):
 
 PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # what $name may name (and -D set)
 _PARAMETER = re.compile(r"\$(" + PARAMETER_NAME.pattern + ")")
+# Scene versions (major) read: Mitsuba 3 reads 2.x files as 3.x (its parser upgrades only older
+# files, whose camelCase parameter names it renames), and Mitsuba 2 and 3 name the parameters read
+# here alike.
+READ_VERSIONS = ("2", "3")
 MAX_INCLUDE_DEPTH = 16
 MAX_NESTING = 100   # elements inside elements: real scenes need a handful
 # The elements that make plugins (objects); the others are properties or pre-processing.
@@ -88,8 +92,9 @@ def check_version(root):
     version = root.attrs.get("version")
     if version is None:
         raise root.error("<scene> needs a version attribute (e.g. version=\"3.0.0\")")
-    if version.split(".")[0] != "3":
-        raise root.error(f"scene version {version}: only Mitsuba 3 scenes (version 3.x) are supported")
+    if version.split(".")[0] not in READ_VERSIONS:
+        raise root.error(f"scene version {version}: only versions 2.x and 3.x are supported, which "
+                         "Mitsuba 3 reads alike (it renames the parameters of older files as it loads them)")
 
 
 class Files:

@@ -16,10 +16,6 @@
 #include "materials/energy.h"
 
 #if DIELECTRIC
-// Roughness is perceptual; GGX's width is its square (Burley 2012), so that roughness 0.5 looks
-// half way between a mirror and a matte surface.
-float material_alpha(const Material* m) { return material_roughness(m) * material_roughness(m); }
-
 // Entering or leaving is decided by the geometric normal and the ray (sp->front_face, i.e. the
 // triangle's winding faces the ray): the relative index is inverted on the way out.
 float material_eta(const Material* m, const SurfacePoint* sp) {
@@ -37,7 +33,7 @@ float3 specular_normal(const SurfacePoint* sp, float3 wo) {
 // whose material has no table (albedo_tables < 0).
 float3 specular_energy_scale(const Scene* scene, const Material* m, const SurfacePoint* sp,
                              float cos_o) {
-    int offset = (int)material_albedo_tables(m);
+    int offset = material_albedo_tables(m);
     if (offset < 0) return (float3)(1.0f);
     bool dielectric = material_kind(m) == MATERIAL_DIELECTRIC;
     int side = dielectric && !sp->front_face ? ALBEDO_TABLE_SIZE : 0;

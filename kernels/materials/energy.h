@@ -72,12 +72,12 @@ KERNEL void specular_albedo_table(__global const Material* materials, int materi
     int side = get_global_id(0), k = get_global_id(1);
     Material m = materials[material];
     bool dielectric = material_kind(&m) == MATERIAL_DIELECTRIC;
-    int offset = (int)material_albedo_tables(&m);
+    int offset = material_albedo_tables(&m);
     if (offset < 0 || (!dielectric && side > 0)) return;
     float ior = material_ior(&m), exterior = material_exterior_ior(&m);
     float eta = side == 0 ? ior / exterior : exterior / ior;
     tables[offset + side * ALBEDO_TABLE_SIZE + k] =
-        specular_albedo(dielectric, eta, material_roughness(&m) * material_roughness(&m), albedo_table_mu(k));
+        specular_albedo(dielectric, eta, material_alpha(&m), albedo_table_mu(k));
 }
 
 #endif

@@ -8,24 +8,29 @@
 
 int material_kind(const Material* m) { return m->kind.x; }
 int material_one_sided(const Material* m) { return m->kind.y; }
-float3 material_color(const Material* m) { return m->color.xyz; }
+int material_back_material(const Material* m) { return m->kind.z; }
+int material_albedo_tables(const Material* m) { return m->kind.w; }
+int material_normal_map(const Material* m) { return m->maps.x; }
+int material_bump_map(const Material* m) { return m->maps.y; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
-float material_ior(const Material* m) { return m->params.x; }
-float material_exterior_ior(const Material* m) { return m->params.y; }
-float material_roughness(const Material* m) { return m->params.z; }
-float material_albedo_tables(const Material* m) { return m->params.w; }
+float3 material_color(const Material* m) { return m->slot[0].xyz; }
+float material_alpha(const Material* m) { return m->slot[1].x; }
+float material_ior(const Material* m) { return m->slot[2].x; }
+float material_exterior_ior(const Material* m) { return m->slot[2].y; }
+float material_opacity(const Material* m) { return m->slot[12].x; }
+float material_bump_scale(const Material* m) { return m->slot[12].y; }
 
-float3 material_toon_shadow_color(const Material* m) { return m->toon_shadow.xyz; }
-float material_toon_shadow_factor(const Material* m) { return m->toon_shadow.w; }
-float material_toon_bands(const Material* m) { return m->toon_bands.x; }
-float material_toon_band_softness(const Material* m) { return m->toon_bands.y; }
-float material_toon_highlight_size(const Material* m) { return m->toon_bands.z; }
-float material_toon_highlight_softness(const Material* m) { return m->toon_bands.w; }
-float3 material_toon_highlight_color(const Material* m) { return m->toon_highlight.xyz; }
-float material_toon_rim_width(const Material* m) { return m->toon_highlight.w; }
-float3 material_toon_rim_color(const Material* m) { return m->toon_rim.xyz; }
-float material_toon_rim_threshold(const Material* m) { return m->toon_rim.w; }
-float3 material_toon_ambient(const Material* m) { return m->toon_ambient.xyz; }
+float3 material_toon_shadow_color(const Material* m) { return m->slot[3].xyz; }
+float material_toon_shadow_factor(const Material* m) { return m->slot[4].x; }
+float material_toon_bands(const Material* m) { return m->slot[4].y; }
+float material_toon_band_softness(const Material* m) { return m->slot[4].z; }
+float material_toon_highlight_size(const Material* m) { return m->slot[5].x; }
+float material_toon_highlight_softness(const Material* m) { return m->slot[5].y; }
+float3 material_toon_highlight_color(const Material* m) { return m->slot[6].xyz; }
+float material_toon_rim_width(const Material* m) { return m->slot[7].x; }
+float3 material_toon_rim_color(const Material* m) { return m->slot[8].xyz; }
+float material_toon_rim_threshold(const Material* m) { return m->slot[7].y; }
+float3 material_toon_ambient(const Material* m) { return m->slot[9].xyz; }
 
 // The same fields of materials[index], for each lane's index (lanes.h).
 lane_int material_kind_at(__global const Material* materials, lane_int index) {
@@ -35,16 +40,16 @@ lane_int material_one_sided_at(__global const Material* materials, lane_int inde
     return LANE_LOAD_INT(materials, index, .kind.y);
 }
 lane_float3 material_color_at(__global const Material* materials, lane_int index) {
-    return LANE_LOAD3(materials, index, .color);
+    return LANE_LOAD3(materials, index, .slot[0]);
 }
 lane_float3 material_emission_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD3(materials, index, .emission);
 }
 lane_float material_ior_at(__global const Material* materials, lane_int index) {
-    return LANE_LOAD(materials, index, .params.x);
+    return LANE_LOAD(materials, index, .slot[2].x);
 }
 lane_float material_exterior_ior_at(__global const Material* materials, lane_int index) {
-    return LANE_LOAD(materials, index, .params.y);
+    return LANE_LOAD(materials, index, .slot[2].y);
 }
 
 // An index-matched boundary (an interface, or a dielectric with the same index on both sides):

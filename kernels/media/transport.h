@@ -9,6 +9,7 @@
 #include "lights.h"
 #include "sampling.h"
 #include "materials/material.h"
+#include "materials/textured_params.h"
 #include "media/medium.h"
 
 // A path or shadow ray that keeps crossing index-matched boundaries (e.g. coincident surfaces)
@@ -39,7 +40,7 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
         }
         if (!found) return tr;
         SurfacePoint sp = surface_point(scene, &hit, dir);
-        Material m = scene->materials[sp.material];
+        Material m = surface_material(scene, &sp);
         if (!material_is_interface(&m)) return (float3)(0.0f);
         tr *= material_boundary_transmittance(&m);
         medium = medium_beyond(&sp);

@@ -1,0 +1,170 @@
+"""Textures: what a material parameter may take its value from instead of a constant.
+
+Two kinds, with Mitsuba 3's definitions (docs/scene-format.md, Textures):
+  bitmap        an image looked up at uv: `filter` bilinear (between texel centres, at
+                (i + 0.5) / width) or nearest; `wrap` repeat, mirror or clamp (of texel
+                indices); 8-bit images are sRGB-encoded unless `raw` (decoded to linear before
+                filtering), float images linear; 1, 3 or 4 channels (alpha is not colour).
+  checkerboard  color0 where the fractional parts of u and v are both above or both below 0.5,
+                else color1.
+Both map the surface's uv by `to_uv` (an affine 2x3 matrix) first. Image row 0 is v = 0.
+
+On the device (kernels/textures/texture.h) a texture is a small record (layout.TEXTURE) and
+the texels of every bitmap share one byte buffer, each stored as it came (8-bit stays 8-bit,
+float32 aligned to 4 bytes). `lookup` here is the reference the kernel is tested against.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import layout
+
+KINDS = tuple(layout.TEXTURE_KINDS)
+FILTERS = tuple(layout.TEXTURE_FILTERS)
+WRAPS = tuple(layout.TEXTURE_WRAPS)
+# Mitsuba's luminance of linear RGB (eval_1 of a colour texture).
+LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
+MAX_TEXELS_BYTES = 2**31 - 1   # byte offsets into the texel buffer are int32
+
+
+@dataclass
+class Texture:
+    name: str
+    type: str                          # "bitmap" or "checkerboard"
+    pixels: np.ndarray = None          # bitmap: (H, W, C), C in 1, 3, 4; uint8 or float32
+    srgb: bool = False                 # bitmap: 8-bit values are sRGB-encoded (decoded at lookup)
+    filter: str = "bilinear"
+    wrap: str = "repeat"
+    to_uv: np.ndarray = field(default_factory=lambda: np.eye(3)[:2])   # (2, 3) affine map of uv
+    color0: np.ndarray = field(default_factory=lambda: np.full(3, 0.4))
+    color1: np.ndarray = field(default_factory=lambda: np.full(3, 0.2))
+    source: str = ""                   # the file it came from, for messages
+
+    @property
+    def channels(self):
+        return 3 if self.pixels is None else self.pixels.shape[2]
+
+    def mean(self):
+        """The texture's mean linear RGB over its [0, 1]^2 tile (a checkerboard's is the mean of its
+        two colours): the weight of an emitter it drives."""
+        if self.type == "checkerboard":
+            return (np.asarray(self.color0, float) + np.asarray(self.color1, float)) / 2
+        rgb = _as_rgb(_linear(self.pixels, self.srgb))
+        return rgb.reshape(-1, 3).mean(axis=0)
+
+
+def srgb_to_linear(x):
+    """sRGB-encoded values in [0, 1] to linear (IEC 61966-2-1)."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def srgb8_table():
+    """The linear value of each 8-bit sRGB code, as float32 (the kernel's decoding table)."""
+    return srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+
+
+def _linear(pixels, srgb):
+    """Texel values as linear float32, as the device decodes them."""
+    if pixels.dtype == np.uint8:
+        return srgb8_table()[pixels] if srgb else (pixels / np.float32(255)).astype(np.float32)
+    return pixels.astype(np.float32)
+
+
+def _as_rgb(values):
+    """(..., C) texel values as RGB: grey repeated, alpha dropped."""
+    return np.repeat(values, 3, axis=-1) if values.shape[-1] == 1 else values[..., :3]
+
+
+def _wrap(index, size, mode):
+    if mode == "repeat":
+        return np.mod(index, size)
+    if mode == "mirror":
+        index = np.mod(index, 2 * size)
+        return np.where(index >= size, 2 * size - index - 1, index)
+    return np.clip(index, 0, size - 1)
+
+
+def lookup(texture, uv):
+    """Linear RGB of `texture` at surface uv (..., 2): the reference of textures/texture.h."""
+    uv = np.asarray(uv, dtype=np.float64)
+    st = uv @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]
+    if texture.type == "checkerboard":
+        upper = (st - np.floor(st)) > 0.5
+        same = upper[..., 0] == upper[..., 1]
+        return np.where(same[..., None], np.asarray(texture.color0, float), np.asarray(texture.color1, float))
+    values = _as_rgb(_linear(texture.pixels, texture.srgb)).astype(np.float64)
+    height, width = values.shape[:2]
+    x, y = st[..., 0] * width, st[..., 1] * height
+    if texture.filter == "nearest":
+        i = _wrap(np.floor(x).astype(np.int64), width, texture.wrap)
+        j = _wrap(np.floor(y).astype(np.int64), height, texture.wrap)
+        return values[j, i]
+    x, y = x - 0.5, y - 0.5
+    i0, j0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = (x - i0)[..., None], (y - j0)[..., None]
+    i1, j1 = _wrap(i0 + 1, width, texture.wrap), _wrap(j0 + 1, height, texture.wrap)
+    i0, j0 = _wrap(i0, width, texture.wrap), _wrap(j0, height, texture.wrap)
+    return ((values[j0, i0] * (1 - fx) + values[j0, i1] * fx) * (1 - fy)
+            + (values[j1, i0] * (1 - fx) + values[j1, i1] * fx) * fy)
+
+
+def lookup_number(texture, uv):
+    """The texture as a number at uv: a one-channel bitmap's value, else the luminance."""
+    rgb = lookup(texture, uv)
+    if texture.type == "bitmap" and texture.channels == 1:
+        return rgb[..., 0]
+    return rgb @ LUMINANCE
+
+
+def texture_arrays(textures):
+    """(records, texels): the layout.TEXTURE record of each texture and the byte buffer holding
+    every bitmap's texels (one dummy byte without any)."""
+    records = np.zeros(max(len(textures), 1), layout.TEXTURE)
+    chunks, offset = [], 0
+    for index, texture in enumerate(textures):
+        record = records[index]
+        record["info"][0] = layout.TEXTURE_KINDS[texture.type]
+        record["format"][2] = layout.TEXTURE_FILTERS[texture.filter]
+        record["format"][3] = layout.TEXTURE_WRAPS[texture.wrap]
+        record["to_uv_u"][:3] = texture.to_uv[0]
+        record["to_uv_v"][:3] = texture.to_uv[1]
+        record["color0"][:3] = texture.color0
+        record["color1"][:3] = texture.color1
+        if texture.pixels is None:
+            continue
+        height, width, channels = texture.pixels.shape
+        if texture.pixels.dtype == np.uint8:
+            encoding = "srgb8" if texture.srgb else "linear8"
+            data = np.ascontiguousarray(texture.pixels).view(np.uint8).ravel()
+        else:
+            encoding = "float32"
+            offset += -offset % 4   # float texels are read as floats: 4-byte aligned
+            data = np.ascontiguousarray(texture.pixels, dtype=np.float32).view(np.uint8).ravel()
+        if offset + data.size > MAX_TEXELS_BYTES:
+            raise ValueError(f"textures hold more than {MAX_TEXELS_BYTES} bytes of texels")
+        record["info"][1:] = (offset, width, height)
+        record["format"][:2] = (channels, layout.TEXEL_ENCODINGS[encoding])
+        chunks.append((offset, data))
+        offset += data.size
+    texels = np.zeros(max(offset, 1), np.uint8)
+    for start, data in chunks:
+        texels[start:start + data.size] = data
+    return records, texels
+
+
+def srgb8_header():
+    """The text of kernels/textures/srgb8.h: srgb8_table() as a C array (tests compare the two)."""
+    values = [repr(float(v)) + "f" for v in srgb8_table()]
+    rows = ",\n".join("    " + ", ".join(values[i:i + 6]) for i in range(0, 256, 6))
+    return ("// The linear value of each 8-bit sRGB code (IEC 61966-2-1), as float32: 8-bit sRGB textures are\n"
+            "// stored as they came and decoded texel by texel, before filtering (as Mitsuba does).\n"
+            "// Generated by clrender.textures.srgb8_header(); tests/test_textures.py checks it.\n"
+            "#ifndef CLRENDER_SRGB8_H\n#define CLRENDER_SRGB8_H\n\n"
+            f"__constant float SRGB8_TO_LINEAR[256] = {{\n{rows}\n}};\n\n#endif\n")
+
+
+def scene_uses_textures(scene):
+    """Whether a material that some shape uses takes a parameter from a texture: then the scene
+    needs uv at its hits (the TEXTURES feature, clrender/features.py)."""
+    return any(scene.materials[shape.material].textures for shape in scene.shapes)
