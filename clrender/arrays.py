@@ -123,11 +123,15 @@ def build_scene_arrays(scene):
             environment["e1"][:, :3] = environment_mean_radiance(light)
             light_emitters.append(environment)
             powers.append(4 * np.pi * np.pi * sphere[3] ** 2 * mean)
-        elif light.type == "point":
+        elif light.type in ("point", "spot"):
             # Irradiance intensity / distance^2 must not change with the scale.
             intensity = limits.float32_values(light.radiance * scale**2, f"lights[{index}].intensity", SceneError)
-            light_emitters.append(_emitter("point", intensity, p0=light.position * scale))
-            powers.append(4 * np.pi * float(intensity.mean()))
+            emitter = _emitter(light.type, intensity, p0=light.position * scale)
+            if light.type == "spot":
+                emitter["e1"], emitter["e2"] = spot_cone(light)
+            light_emitters.append(emitter)
+            powers.append(spot_solid_angle(light) * float(intensity.mean()) if light.type == "spot"
+                          else 4 * np.pi * float(intensity.mean()))
         else:
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
@@ -343,6 +347,26 @@ def _area_emitters(scene, triangles, is_sphere, info):
     emitters["e1"][~sphere, :3] = e1[~sphere]
     emitters["e2"][~sphere, :3] = e2[~sphere]
     return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1))
+
+
+def spot_cone(light):
+    """The Emitter's e1 and e2 of a spot light (kernels/types.h): its axis and the cosines and
+    angles of its falloff (a beam wider than the cutoff is the cutoff, as in Mitsuba)."""
+    cutoff = np.radians(light.cutoff_angle)
+    beam = np.radians(min(light.beam_width, light.cutoff_angle))
+    transition = 1.0 / (cutoff - beam) if beam < cutoff else 0.0
+    return [*light.direction, np.cos(cutoff)], [np.cos(beam), cutoff, transition, 0.0]
+
+
+def spot_solid_angle(light):
+    """The integral of a spot light's falloff over the sphere (its power over its intensity):
+    2 pi times the integral of falloff(theta) sin(theta), 1 up to the beam, then linear in theta to
+    0 at the cutoff."""
+    cutoff = np.radians(light.cutoff_angle)
+    beam = np.radians(min(light.beam_width, light.cutoff_angle))
+    if beam >= cutoff:
+        return 2 * np.pi * (1 - np.cos(cutoff))
+    return 2 * np.pi * (1 + (np.sin(beam) - np.sin(cutoff)) / (cutoff - beam))
 
 
 def _emitter(kind, radiance, p0=(0, 0, 0)):

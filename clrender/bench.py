@@ -77,6 +77,33 @@ def run_process(argv, env=None, cwd=None):
     return ProcessRun(wall, cpu, done.stdout)
 
 
+def checkout_comparison_arguments(description, scenes, baseline_help, spp, resolution):
+    """The command line of a tool comparing renders of `scenes` (default) with another
+    checkout's (--baseline): scenes, --baseline, --rounds, --spp, --resolution (image width)."""
+    import argparse
+    from pathlib import Path
+
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("scenes", nargs="*", default=scenes)
+    parser.add_argument("--baseline", type=Path, help=baseline_help)
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--spp", type=int, default=spp)
+    parser.add_argument("--resolution", type=int, default=resolution, help="image width (height keeps the aspect)")
+    return parser.parse_args()
+
+
+def checkout_worker(checkout, source, *args):
+    """A function running the Python `source` with `args` (sys.argv[1:]) in a fresh process
+    whose `import clrender` is the one in the folder `checkout` (another checkout: the code
+    before a change), returning the JSON value the process prints on its last line."""
+    import json
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=str(checkout))
+    argv = [sys.executable, "-c", source, *map(str, args)]
+    return lambda: json.loads(run_process(argv, env=env, cwd=checkout).stdout.strip().splitlines()[-1])
+
+
 def markdown_table(header, rows):
     """A GitHub-flavoured Markdown table of strings."""
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]

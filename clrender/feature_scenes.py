@@ -16,7 +16,8 @@ _METHODS = {value: name for name, value in VOLUME_METHODS.items()}
 def feature_scene(features, resolution=(8, 8), subdivisions=None):
     """(scene, volume_method) needing exactly `features` (a dict as features.scene_features
     returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
-    sphere), a point and a directional light; each feature adds what it compiles in:
+    sphere), a point, a spot and a directional light, seen through a thin lens with the gaussian
+    pixel filter; each feature adds what it compiles in:
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
     glass reflecting tinted, rough Beckmann glass and a rough GGX mirror (energy tables), a
     smooth copper mirror (complex Fresnel), a thin dielectric pane, a smooth plastic and a rough
@@ -40,6 +41,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
               {"name": "lamp", "type": "rectangle", "material": "lamp",
                "transform": {"scale": 0.4, "rotate": [90, 0, 0], "translate": [0, 1.5, 0]}}]
     lights = [{"type": "point", "position": [1.5, 1.2, 1.5], "intensity": 2.0},
+              {"type": "spot", "position": [-1.0, 1.5, 1.0], "direction": [0.4, -1, -0.3], "intensity": 6.0,
+               "cutoff_angle": 30},
               {"type": "directional", "direction": [-0.3, -1, -0.4], "irradiance": 1.0}]
     media = []
 
@@ -102,7 +105,7 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         shapes.append({"name": "cloud", "type": "box", "material": "boundary", "interior": "cloud",
                        "transform": {"scale": 0.6, "translate": [-0.3, 0.2, 0.0]}})
     data = {"camera": {"position": [0, 0.6, 4.5], "look_at": [0, -0.2, 0], "fov": 45,
-                       "resolution": list(resolution)},
+                       "resolution": list(resolution), "filter": {"type": "gaussian"}, "aperture_radius": 0.05},
             "render": {"max_depth": 4, "rr_depth": 2},   # marching at its default step, 2 voxels
             "materials": materials, "shapes": shapes, "lights": lights, "media": media, "textures": textures}
     scene = load_scene_dict(data)

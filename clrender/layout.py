@@ -158,7 +158,22 @@ MEDIUM_FIELDS = {
     "majorant_resolution": ("majorant_resolution", 0, 3),
 }
 
-CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
+# lens: x the aperture radius (0: a pinhole), y the distance of the plane in focus along forward
+# (kernels/camera.h).
+CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4), ("lens", F4))
+
+# The pixel reconstruction filter (kernels/filter.h, the table built by clrender/filters.py):
+# kind.x PIXEL_FILTER_*; the rest is read by the tabulated filters only. support: x radius, y 1 / the
+# filter's integral. shape: gaussian x -1 / (2 stddev^2), y its value at the radius; tent x
+# 1 / radius. cells: the cubic coefficients (a, b, c, d) of the sampling map in each of
+# FILTER_CELLS cells. edge_cdf and edge_mass (FILTER_EDGES floats each): the cumulative
+# distribution of the sampled density and of the filter at -(k + 0.5), k = 0, 1, ... (0 where
+# that lies beyond the radius).
+FILTER_CELLS = 64
+FILTER_EDGES = 16
+_FILTER_EDGE_TABLE = ("<f4", (FILTER_EDGES // 4, 4))
+FILTER = _struct(("kind", I4), ("support", F4), ("shape", F4), ("cells", ("<f4", (FILTER_CELLS, 4))),
+                 ("edge_cdf", _FILTER_EDGE_TABLE), ("edge_mass", _FILTER_EDGE_TABLE))
 
 RENDER_PARAMS = np.dtype([
     ("camera", CAMERA),
@@ -171,6 +186,7 @@ RENDER_PARAMS = np.dtype([
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
     ("sampling", I4),      # x the sampler of camera paths (SAMPLERS)
+    ("filter", FILTER),    # the pixel reconstruction filter
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
@@ -190,6 +206,7 @@ STRUCTS = {
     "Emitter": EMITTER,
     "Medium": MEDIUM,
     "Camera": CAMERA,
+    "Filter": FILTER,
     "RenderParams": RENDER_PARAMS,
     "AovSums": AOV_SUMS,
 }
@@ -202,13 +219,15 @@ MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "int
 # (height-correlated G2, or Mitsuba's separable G1(wo) G1(wi)).
 MICROFACET_DISTRIBUTIONS = {"ggx": 0, "beckmann": 1}
 MASKINGS = {"height_correlated": 0, "separable": 1}
-EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4}
+EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4, "spot": 5}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 # Values of the GRID_MEDIA feature: how grid media are integrated (docs/heterogeneous-media.md).
 VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 # The random numbers of camera paths (render.sampler, kernels/rng.h); RenderParams.sampling.x.
 SAMPLERS = {"independent": 0, "sobol": 1}
+# Pixel reconstruction filters (camera.filter, kernels/filter.h); RenderParams.filter.kind.x.
+PIXEL_FILTERS = {"box": 0, "gaussian": 1, "tent": 2}
 # Textures (Texture.info.x), how their texels are stored (Texture.format.y: 8-bit sRGB-encoded,
 # decoded at lookup; 8-bit linear; float32), filters and wrap modes (Mitsuba's bitmap names).
 TEXTURE_KINDS = {"bitmap": 0, "checkerboard": 1}
@@ -295,11 +314,14 @@ def c_constants():
                           ("MASKING", MASKINGS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
                           ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("TEXTURE", TEXTURE_KINDS),
-                          ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS)):
+                          ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS),
+                          ("PIXEL_FILTER", PIXEL_FILTERS)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     lines.append(f"#define COAT_TABLE_SIZE {COAT_TABLE_SIZE}")
     lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")
+    lines.append(f"#define FILTER_CELLS {FILTER_CELLS}")
+    lines.append(f"#define FILTER_EDGES {FILTER_EDGES}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

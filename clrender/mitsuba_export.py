@@ -11,7 +11,7 @@ file path in its timed Mitsuba process, so that process imports Mitsuba only: no
 level here may import clrender.
 
 Conventions made equal (docs/performance.md, "Against Mitsuba 3"): vertical field of view
-(`fov_axis` y), a box pixel filter of one pixel (our jittered pixel samples), one-sided area
+(`fov_axis` y), the pixel filter (box, gaussian or tent), a thin lens, one-sided area
 emitters on the side the triangle winding (or the sphere's outward normal) faces, flat normals
 for meshes without shading normals, max depth counted alike (1: emitters only). Russian roulette
 starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_depth`, its
@@ -19,7 +19,7 @@ starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_dep
 
 Only what has an exact Mitsuba counterpart is exported: diffuse, emissive, smooth dielectric,
 smooth conductor and index-matched interfaces; homogeneous and grey grid media with
-Henyey-Greenstein phase; constant environments, point and directional lights. Anything else
+Henyey-Greenstein phase; constant environments, point, spot and directional lights. Anything else
 raises ValueError naming the object.
 """
 from pathlib import Path
@@ -79,11 +79,18 @@ def _sensor(scene, spp):
     to_world[:3, 1] = up / np.linalg.norm(up)
     to_world[:3, 2] = forward
     to_world[:3, 3] = camera.position
-    return {"type": "perspective", "fov": float(camera.fov), "fov_axis": "y",
+    lens = {"type": "thinlens", "aperture_radius": float(camera.aperture_radius),
+            "focus_distance": float(camera.focus_distance)} if camera.aperture_radius > 0 else {"type": "perspective"}
+    return {**lens, "fov": float(camera.fov), "fov_axis": "y",
             "to_world": to_world.tolist(),
             "film": {"type": "hdrfilm", "width": int(width), "height": int(height),
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+                     "rfilter": _rfilter(camera.filter), "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": int(spp)}}
+
+
+def _rfilter(pixel_filter):
+    parameter = {"gaussian": {"stddev": pixel_filter.stddev}, "tent": {"radius": pixel_filter.radius}}
+    return {"type": pixel_filter.type, **parameter.get(pixel_filter.type, {})}
 
 
 def _bsdf(material):
@@ -161,8 +168,23 @@ def _light(light, index):
         return {"type": "constant", "radiance": _rgb(light.radiance)}
     if light.type == "point":
         return {"type": "point", "position": [float(v) for v in light.position], "intensity": _rgb(light.radiance)}
+    if light.type == "spot":
+        return {"type": "spot", "to_world": _spot_frame(light), "intensity": _rgb(light.radiance),
+                "cutoff_angle": float(light.cutoff_angle), "beam_width": float(light.beam_width)}
     return {"type": "directional", "direction": [float(v) for v in light.direction],
             "irradiance": _rgb(light.radiance)}
+
+
+def _spot_frame(light):
+    """A to_world whose +z is the spot's axis, at its position (rows, as the module's matrices)."""
+    import numpy as np
+
+    z = np.asarray(light.direction, float)
+    x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(z, x), z, light.position
+    return frame.tolist()
 
 
 def write_ply(path, vertices, faces, normals=None, uvs=None):

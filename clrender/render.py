@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pyopencl as cl
 
-from . import layout, limits
+from . import filters, layout, limits
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
@@ -188,6 +188,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["camera"]["forward"][0, :3] = forward
     p["camera"]["right"][0, :3] = right
     p["camera"]["up"][0, :3] = up
+    p["camera"]["lens"][0, :2] = (camera.aperture_radius * arrays.length_scale, camera.focus_distance * arrays.length_scale)
     p["frame"] = (width, height, first_sample, samples)
     # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
     p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))
@@ -202,6 +203,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["lights"] = (arrays.first_light, 0, 0, 0)
     p["tile"] = (0, 0, width, height) if tile is None else tile
     p["sampling"] = (sampler_code(scene, sampler), 0, 0, 0)
+    p["filter"] = filters.filter_record(camera.filter)
     return p
 
 

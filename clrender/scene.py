@@ -20,10 +20,15 @@ from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "thin_dielectric",
                   "plastic")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
-LIGHT_TYPES = ("environment", "point", "directional")
+LIGHT_TYPES = ("environment", "point", "spot", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
 SAMPLERS = ("sobol", "independent")   # clrender/layout.py SAMPLERS, kernels/rng.h
+FILTER_TYPES = ("box", "gaussian", "tent")   # clrender/filters.py
+# Filter radii up to the image edges the kernel's tables cover (layout.FILTER_EDGES); a filter
+# narrower than MIN_FILTER_RADIUS of a pixel is a box in all but name.
+MAX_FILTER_RADIUS = 16.0
+MIN_FILTER_RADIUS = 0.01
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".serialized", ".gltf", ".glb", ".stl", ".off")
 
@@ -39,6 +44,14 @@ def _unit(v):
     return (v / largest) / np.linalg.norm(v / largest)
 
 
+@dataclass(frozen=True)
+class Filter:
+    """The pixel reconstruction filter (clrender/filters.py, kernels/filter.h)."""
+    type: str = "box"          # FILTER_TYPES
+    stddev: float = 0.5        # gaussian, pixels (its radius is 4 stddev)
+    radius: float = 1.0        # tent, pixels
+
+
 @dataclass
 class Camera:
     position: np.ndarray
@@ -46,6 +59,11 @@ class Camera:
     up: np.ndarray
     fov: float                 # vertical field of view, degrees
     resolution: tuple          # (width, height)
+    filter: Filter = field(default_factory=Filter)
+    # A thin lens (Mitsuba's thinlens; kernels/camera.h): aperture radius (0: a pinhole) and the
+    # distance of the plane in focus along the view direction.
+    aperture_radius: float = 0.0
+    focus_distance: float = 1.0
 
     def basis(self):
         """(forward, right, up): the unit view direction, and the image's right and up axes
@@ -154,10 +172,12 @@ class Medium:
 @dataclass
 class Light:
     type: str
-    radiance: np.ndarray       # environment radiance, point intensity or directional irradiance
+    radiance: np.ndarray       # environment radiance, point or spot intensity or directional irradiance
     position: np.ndarray = None
-    direction: np.ndarray = None   # directional: the direction the light travels
+    direction: np.ndarray = None   # directional: the direction the light travels; spot: its axis
     image: np.ndarray = None       # environment: (H, W, 3) linear lat-long image, or None
+    cutoff_angle: float = None     # spot: degrees from the axis where its light ends
+    beam_width: float = None       # spot: degrees from the axis where its light starts to fall off
 
 
 @dataclass
@@ -211,6 +231,9 @@ class Scene:
         self.camera.position = linear @ self.camera.position + offset
         self.camera.look_at = linear @ self.camera.look_at + offset
         self.camera.up = linear @ self.camera.up
+        lengths = abs(np.linalg.det(linear)) ** (1 / 3)   # the lens's, under a uniform scale
+        self.camera.aperture_radius *= lengths
+        self.camera.focus_distance *= lengths
         for light in self.lights:
             if light.position is not None:
                 light.position = linear @ light.position + offset
@@ -458,15 +481,32 @@ def _read_camera(node):
         up=node.vector("up", [0, 1, 0]),
         fov=node.number("fov", 40.0, low=0, high=179, low_open=True),
         resolution=(width, height),
+        filter=_read_filter(node.child("filter")) if "filter" in node.data else Filter(),
+        aperture_radius=float(node.number("aperture_radius", 0.0, low=0)),
     )
     node.read.add("medium")  # read with the media, which come later in the file
     forward = camera.look_at - camera.position
     if _norm(forward) == 0:
         raise SceneError(node.at("look_at"), "must differ from camera.position")
+    camera.focus_distance = float(node.number("focus_distance", _norm(forward), low=0, low_open=True))
     if _norm(camera.up) == 0 or _norm(np.cross(_unit(forward), _unit(camera.up))) <= 1e-9:
         raise SceneError(node.at("up"), "must not be zero or parallel to the viewing direction")
     node.finish()
     return camera
+
+
+def _read_filter(node):
+    kind = node.string("type", choices=FILTER_TYPES)
+    d = Filter()
+    if kind == "gaussian":   # its radius is 4 stddev
+        f = Filter(kind, stddev=float(node.number("stddev", d.stddev, low=MIN_FILTER_RADIUS / 4,
+                                                  high=MAX_FILTER_RADIUS / 4)))
+    elif kind == "tent":
+        f = Filter(kind, radius=float(node.number("radius", d.radius, low=MIN_FILTER_RADIUS, high=MAX_FILTER_RADIUS)))
+    else:
+        f = Filter(kind)
+    node.finish()
+    return f
 
 
 def _resolution(node):
@@ -932,14 +972,23 @@ def _read_light(node, base_dir):
     elif kind == "point":
         light = Light(kind, node.vector("intensity", non_negative=True, allow_scalar=True),
                       position=node.vector("position"))
+    elif kind == "spot":
+        cutoff = float(node.number("cutoff_angle", 20.0, low=0, high=180, low_open=True))
+        light = Light(kind, node.vector("intensity", non_negative=True, allow_scalar=True),
+                      position=node.vector("position"), direction=_direction(node), cutoff_angle=cutoff,
+                      beam_width=float(node.number("beam_width", 0.75 * cutoff, low=0)))
     else:
-        direction = node.vector("direction")
-        if _norm(direction) == 0:
-            raise SceneError(node.at("direction"), "must be non-zero")
         light = Light(kind, node.vector("irradiance", non_negative=True, allow_scalar=True),
-                      direction=_unit(direction))
+                      direction=_direction(node))
     node.finish()
     return light
+
+
+def _direction(node):
+    direction = node.vector("direction")
+    if _norm(direction) == 0:
+        raise SceneError(node.at("direction"), "must be non-zero")
+    return _unit(direction)
 
 
 def _read_environment(node, base_dir):

@@ -113,6 +113,14 @@ void aov_record_escape(AovSample* aov, const Scene* scene, float3 dir, float3 th
     aov_record(aov, aov_filter(throughput, eta_scale) * emission_albedo(le), (float3)(0.0f), throughput * le);
 }
 
+// The sample's AOVs weighted as its colour is (the pixel filter's weight, filter.h), so that
+// they are filtered alike.
+void aov_weight(AovSample* aov, float weight) {
+    aov->albedo *= weight;
+    aov->normal *= weight;
+    aov->emission *= weight;
+}
+
 // Adds one sample: its AOVs, and its colour `value` to the squared deviations (Welford's update,
 // exact in order and far less prone to cancellation than a sum of squares); `sum` is the pixel's
 // colour sum before this sample (w: its sample count), the same floats the colour accumulates.

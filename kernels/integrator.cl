@@ -15,7 +15,7 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int tx = get_global_id(0), ty = get_global_id(1);
     if (tx >= params->tile.z || ty >= params->tile.w) return;
     int x = params->tile.x + tx, y = params->tile.y + ty;
-    int width = params->frame.x, height = params->frame.y;
+    int width = params->frame.x;
     Scene scene = SCENE_OF_RENDER_PASS_ARGUMENTS;
     int pixel = y * width + x;            // keys the random numbers
     int slot = ty * params->tile.z + tx;  // in this tile's buffers
@@ -28,14 +28,15 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_path((uint)pixel, (uint)s, (uint)params->config.z, params->sampling.x);
-        Ray ray = camera_ray(&params->camera, x, y, width, height, rng_float2(&rng));
+        CameraSample camera = sample_camera(params, x, y, &rng);
         AovSample aov = aov_sample_none();
-        float3 radiance = trace_path(&scene, ray, &rng, &aov);
+        float3 radiance = trace_path(&scene, camera.ray, &rng, &aov) * camera.weight;
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         bool finite = isfinite(radiance.x) && isfinite(radiance.y) && isfinite(radiance.z);
         discarded += finite ? 0 : 1;
         float3 value = finite ? radiance : (float3)(0.0f);
 #if AOVS
+        aov_weight(&aov, camera.weight);
         accumulate_aovs(&aovs, &aov, value, finite, sum);
 #endif
         sum += (float4)(value, 1.0f);

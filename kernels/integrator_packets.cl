@@ -23,7 +23,7 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int8 in_tile = tx < tile_width;   // the last work-item of a row may overhang the tile
     int8 x = params->tile.x + tx;
     int y = params->tile.y + ty;
-    int width = params->frame.x, height = params->frame.y;
+    int width = params->frame.x;
     Scene scene = SCENE_OF_RENDER_PASS_ARGUMENTS;
     uint8 pixel = convert_uint8(y * width + x);   // keys the random numbers
     int slot = ty * tile_width + first_column;    // of lane 0 in this tile's buffers
@@ -68,18 +68,18 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int first = params->frame.z;
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_path(pixel, (uint)s, (uint)params->config.z, params->sampling.x);
-        Ray ray = camera_ray(&params->camera, x, y, width, height, rng_float2(&rng));
+        CameraSample camera = sample_camera(params, x, y, &rng);
         AovLanes aov = {l3_splat(0.0f), l3_splat(0.0f), l3_splat(0.0f), 0};
-        lane_float3 radiance = trace_paths(&scene, ray, in_tile, &rng, &aov);
+        lane_float3 radiance = l3_scale(trace_paths(&scene, camera.ray, in_tile, &rng, &aov), camera.weight);
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         int8 finite = isfinite(radiance.x) & isfinite(radiance.y) & isfinite(radiance.z);
         discarded -= in_tile & !finite;
         lane_float3 value = l3_select(l3_splat(0.0f), radiance, finite);
 #if AOVS
-        // aovs.h, accumulate_aovs: Welford's update from the sums before this sample.
-        albedo_sum = l3_add(albedo_sum, aov.albedo);
-        normal_sum = l3_add(normal_sum, aov.normal);
-        emission_sum = l3_add(emission_sum, l3_select(l3_splat(0.0f), aov.emission, finite));
+        // aovs.h, aov_weight and accumulate_aovs: Welford's update from the sums before this sample.
+        albedo_sum = l3_add(albedo_sum, l3_scale(aov.albedo, camera.weight));
+        normal_sum = l3_add(normal_sum, l3_scale(aov.normal, camera.weight));
+        emission_sum = l3_add(emission_sum, l3_select(l3_splat(0.0f), l3_scale(aov.emission, camera.weight), finite));
         lane_float3 sum = make_lane_float3(sum_r, sum_g, sum_b);
         lane_float3 before = l3_select(l3_splat(0.0f), l3_div(l3_sub(l3_scale(value, count), sum), count), count > 0.0f);
         lane_float3 after = l3_div(l3_sub(l3_scale(value, count + 1.0f), l3_add(sum, value)), count + 1.0f);

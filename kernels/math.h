@@ -64,6 +64,19 @@ void sincos_2pi(lane_float u, lane_float* s, lane_float* c) {
     *c = select(cv, -cv, ((quadrant + 1) & 2) != 0);
 }
 
+// exp(x) for x in [-87, 0] as a polynomial (PoCL's exp is as slow as its sin; floor, unlike
+// rint, is one instruction): x / ln 2 = n + f with f in [-1/2, 1/2], 2^f by a degree-6
+// Chebyshev fit (1e-7 relative in float32), 2^n by the exponent bits. The rounding of x / ln 2
+// adds 1e-7 |x| relative.
+lane_float exp_fast(lane_float x) {
+    lane_float z = x * 1.44269504f;
+    lane_float n = floor(z + 0.5f);
+    lane_float f = z - n;
+    lane_float p = 1.0f + f * (0.69314718f + f * (0.24022651f + f * (0.055503272f + f * (9.6180253e-3f +
+                   f * (1.3400442e-3f + f * 1.5469741e-4f)))));
+    return p * as_lane_float((lane_float_to_int(n) + 127) << 23);
+}
+
 // Offset a ray origin off a surface so that the spawned ray cannot re-hit it, at any scale and
 // any distance from the world origin (pbrt-v4 OffsetRayOrigin; Pharr, Jakob and Humphreys,
 // "Physically Based Rendering", 4th ed., sec. 6.8.6). n: unit geometric normal on the side the

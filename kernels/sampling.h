@@ -24,6 +24,21 @@ lane_float3 sample_uniform_sphere(lane_float2 u) {
 
 #define UNIFORM_SPHERE_PDF_W (0.25f * INV_PI_F)
 
+// Uniform on the unit disk by Shirley and Chiu's concentric map, as Mitsuba's
+// square_to_uniform_disk_concentric writes it (the same point for the same u): the square's
+// concentric squares onto the disk's circles, so a stratified u stays stratified.
+lane_float2 sample_concentric_disk(lane_float2 u) {
+    lane_float x = 2.0f * u.x - 1.0f, y = 2.0f * u.y - 1.0f;
+    lane_int steep = fabs(x) < fabs(y);
+    lane_float r = select(x, y, steep), along = select(y, x, steep);
+    // The angle in turns, pi/4 along / r or pi/2 less that; 0 at the centre, where it is 0 / 0.
+    lane_float turns = 0.125f * along / r;
+    turns = select(select(turns, 0.25f - turns, steep), (lane_float)(0.0f), r == 0.0f);
+    lane_float s, c;
+    sincos_2pi(turns, &s, &c);
+    return make_lane_float2(r * c, r * s);
+}
+
 // Barycentrics (b1, b2) uniform over a triangle.
 lane_float2 sample_triangle(lane_float2 u) {
     lane_float su = sqrt(u.x);

@@ -4,6 +4,7 @@
 #include "math.h"
 #include "rng.h"
 #include "sampling.h"
+#include "camera.h"
 #include "bvh.h"
 #include "scene.h"
 #include "lights.h"
@@ -19,7 +20,7 @@
 KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
                           __global TriangleShading* sh, __global TriangleInfo* info,
                           __global Material* m, __global Texture* t, __global Emitter* e,
-                          __global Medium* md, __global Camera* c,
+                          __global Medium* md, __global Camera* c, __global Filter* f,
                           __global RenderParams* p, __global AovSums* a, __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
@@ -49,12 +50,16 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = OFFSET(md, majorant_resolution); out[k++] = OFFSET(md, to_voxel);
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
-    out[k++] = OFFSET(c, up);
+    out[k++] = OFFSET(c, up); out[k++] = OFFSET(c, lens);
+    out[k++] = sizeof(Filter);
+    out[k++] = OFFSET(f, kind); out[k++] = OFFSET(f, support); out[k++] = OFFSET(f, shape);
+    out[k++] = OFFSET(f, cells); out[k++] = OFFSET(f, edge_cdf);
+    out[k++] = OFFSET(f, edge_mass);
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
-    out[k++] = OFFSET(p, sampling);
+    out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
     out[k++] = OFFSET(a, colour_m2);
@@ -89,6 +94,28 @@ KERNEL void path_samples(int sampler, uint seed, int samples, int dims, __global
     }
 }
 
+// ----- pixel filter (filter.h): the offset and weight of sample i of pixel `pixel` of `size` --
+KERNEL void filter_samples(__constant Filter* filter, int pixel, int size, uint seed, __global float2* out) {
+    int i = get_global_id(0);
+    Rng rng = rng_for_sample((uint)i, 0u, seed);
+    float weight;
+    float t = sample_filter_axis(filter, rng_float(&rng), pixel, size, &weight);
+    out[i] = (float2)(t, weight);
+}
+
+// ----- camera rays (camera.h): sample i = (image x, y in pixels from the top-left corner, lens
+// u.x, u.y); out[2 i] the ray's origin, out[2 i + 1] its direction. ------------------------
+KERNEL void camera_rays(__constant RenderParams* params, __global const float4* samples, __global float4* out) {
+    int i = get_global_id(0);
+    float4 sample = samples[i];
+    int x = (int)floor(sample.x), y = (int)floor(sample.y);
+    Ray ray = camera_ray(&params->camera, x, y, params->frame.x, params->frame.y,
+                         (float2)(sample.x - (float)x, sample.y - (float)y));
+    if (params->camera.lens.x > 0.0f) ray = through_lens(&params->camera, ray, sample.zw);
+    out[2 * i] = (float4)(ray.origin, 0.0f);
+    out[2 * i + 1] = (float4)(ray.direction, 0.0f);
+}
+
 // The scrambled Sobol bits of (index, seed): Owen-scrambled dimensions 0 and 1, the nested
 // uniform scramble of the index, against a reference with the generator matrices.
 KERNEL void owen_sobol_bits(__global const uint* index, __global const uint* seed, __global uint4* out) {
@@ -114,6 +141,14 @@ KERNEL void sample_directions(int routine, float g, uint seed, __global float4* 
         d = sample_phase_hg((float3)(0.0f, 0.0f, 1.0f), g, u, &pdf);
     }
     out[i] = (float4)(d, pdf);
+}
+
+// ----- point, spot and directional lights: what emitter 0 sends to points[i] ----------------
+// out: (arriving radiance, the distance to the light; -1 where delta_light_sample declines).
+KERNEL void delta_light_values(__global const Emitter* emitters, __global const float4* points, __global float4* out) {
+    int i = get_global_id(0);
+    LightSample ls;
+    out[i] = delta_light_sample(emitters, points[i].xyz, 1.0f, &ls) ? (float4)(ls.radiance, ls.dist) : (float4)(-1.0f);
 }
 
 // ----- area emitters: one light sample of emitter 0 (the only one) from points[i] -----------

@@ -32,7 +32,10 @@ typedef struct { int4 info; int4 format; float4 to_uv_u; float4 to_uv_v; float4 
 
 // kind.x EMITTER_*. Triangle: p0.xyz, e1, e2, p0.w = area. Sphere: p0.xyz centre, p0.w signed
 // radius (negative: flipped, emitting inwards). Point: p0 = position,
-// radiance = intensity. Directional: p0 = unit direction towards the light, radiance = irradiance.
+// radiance = intensity. Spot: as a point, and e1.xyz the unit axis it shines along, e1.w the
+// cosine of its cutoff angle, e2.x the cosine of its beam width, e2.y the cutoff angle (radians),
+// e2.z 1 / (cutoff - beam width) (0: no transition; lights.h, spot_falloff).
+// Directional: p0 = unit direction towards the light, radiance = irradiance.
 // Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
 
@@ -43,8 +46,15 @@ typedef struct {
 } Medium;
 
 // right/up are pre-scaled by tan(fov/2) (and the aspect ratio), so a pixel's direction is
-// forward + sx * right + sy * up with sx, sy in [-1, 1].
-typedef struct { float4 origin; float4 forward; float4 right; float4 up; } Camera;
+// forward + sx * right + sy * up with sx, sy in [-1, 1]. lens: x the aperture radius (0: a
+// pinhole), y the distance of the plane in focus along forward (camera.h).
+typedef struct { float4 origin; float4 forward; float4 right; float4 up; float4 lens; } Camera;
+
+// The pixel reconstruction filter (filter.h; layout.py FILTER names the fields): kind.x PIXEL_FILTER_*.
+typedef struct {
+    int4 kind; float4 support; float4 shape; float4 cells[FILTER_CELLS];
+    float4 edge_cdf[FILTER_EDGES / 4]; float4 edge_mass[FILTER_EDGES / 4];
+} Filter;
 
 typedef struct {
     Camera camera;
@@ -58,6 +68,7 @@ typedef struct {
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
     int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h)
+    Filter filter;     // the pixel reconstruction filter (filter.h)
 } RenderParams;
 
 // Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose

@@ -74,6 +74,41 @@ def build_test_kernels(context, **features):
     return build_program(context, no_features(**features), entry="tests.cl")
 
 
+def run_test_kernel(context, queue, name, out, *inputs):
+    """`out` filled by the kernels/tests.cl kernel `name`, one work-item per entry of `out`, its
+    arguments `inputs` (arrays, copied to the device) and then `out`'s buffer."""
+    mf = cl.mem_flags
+    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+    buffers = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array) for array in inputs]
+    cl.Kernel(build_test_kernels(context), name)(queue, (len(out),), None, *buffers, out_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    return out
+
+
+def camera_rays(context, queue, scene, samples):
+    """(origins, directions) of the kernel's camera rays of `scene` (kernels/camera.h, with its
+    lens) for samples (image x, y in pixels from the top-left corner, lens u.x, u.y)."""
+    from clrender.arrays import build_scene_arrays
+    from clrender.render import render_params
+
+    params = render_params(scene, build_scene_arrays(scene), 0, 1, 8, 5, 0)
+    samples = np.asarray(samples, np.float32)
+    out = run_test_kernel(context, queue, "camera_rays", np.empty((len(samples), 2, 4), np.float32), params, samples)
+    return out[:, 0, :3].astype(float), out[:, 1, :3].astype(float)
+
+
+def delta_light_values(context, queue, scene, points):
+    """(radiance (N, 3), distance (N,)) that the kernel's delta_light_sample gives at `points`
+    from the first light of `scene` that is not an area light (kernels/lights.h)."""
+    from clrender.arrays import build_scene_arrays
+
+    arrays = build_scene_arrays(scene)
+    emitter = arrays.emitters[arrays.first_light:arrays.first_light + 1]
+    points = np.column_stack([points, np.zeros(len(points))]).astype(np.float32)
+    out = run_test_kernel(context, queue, "delta_light_values", np.empty((len(points), 4), np.float32), emitter, points)
+    return out[:, :3].astype(float), out[:, 3].astype(float)
+
+
 def camera(position=(0, 0, 5), look_at=(0, 0, 0), fov=30, resolution=(32, 32), up=(0, 1, 0)):
     return {"position": list(position), "look_at": list(look_at), "up": list(up), "fov": fov,
             "resolution": list(resolution)}

@@ -9,7 +9,7 @@ from clrender.image import save_image
 
 
 def _scene(body, integrator="path", max_depth=8, origin="0 1.2 5", target="0 -0.2 0", fov=36,
-           hide_emitters=False):
+           hide_emitters=False, sensor="perspective", lens=""):
     return f"""<scene version="3.0.0">
     <default name="spp" value="16"/>
     <default name="res" value="16"/>
@@ -17,7 +17,7 @@ def _scene(body, integrator="path", max_depth=8, origin="0 1.2 5", target="0 -0.
         <integer name="max_depth" value="{max_depth}"/>
         <boolean name="hide_emitters" value="{str(hide_emitters).lower()}"/>
     </integrator>
-    <sensor type="perspective">
+    <sensor type="{sensor}">{lens}
         <float name="fov" value="{fov}"/>
         <transform name="to_world">
             <lookat origin="{origin}" target="{target}" up="0 1 0"/>
@@ -226,6 +226,49 @@ def meshes():
     </shape>""", max_depth=4)
 
 
+def depth_of_field():
+    """A thin lens focused on the sphere at the centre; a smaller sphere nearer the camera, in
+    front of the sky, blurs over about three pixels (a pinhole's image of it differs by |z| 6)."""
+    lens = """
+        <float name="aperture_radius" value="0.3"/>
+        <float name="focus_distance" value="5.2"/>"""
+    return _scene(FLOOR + SUN + SKY + diffuse_sphere("0, 0, 0", 0.6, "0.8, 0.3, 0.2")
+                  + diffuse_sphere("0.45, 0.45, 2.6", 0.3, "0.9, 0.85, 0.2"), sensor="thinlens", lens=lens)
+
+
+def spot_lights():
+    """Two spot lights on the floor and a sphere: one narrow with Mitsuba's default beam, one
+    wide and tilted with its own beam width, placed by a scaled lookat."""
+    return _scene(FLOOR + diffuse_sphere("0.3, -0.4, 0", 0.6, "0.7, 0.7, 0.7") + """
+    <emitter type="spot">
+        <transform name="to_world">
+            <lookat origin="-1, 2, 1" target="-0.6, -1, 0"/>
+        </transform>
+        <rgb name="intensity" value="20, 16, 10"/>
+        <float name="cutoff_angle" value="25"/>
+    </emitter>
+    <emitter type="spot">
+        <transform name="to_world">
+            <lookat origin="2, 1, 1.5" target="0, -0.6, 0"/>
+            <scale value="2"/>
+        </transform>
+        <rgb name="intensity" value="30, 45, 90"/>
+        <float name="cutoff_angle" value="50"/>
+        <float name="beam_width" value="10"/>
+    </emitter>""")
+
+
+def diffuse_sphere(center, radius, reflectance):
+    return f"""
+    <shape type="sphere">
+        <point name="center" value="{center}"/>
+        <float name="radius" value="{radius}"/>
+        <bsdf type="diffuse">
+            <rgb name="reflectance" value="{reflectance}"/>
+        </bsdf>
+    </shape>"""
+
+
 def textured_spheres():
     """Checkerboards on analytic spheres (Mitsuba's sphere uv, turned by to_world): a diffuse
     reflectance, a rough conductor's alpha, and an area emitter's radiance lighting the floor."""
@@ -389,6 +432,8 @@ SCENES = {
     "metals": metals,
     "beckmann_glass": beckmann_glass,
     "thin_pane": thin_pane,
+    "depth_of_field": depth_of_field,
+    "spot_lights": spot_lights,
     "textured_spheres": textured_spheres,
     "glass_sphere": glass_sphere,
     "rough_glass": rough_glass,

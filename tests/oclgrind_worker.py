@@ -21,7 +21,7 @@ import numpy as np
 import pyopencl as cl
 
 import clrender
-from clrender import layout, textures, wide_bvh
+from clrender import filters, layout, textures, wide_bvh
 from clrender.aovs import SAMPLE_AOVS
 from clrender.arrays import build_scene_arrays
 from clrender.bvh import build_bvh
@@ -162,6 +162,14 @@ def run_test_kernels(case, device):
                                cam_dirs, leave)),
                               *outputs(context, (n, 4)))
     params = upload(context, render_params(scene, arrays, 0, 1, 4, 2, 0))
+    # The pixel filter at an image edge, thin-lens camera rays, the spot light (feature_scenes.py).
+    kernel("filter_samples")(queue, (n,), None, upload(context, filters.filter_record(scene.camera.filter)),
+                             np.int32(0), np.int32(3), np.uint32(2), *outputs(context, (n, 2)))
+    kernel("camera_rays")(queue, (n,), None, params, upload(context, float4(rng.uniform(0, 8, (n, 4)) / [1, 1, 8, 8])),
+                          *outputs(context, (2 * n, 4)))
+    spot = arrays.first_light + [light.type for light in scene.lights].index("spot")
+    kernel("delta_light_values")(queue, (n,), None, upload(context, arrays.emitters[spot:spot + 1]),
+                                 upload(context, float4(rng.uniform(-1, 1, (n, 3)))), *outputs(context, (n, 4)))
     if features["ENVIRONMENT"] == layout.ENVIRONMENT_MODES["image"]:
         kernel("sample_environment")(queue, (n,), None, params, upload(context, arrays.env_texels),
                                      upload(context, arrays.env_cdf), np.uint32(9), *outputs(context, (n, 4), (n, 4)))

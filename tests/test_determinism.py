@@ -2,20 +2,28 @@
 import importlib
 
 import numpy as np
+import pytest
 
 import clrender
+from clrender.scene import Filter
 
 SCENE = "scenes/cornell_box.json"
+# Each sample's offset and weight come from its own numbers (kernels/filter.h), and the filter's
+# truncation at the image's edges from the full image, never the launch's tile.
+FILTERS = pytest.mark.parametrize("pixel_filter", [Filter("box"), Filter("gaussian", stddev=0.7)],
+                                  ids=["box", "gaussian"])
 
 
-def small_cornell_box():
+def small_cornell_box(pixel_filter=Filter()):
     scene = clrender.load_scene(SCENE)
     scene.camera.resolution = (40, 30)
+    scene.camera.filter = pixel_filter
     return scene
 
 
-def test_split_into_launches_gives_identical_image(device):
-    renderer = clrender.Renderer(small_cornell_box(), device)
+@FILTERS
+def test_split_into_launches_gives_identical_image(device, pixel_filter):
+    renderer = clrender.Renderer(small_cornell_box(pixel_filter), device)
     whole = renderer.render(spp=12, seed=5, samples_per_pass=12)
     ones = renderer.render(spp=12, seed=5, samples_per_pass=1)
     uneven = renderer.render(spp=12, seed=5, samples_per_pass=5)
@@ -72,13 +80,14 @@ def test_time_limited_render_stops_after_the_limit(device):
     assert np.array_equal(result.image, renderer.render(spp=result.samples, seed=3).image)
 
 
-def test_tiles_rendered_in_resumed_chunks_give_the_identical_image(device):
+@FILTERS
+def test_tiles_rendered_in_resumed_chunks_give_the_identical_image(device, pixel_filter):
     # What distributed rendering relies on (docs/distributed.md): a tile's pixels are keyed by
     # the full image, and Renderer.accumulate continues a tile's sums from any sample count.
     from clrender.distributed import merge_strips
     from clrender.render import image_result
 
-    scene = small_cornell_box()
+    scene = small_cornell_box(pixel_filter)
     renderer = clrender.Renderer(scene, device)
     whole = renderer.render(spp=7, seed=5)
     strips = []

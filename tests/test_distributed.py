@@ -61,6 +61,14 @@ def test_cornell_box_is_bit_identical_for_any_strips_and_chunks(client):
         assert_identical(result, expected)
 
 
+def test_a_filtered_image_is_bit_identical(client):
+    # The filter's truncation at the image's edges comes from the full image, not the strip.
+    scene = small("scenes/cornell_box.json", (24, 20), seed=3)
+    scene.camera.filter = clrender.scene.Filter("gaussian")
+    result = distributed.render(scene, client, 3, device=TEST_DEVICE, tiles=5, samples_per_chunk=2)
+    assert_identical(result, local(scene, 3))
+
+
 @pytest.mark.parametrize("path", ["scenes/cloud_cornell_box.json", "scenes/cornell_glass.json"],
                          ids=["grid_cloud", "analytic_glass_spheres"])
 def test_scene_is_bit_identical(client, path):

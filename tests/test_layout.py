@@ -10,7 +10,7 @@ from conftest import build_test_kernels
 
 ORDER = [  # the argument order of struct_layout in kernels/tests.cl
     "WideBvhNode", "Triangle", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Texture", "Emitter",
-    "Medium", "Camera", "RenderParams", "AovSums"]
+    "Medium", "Camera", "Filter", "RenderParams", "AovSums"]
 
 
 def expected_layout():

@@ -1,4 +1,5 @@
-"""Lights with closed-form answers: environment importance sampling, directional and point lights."""
+"""Lights with closed-form answers: environment importance sampling, directional, point and spot
+lights."""
 import numpy as np
 import pyopencl as cl
 import pytest
@@ -6,7 +7,7 @@ import pytest
 import clrender
 from clrender.arrays import build_scene_arrays
 from clrender.render import render_params
-from conftest import build_test_kernels, camera, z_bound
+from conftest import build_test_kernels, camera, delta_light_values, z_bound
 
 ALBEDO = 0.6
 
@@ -136,3 +137,63 @@ def test_point_light_inverse_square(device):
     # Within the centre pixel the distance to the light varies by < 1e-4 relative.
     np.testing.assert_allclose(centre, expected, rtol=2e-4)
     assert result.image[0, 0, 0] < centre[0]
+
+
+def spot_falloff(theta, cutoff, beam):
+    """Mitsuba's spot falloff at angle theta (degrees) from the axis, from its definition."""
+    beam = min(beam, cutoff)
+    ramp = (cutoff - theta) / (cutoff - beam) if beam < cutoff else 1.0
+    return np.where(theta < cutoff, np.where(theta <= beam, 1.0, ramp), 0.0)
+
+
+@pytest.mark.parametrize("cutoff,beam", [(20, 15), (60, 10), (180, 135), (30, 45), (40, 40)])
+def test_spot_light_falls_off_as_mitsubas(context, queue, cutoff, beam):
+    # Points on a unit circle around the light at angles to its axis (a tilted one), with the
+    # intensity's inverse square and the falloff: 1 within the beam width, linear in the angle
+    # to 0 at the cutoff.
+    position, axis = np.array([0.2, 1.0, -0.3]), np.array([0.3, -1.0, 0.1])
+    axis /= np.linalg.norm(axis)
+    light = {"type": "spot", "position": position.tolist(), "direction": axis.tolist(), "intensity": [2, 3, 4],
+             "cutoff_angle": cutoff, "beam_width": beam}
+    # Off the cutoff itself, where the falloff jumps to 0 when the beam is as wide (rounding
+    # decides there); nearer 180 degrees than 0.5, float32 cosines round to -1 (in Mitsuba too).
+    theta = np.concatenate([[0.0], np.arange(0.25, 179.5, 0.5), [beam - 0.01, beam + 0.01, cutoff - 0.01, cutoff + 0.01]])
+    theta = theta[theta <= 179.5]
+    side = np.cross(axis, [0, 0, 1])
+    side /= np.linalg.norm(side)
+    distance = 1.7
+    points = position + distance * (np.cos(np.radians(theta))[:, None] * axis + np.sin(np.radians(theta))[:, None] * side)
+    radiance, dist = delta_light_values(context, queue, clrender.load_scene_dict(floor_scene([light])), points)
+    np.testing.assert_allclose(dist, distance, rtol=1e-5)
+    falloff = radiance / (np.array([2, 3, 4]) / distance ** 2)
+    # The kernel's angle from a float32 cosine: within 1e-4 degrees on the ramp (at least 2
+    # degrees from the axis), whose slope is at most 1/5 per degree here.
+    np.testing.assert_allclose(falloff, np.repeat(spot_falloff(theta, cutoff, beam)[:, None], 3, axis=1), atol=1e-4)
+
+
+@pytest.mark.parametrize("cutoff,beam", [(20, 15), (60, 10), (180, 135), (30, 45)])
+def test_spot_light_power_is_its_integral(cutoff, beam):
+    from scipy.integrate import quad
+
+    from clrender.arrays import spot_solid_angle
+    from clrender.scene import Light
+
+    light = Light("spot", np.ones(3), np.zeros(3), np.array([0, 0, 1.0]), cutoff_angle=cutoff, beam_width=beam)
+    integral = 2 * np.pi * quad(lambda t: float(spot_falloff(np.degrees(t), cutoff, beam)) * np.sin(t), 0, np.pi,
+                                points=[np.radians(min(beam, cutoff)), np.radians(cutoff)])[0]
+    assert np.isclose(spot_solid_angle(light), integral, rtol=1e-9)
+
+
+def test_spot_light_lights_the_floor_as_a_point_light_within_its_beam(device):
+    # Straight down from 0.75 above the floor, with a beam wider than the view: the point
+    # light's image; with its cutoff inside the view, the centre as bright, the corners black.
+    def render(light):
+        scene = clrender.load_scene_dict(floor_scene([light], resolution=(33, 33), fov=10))
+        return clrender.Renderer(scene, device).render(spp=4, seed=1).image
+
+    point = render({"type": "point", "position": [0, 0.75, 0], "intensity": 5.0})
+    spot = {"type": "spot", "position": [0, 0.75, 0], "direction": [0, -1, 0], "intensity": 5.0}
+    assert np.array_equal(render({**spot, "cutoff_angle": 60, "beam_width": 50}), point)
+    narrow = render({**spot, "cutoff_angle": 4, "beam_width": 2})
+    assert np.array_equal(narrow[16, 16], point[16, 16])
+    assert np.all(narrow[0, 0] == 0) and 0 < narrow[16, 20, 0] < point[16, 20, 0]   # 3.2 degrees off the axis

@@ -257,8 +257,35 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     assert camera["medium"] is None
 
 
+def test_thinlens_is_a_camera_with_a_lens(tmp_path):
+    thinlens = sensor('<float name="aperture_radius" value="0.2"/><float name="focus_distance" value="3"/>')
+    camera = translate(tmp_path, "", sensor=thinlens.replace("perspective", "thinlens"))[0]["camera"]
+    assert (camera["aperture_radius"], camera["focus_distance"]) == (0.2, 3.0)
+    # Mitsuba's focus_distance defaults to the far_clip's value.
+    thinlens = sensor('<float name="aperture_radius" value="0.2"/><float name="far_clip" value="50"/>')
+    camera = translate(tmp_path, "", sensor=thinlens.replace("perspective", "thinlens"))[0]["camera"]
+    assert camera["focus_distance"] == 50.0
+
+
+@pytest.mark.parametrize("film,expected", [
+    ('<film type="hdrfilm"/>', {"type": "gaussian", "stddev": 0.5}),   # Mitsuba's default
+    ("", {"type": "gaussian", "stddev": 0.5}),                           # no film at all
+    ('<film type="hdrfilm"><rfilter type="gaussian"><float name="stddev" value="0.8"/></rfilter></film>',
+     {"type": "gaussian", "stddev": 0.8}),
+    ('<film type="hdrfilm"><rfilter type="tent"/></film>', {"type": "tent", "radius": 1.0}),
+    ('<film type="hdrfilm"><rfilter type="tent"><float name="radius" value="2"/></rfilter></film>',
+     {"type": "tent", "radius": 2.0}),
+    ('<film type="hdrfilm"><rfilter type="box"/></film>', {"type": "box"}),
+])
+def test_reconstruction_filters_are_the_cameras(tmp_path, film, expected):
+    assert translate(tmp_path, "", sensor=sensor(film=film))[0]["camera"]["filter"] == expected
+
+
 @pytest.mark.parametrize("sensor_xml,message", [
-    ('<sensor type="orthographic"/>', "unsupported sensor 'orthographic' (supported: perspective)"),
+    ('<sensor type="orthographic"/>', "unsupported sensor 'orthographic' (supported: perspective, thinlens)"),
+    (sensor().replace("perspective", "thinlens"), "a thinlens sensor needs an aperture_radius"),
+    (sensor('<float name="aperture_radius" value="-1"/>').replace("perspective", "thinlens"),
+     "aperture_radius must be >= 0 and focus_distance > 0, got -1 and 10000"),
     (sensor(to_world='<scale value="2"/>'), "must be a rotation and translation: it scales or shears"),
     (sensor(to_world='<scale x="-1"/>'), "must be a rotation and translation: it mirrors the image"),
     (sensor('<float name="fov" value="30"/><string name="focal_length" value="50mm"/>'), "either fov or focal_length"),
@@ -272,6 +299,10 @@ def test_camera_frame_follows_to_world_in_document_order(tmp_path):
     (sensor(sampler='<sampler type="fancy"/>'), "unsupported sampler 'fancy'"),
     (sensor(sampler='<sampler type="independent"><integer name="sample_count" value="0"/></sampler>'), "sample_count must be >= 1"),
     (sensor(film='<film type="hdrfilm"/><film type="hdrfilm"/>'), "at most one film"),
+    (sensor(film='<film type="hdrfilm"><rfilter type="gaussian"><float name="stddev" value="5"/></rfilter></film>'),
+     "stddev must be in [0.0025, 4] pixels, got 5"),
+    (sensor(film='<film type="hdrfilm"><rfilter type="tent"><float name="width" value="5"/></rfilter></film>'),
+     "parameter 'width' of scene.xml:3 <rfilter type='tent'> is not supported"),
     (sensor(film='<film type="hdrfilm"><integer name="height" value="0"/><rfilter type="box"/></film>'),
      "width and height must be >= 1"),
     (sensor(film='<film type="hdrfilm"><integer name="width" value="20000"/><rfilter type="box"/></film>'),
@@ -289,10 +320,12 @@ def test_sensor_without_sensor_or_with_two_is_an_error(tmp_path):
 def test_sensor_warnings(tmp_path):
     _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>',
                                                       extra='<float name="near_clip" value="0.5"/>'))
-    assert any("gaussian (Mitsuba's default) approximated by clrender's box filter" in w for w in warned)
-    assert any("near_clip 0.5 ignored" in w for w in warned)
-    _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="tent"/></film>'))
-    assert any("reconstruction filter 'tent' approximated" in w for w in warned)
+    assert len(warned) == 1 and "near_clip 0.5 ignored" in warned[0]
+    _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="mitchell"/></film>'))
+    assert any("reconstruction filter 'mitchell' approximated by clrender's box filter" in w for w in warned)
+    _, warned = translate(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><boolean name="sample_border" '
+                                                           'value="true"/></film>'))
+    assert len(warned) == 1 and "sample_border: Mitsuba also samples outside the image" in warned[0]
     scene, warned = translate(tmp_path, "", sensor=sensor(film=""))
     assert scene["camera"]["resolution"] == [768, 576] and any("no <film>" in w for w in warned)
     _, warned = translate(tmp_path, "", sensor=sensor(extra='<float name="near_clip" value="0.01"/>'))
@@ -624,6 +657,20 @@ def test_emitters(tmp_path):
     assert lights[4] == {"type": "environment", "radiance": [0.1, 0.2, 0.3]}
 
 
+def test_spot_lights(tmp_path):
+    # Mitsuba's defaults: at the origin shining along +z, cutoff 20 degrees, beam 3/4 of it;
+    # to_world places and turns it (a uniform scale changes nothing).
+    body = """<emitter type="spot"/>
+    <emitter type="spot"><transform name="to_world"><rotate x="1" angle="90"/><scale value="2"/>
+        <translate value="1, 2, 3"/></transform><rgb name="intensity" value="1, 2, 3"/>
+        <float name="cutoff_angle" value="40"/><float name="beam_width" value="5"/></emitter>"""
+    lights = translate(tmp_path, body)[0]["lights"]
+    assert lights[0] == {"type": "spot", "position": [0, 0, 0], "direction": [0, 0, 1], "intensity": [1.0] * 3,
+                         "cutoff_angle": 20.0, "beam_width": 15.0}
+    assert np.allclose(lights[1]["position"], [1, 2, 3]) and np.allclose(lights[1]["direction"], [0, -1, 0])
+    assert (lights[1]["intensity"], lights[1]["cutoff_angle"], lights[1]["beam_width"]) == ([1.0, 2.0, 3.0], 40.0, 5.0)
+
+
 def test_envmap_is_resampled_with_a_warning(tmp_path):
     image = np.random.default_rng(3).uniform(0.5, 2.0, (6, 10, 3)).astype(np.float32)
     clrender.save_image(image, tmp_path / "env.exr")
@@ -687,7 +734,11 @@ def test_envmap_lookup_convention():
 
 @pytest.mark.parametrize("body,message", [
     ('<emitter type="area"/>', "an area emitter belongs inside a <shape>"),
-    ('<emitter type="spot"/>', "unsupported emitter 'spot' (supported: point, directional, constant, envmap"),
+    ('<emitter type="sun"/>', "unsupported emitter 'sun' (supported: point, spot, directional, constant, envmap"),
+    ('<emitter type="spot"><transform name="to_world"><scale x="2"/></transform></emitter>',
+     "a spot's to_world must be a rotation, a uniform scale and a translation"),
+    ('<emitter type="spot"><texture type="bitmap" name="texture"/></emitter>', "spot textures are not supported"),
+    ('<emitter type="spot"><float name="cutoff_angle" value="190"/></emitter>', "must be <= 180, got 190"),
     ('<emitter type="point"><point name="position" value="1 2 3"/><transform name="to_world"/></emitter>',
      "either position or to_world"),
     ('<emitter type="directional"><vector name="direction" value="1 2 3"/><transform name="to_world"/></emitter>',
@@ -848,7 +899,7 @@ def test_xml_parameters_apply_to_xml_only(tmp_path):
 
 
 def test_load_scene_emits_warnings(tmp_path):
-    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>'))
+    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="lanczos"/></film>'))
     with pytest.warns(MitsubaXmlWarning, match="approximated by clrender's box filter"):
         clrender.load_scene(path)
 
@@ -878,7 +929,7 @@ def test_cli_errors_and_warnings(tmp_path):
     assert result.returncode == 3 and "Traceback" not in result.stderr   # a bad scene (docs/errors.md)
     assert (f"clrender: error: scene.xml:{line_of(body, 'hair')} <bsdf type='hair'>: "
             "unsupported BSDF 'hair'") in result.stderr
-    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"/>'))
+    path = write(tmp_path, "", sensor=sensor(film='<film type="hdrfilm"><rfilter type="mitchell"/></film>'))
     result = run_cli("info", path)
     assert result.returncode == 0 and "clrender: warning: scene.xml:" in result.stderr
     result = run_cli("info", "scenes/cornell_box.xml", "-D", "spp")

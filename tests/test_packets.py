@@ -15,6 +15,7 @@ import pytest
 
 import clrender
 from clrender.features import scene_features
+from clrender.scene import Filter
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 # At most this fraction of the pixels may differ by more than RTOL: measured 0-2e-5 on the
@@ -107,6 +108,22 @@ def test_packets_accumulate_the_megakernels_sample_aovs(device):
         assert differing(results[0].aovs[name], results[1].aovs[name]) <= MAX_DIFFERING, name
     colour_only = clrender.Renderer(example("cornell_glass"), device, packets=True).render(spp=4, seed=5)
     assert np.array_equal(results[1].image, colour_only.image)
+
+
+@pytest.mark.parametrize("pixel_filter", [Filter("gaussian"), Filter("tent", radius=1.5)], ids=["gaussian", "tent"])
+def test_packets_filter_as_the_megakernel(device, pixel_filter):
+    # Offsets and weights per lane (kernels/filter.h), truncated at the image's edges (29
+    # columns: the last work-item's lanes overhang the right edge), the sample AOVs weighted
+    # as the colour is.
+    scene = example("cornell_glass", resolution=(29, 13))
+    scene.camera.filter = pixel_filter
+    aovs = ("albedo", "normal", "emission", "variance")
+    mega, packets = both(scene, device, spp=4)
+    assert differing(mega.image, packets.image) <= MAX_DIFFERING
+    results = [clrender.Renderer(copy.deepcopy(scene), device, packets=p).render(spp=4, seed=5, aovs=aovs)
+               for p in (False, True)]
+    for name in aovs:
+        assert differing(results[0].aovs[name], results[1].aovs[name]) <= MAX_DIFFERING, name
 
 
 def test_packets_are_used_only_where_they_cover_the_scene():

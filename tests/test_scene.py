@@ -52,9 +52,24 @@ def test_example_scenes_load():
     (lambda s: s["camera"].update(fov=180), "camera.fov", "<= 179"),
     (lambda s: s["camera"].update(resolution=[0, 10]), "camera.resolution", "integers"),
     (lambda s: s["camera"].update(look_at=[0, 0, 5]), "camera.look_at", "must differ"),
+    (lambda s: s["camera"].update(filter={"type": "mitchell"}), "camera.filter.type", "valid: box, gaussian, tent"),
+    (lambda s: s["camera"].update(filter={"type": "gaussian", "stddev": 5}), "camera.filter.stddev", "<= 4"),
+    (lambda s: s["camera"].update(filter={"type": "tent", "radius": 0}), "camera.filter.radius", ">= 0.01"),
+    (lambda s: s["camera"].update(filter={"type": "box", "radius": 2}), "camera.filter.radius", "unknown field"),
+    (lambda s: s["camera"].update(filter="gaussian"), "camera.filter", "must be an object"),
+    (lambda s: s["camera"].update(aperture_radius=-0.1), "camera.aperture_radius", ">= 0"),
+    (lambda s: s["camera"].update(focus_distance=0), "camera.focus_distance", "> 0"),
     (lambda s: s.update(render={"spp": -1}), "render.spp", ">= 1"),
     (lambda s: s.update(render={"max_depth": 2.5}), "render.max_depth", "integer"),
-    (lambda s: s.update(lights=[{"type": "spot"}]), "lights[0].type", "valid: environment, point, directional"),
+    (lambda s: s.update(lights=[{"type": "area"}]), "lights[0].type", "valid: environment, point, spot, directional"),
+    (lambda s: s.update(lights=[{"type": "spot", "direction": [0, -1, 0], "intensity": 1}]), "lights[0].position",
+     "is required"),
+    (lambda s: s.update(lights=[{"type": "spot", "position": [0, 1, 0], "direction": [0, 0, 0], "intensity": 1}]),
+     "lights[0].direction", "must be non-zero"),
+    (lambda s: s.update(lights=[{"type": "spot", "position": [0, 1, 0], "direction": [0, -1, 0], "intensity": 1,
+                                 "cutoff_angle": 200}]), "lights[0].cutoff_angle", "<= 180"),
+    (lambda s: s.update(lights=[{"type": "spot", "position": [0, 1, 0], "direction": [0, -1, 0], "intensity": 1,
+                                 "beam_width": -5}]), "lights[0].beam_width", ">= 0"),
     (lambda s: s.update(lights=[{"type": "point", "position": [0, 1, 0], "intensity": -2}]),
      "lights[0].intensity", "non-negative"),
     (lambda s: s.update(lights=[{"type": "environment"}, {"type": "environment"}]), "lights", "at most one"),
@@ -66,6 +81,23 @@ def test_invalid_fields_are_reported_with_their_place(patch, where, message):
     text = error_of(data)
     assert text.startswith(where + ":"), text
     assert message in text, text
+
+
+def test_the_camera_filter_is_a_box_unless_named_with_mitsubas_defaults():
+    def loaded(**fields):
+        return clrender.load_scene_dict(base_scene(camera={**camera(), **fields})).camera.filter
+
+    assert loaded().type == "box"
+    assert (loaded(filter={"type": "gaussian"}).type, loaded(filter={"type": "gaussian"}).stddev) == ("gaussian", 0.5)
+    assert loaded(filter={"type": "gaussian", "stddev": 0.3}).stddev == 0.3
+    assert loaded(filter={"type": "tent"}).radius == 1.0
+
+
+def test_a_camera_is_a_pinhole_unless_given_an_aperture_focused_on_look_at():
+    default = clrender.load_scene_dict(base_scene()).camera
+    assert default.aperture_radius == 0 and np.isclose(default.focus_distance, 5.0)   # camera() looks from z = 5
+    lens = clrender.load_scene_dict(base_scene(camera={**camera(), "aperture_radius": 0.1, "focus_distance": 3})).camera
+    assert (lens.aperture_radius, lens.focus_distance) == (0.1, 3.0)
 
 
 def test_missing_mesh_file_names_the_path_tried(tmp_path):

@@ -10,15 +10,12 @@ Each measurement is a subprocess (the baseline needs its own `import clrender`) 
 loads its kernel, warms up with one render and reports the median rate of three (this checkout's
 clrender/bench.py, loaded by its path so that the baseline's package stays the one imported).
 """
-import argparse
-import json
-import os
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from clrender.bench import interleaved, median, round_ratios, run_process  # noqa: E402
+from clrender.bench import checkout_comparison_arguments, checkout_worker, interleaved, median, round_ratios  # noqa: E402
 
 DEFAULT_SCENES = ["scenes/cornell_box.json", "scenes/cornell_glass.json", "scenes/smoke_cornell_box.json"]
 
@@ -43,20 +40,12 @@ print(json.dumps(bench.median(runs["rate"])))
 
 def measure(checkout, scene, spp, resolution, aovs):
     """A function running one worker process in `checkout`, returning its samples/s."""
-    env = dict(os.environ, PYTHONPATH=str(checkout))
-    argv = [sys.executable, "-c", WORKER, str(ROOT / "clrender" / "bench.py"), str(ROOT / scene), str(spp),
-            str(resolution), "on" if aovs else "off"]
-    return lambda: json.loads(run_process(argv, env=env, cwd=checkout).stdout.strip().splitlines()[-1])
+    return checkout_worker(checkout, WORKER, ROOT / "clrender" / "bench.py", ROOT / scene, spp, resolution,
+                           "on" if aovs else "off")
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("scenes", nargs="*", default=DEFAULT_SCENES)
-    parser.add_argument("--baseline", type=Path, help="another checkout whose colour-only speed to compare")
-    parser.add_argument("--rounds", type=int, default=5)
-    parser.add_argument("--spp", type=int, default=8)
-    parser.add_argument("--resolution", type=int, default=96, help="image width (height keeps the aspect)")
-    args = parser.parse_args()
+    args = checkout_comparison_arguments(__doc__, DEFAULT_SCENES, "another checkout whose colour-only speed to compare", spp=8, resolution=96)
     variants = [("off", ROOT, False), ("on", ROOT, True)]
     if args.baseline:
         variants.append(("baseline", args.baseline.resolve(), False))

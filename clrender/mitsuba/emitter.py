@@ -4,6 +4,7 @@
 |---|---|---|
 | `area` (in a shape) | `radiance` (1) | the shape's material `emission` (front side only in both) |
 | `point` | `intensity` (1), `position` or `to_world` | `point` light |
+| `spot` | `intensity` (1), `cutoff_angle` (20), `beam_width` (3/4 of the cutoff), `to_world` (a rotation, uniform scale and translation: it shines along +z from its origin) | `spot` light; a `texture` is an error |
 | `directional` | `irradiance` (1), `direction` or to_world(+z) | `directional` light |
 | `constant` | `radiance` (1) | constant `environment` |
 | `envmap` | `filename`, `scale` (1), `to_world` (a rotation); `mis_compensation` accepted | image `environment`, resampled into clrender's convention (a warning) |
@@ -15,10 +16,10 @@ import numpy as np
 from ..errors import FileError
 from ..image import load_image
 from .texture import color_or_texture
-from .transforms import is_rigid
+from .transforms import is_rigid, rotation_scale
 from .values import fmt
 
-EMITTERS = ("point", "directional", "constant", "envmap")
+EMITTERS = ("point", "spot", "directional", "constant", "envmap")
 # Resampled maps have up to ENVMAP_MAX_FACTOR times the input's resolution per axis, and at most
 # ENVMAP_MAX_WIDTH texels across: finer texels follow Mitsuba's bilinear interpolation closer.
 ENVMAP_MAX_WIDTH, ENVMAP_MAX_FACTOR = 4096, 8
@@ -40,6 +41,8 @@ def read_emitter(plugin, reader):
         position = matrix[:3, 3] if matrix is not None else (np.zeros(3) if position is None else position)
         light = {"type": "point", "position": position.tolist(),
                  "intensity": plugin.color("intensity", 1.0, warnings_, emitter=True).tolist()}
+    elif kind == "spot":
+        light = _read_spot(plugin, warnings_)
     elif kind == "directional":
         matrix = plugin.transform("to_world")
         direction = plugin.point("direction")
@@ -68,9 +71,28 @@ def read_area_emitter(plugin, reader):
     return radiance
 
 
+def _read_spot(plugin, warnings_):
+    """spot: it shines from to_world's origin along its +z, within cutoff_angle degrees (Mitsuba
+    normalises the local direction, so a uniform scale changes nothing)."""
+    matrix = plugin.transform("to_world")
+    matrix = np.eye(4) if matrix is None else matrix
+    if rotation_scale(matrix) is None:
+        raise plugin.error("a spot's to_world must be a rotation, a uniform scale and a translation")
+    if plugin.has("texture"):
+        raise plugin.error("spot textures are not supported")
+    cutoff = plugin.number("cutoff_angle", 20.0)
+    axis = matrix[:3, :3] @ [0.0, 0.0, 1.0]
+    return {"type": "spot", "position": matrix[:3, 3].tolist(), "direction": (axis / np.linalg.norm(axis)).tolist(),
+            "intensity": plugin.color("intensity", 1.0, warnings_, emitter=True).tolist(),
+            "cutoff_angle": cutoff, "beam_width": plugin.number("beam_width", 0.75 * cutoff)}
+
+
 def _describe_light(light):
     if light["type"] == "point":
         return f"point at {fmt(light['position'])}, intensity {fmt(light['intensity'])}"
+    if light["type"] == "spot":
+        return (f"spot at {fmt(light['position'])} towards {fmt(light['direction'])}, intensity "
+                f"{fmt(light['intensity'])}, cutoff {light['cutoff_angle']:g} deg, beam {light['beam_width']:g} deg")
     if light["type"] == "directional":
         return f"directional towards {fmt(light['direction'])}, irradiance {fmt(light['irradiance'])}"
     if "image" in light:

@@ -5,12 +5,14 @@
 | `perspective` | `fov` + `fov_axis` (x, y, diagonal, smaller, larger; x) | `camera.fov`, the vertical field of view |
 | | `focal_length` (50mm, 35 mm film's diagonal, when neither is given) | the same, from the diagonal fov |
 | | `to_world`: a rotation (to within ROTATION_TOLERANCE, as Mitsuba) and translation | `camera.position`, `look_at` (+z), `up` (+y); a mirror is an error |
-| | `focus_distance` | accepted: a pinhole camera is sharp at every distance |
 | | `near_clip` (0.01), `far_clip` (10000) | not clipped: other values are a warning |
-| | nested `film`, `sampler` | `camera.resolution`; `render.spp`, `seed`, `sampler` |
+| | nested `film`, `sampler` | `camera.resolution`, `filter`; `render.spp`, `seed`, `sampler` |
 | | nested `medium` | `camera.medium` and the scene's `medium` |
-| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene) |
+| | accepted | `shutter_open`, `shutter_close` (no effect on a static scene), `focus_distance` (a pinhole camera is sharp at every distance: Mitsuba ignores it too) |
 | | errors | non-zero `principal_point_offset_x`, `principal_point_offset_y` |
+| `thinlens` | everything `perspective` takes, and | |
+| | `aperture_radius` (required) | `camera.aperture_radius` |
+| | `focus_distance` (far_clip's value) | `camera.focus_distance` |
 """
 import re
 
@@ -28,15 +30,15 @@ MAX_CORNER_SHIFT = 0.1
 
 
 def read_sensor(plugin, reader):
-    """perspective: the camera (position, look_at, up, vertical fov), film and sampler."""
-    if plugin.type != "perspective":
-        raise plugin.error(f"unsupported sensor '{plugin.type}' (supported: perspective)")
+    """perspective, thinlens: the camera (position, look_at, up, vertical fov, lens), film and sampler."""
+    if plugin.type not in ("perspective", "thinlens"):
+        raise plugin.error(f"unsupported sensor '{plugin.type}' (supported: perspective, thinlens)")
     films = plugin.nested("film")
     samplers = plugin.nested("sampler")
     media = plugin.nested("medium")
     if len(films) > 1 or len(samplers) > 1 or len(media) > 1:
         raise plugin.error("a sensor takes at most one film, one sampler and one medium")
-    width, height = read_film(films[0] if films else None, reader)
+    width, height, pixel_filter = read_film(films[0] if films else None, reader)
     spp, seed, sampler = read_sampler(samplers[0] if samplers else None, reader)
     render = reader.out.scene["render"]
     render.update(spp=spp, seed=seed, sampler=sampler)
@@ -49,22 +51,23 @@ def read_sensor(plugin, reader):
         reader.warn(f"{plugin.element.where()}: to_world is a rotation to {rotation_error(matrix):.2g} only: "
                     f"clrender's camera keeps its view direction and up, so rays at the image's corners "
                     f"pass {shift:.2g} pixels from Mitsuba's")
+    clips = {}
     for name, default in (("near_clip", DEFAULT_NEAR_CLIP), ("far_clip", DEFAULT_FAR_CLIP)):
-        value = plugin.number(name, default)
-        if value != default:
-            reader.warn(f"{plugin.element.where()}: {name} {value:g} ignored (clrender's camera "
+        clips[name] = plugin.number(name, default)
+        if clips[name] != default:
+            reader.warn(f"{plugin.element.where()}: {name} {clips[name]:g} ignored (clrender's camera "
                         "does not clip; differs only where geometry lies closer than near_clip or beyond far_clip)")
+    lens = _read_lens(plugin, clips["far_clip"])
     for name in ("principal_point_offset_x", "principal_point_offset_y"):
         if plugin.number(name, 0.0) != 0.0:
             raise plugin.error(f"{name} is not supported (off-centre projections)")
-    plugin.number("focus_distance")                  # a pinhole camera is sharp at every distance
     plugin.accept("shutter_open", "shutter_close")   # no effect on a static scene
     plugin.finish()
     position = matrix[:3, 3]
     forward = matrix[:3, :3] @ [0.0, 0.0, 1.0]
     camera = {"position": position.tolist(), "look_at": (position + forward / np.linalg.norm(forward)).tolist(),
               "up": (matrix[:3, :3] @ [0.0, 1.0, 0.0]).tolist(), "fov": fov_y,
-              "resolution": [width, height]}
+              "resolution": [width, height], "filter": pixel_filter, **lens}
     reader.out.scene["camera"] = camera
     if media and not reader.ignore_media:
         name = read_medium(media[0], reader)
@@ -74,7 +77,30 @@ def read_sensor(plugin, reader):
         camera["medium"] = None
         if media:
             reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
-    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}")
+    lens_note = (f", thin lens of aperture radius {lens['aperture_radius']:g} focused at {lens['focus_distance']:g}"
+                 if lens else "")
+    reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg{lens_note}, {spp} spp, "
+                                  f"seed {seed}, {_describe_filter(pixel_filter)} filter")
+
+
+def _read_lens(plugin, far_clip):
+    """thinlens: the camera's aperture_radius and focus_distance (Mitsuba's default: far_clip's
+    value); perspective: none (the focus_distance some scenes give it has no effect)."""
+    if plugin.type == "perspective":
+        plugin.number("focus_distance")   # checked, of no effect
+        return {}
+    aperture = plugin.number("aperture_radius")
+    if aperture is None:
+        raise plugin.error("a thinlens sensor needs an aperture_radius")
+    focus = plugin.number("focus_distance", far_clip)
+    if not aperture >= 0 or not focus > 0:
+        raise plugin.error(f"aperture_radius must be >= 0 and focus_distance > 0, got {aperture:g} and {focus:g}")
+    return {"aperture_radius": aperture, "focus_distance": focus}
+
+
+def _describe_filter(pixel_filter):
+    parameter = {"gaussian": "stddev", "tent": "radius"}.get(pixel_filter["type"])
+    return pixel_filter["type"] + (f" {parameter} {pixel_filter[parameter]:g}" if parameter else "")
 
 
 def _check_rotation(plugin, matrix):

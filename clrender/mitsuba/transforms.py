@@ -6,7 +6,7 @@
 | `<scale x y z>` / `value` | scale per axis (one value: uniform) |
 | `<rotate x y z angle>` | `angle` degrees counter-clockwise about the axis (used as given: Rodrigues' formula) |
 | `<matrix value>` | 9 (linear) or 16 numbers, row by row; the last row must be 0 0 0 1 |
-| `<lookat origin target up>` | Mitsuba's look_at (up 0 1 0 by default) |
+| `<lookat origin target up>` | Mitsuba's look_at (up 0 1 0 by default; up 0 0 0 an axis perpendicular to the view, as Mitsuba picks it) |
 """
 import numpy as np
 
@@ -66,7 +66,8 @@ def _rotation(op):
 
 
 def _look_at(op):
-    """Mitsuba's look_at: columns (left, up, direction, origin), left = up x direction."""
+    """Mitsuba's look_at: columns (left, up, direction, origin), left = up x direction. An up of
+    (0, 0, 0) is, as Mitsuba's parser takes it, the first axis of coordinate_system(direction)."""
     origin = parse_triple(op, attribute(op, "origin"))
     target = parse_triple(op, attribute(op, "target"))
     up = parse_triple(op, op.attrs.get("up", "0 1 0"))
@@ -74,6 +75,8 @@ def _look_at(op):
     if np.linalg.norm(direction) == 0:
         raise op.error("origin and target coincide")
     direction /= np.linalg.norm(direction)
+    if not np.any(up):
+        up = _first_basis_axis(direction)
     left = np.cross(up, direction)
     if np.linalg.norm(left) < 1e-12:
         raise op.error("up is parallel to the viewing direction")
@@ -81,6 +84,13 @@ def _look_at(op):
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, np.cross(direction, left), direction, origin
     return m
+
+
+def _first_basis_axis(n):
+    """Mitsuba's coordinate_system(n)[0] (Duff et al. 2017)."""
+    sign = np.copysign(1.0, n[2])
+    a = -1.0 / (sign + n[2])
+    return np.array([1.0 + sign * n[0] * n[0] * a, sign * n[0] * n[1] * a, -sign * n[0]])
 
 
 def rotation_scale(matrix):
