@@ -114,7 +114,8 @@ EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2",
 
 # A medium; lanes named in MEDIUM_FIELDS (accessors: kernels/media/medium_record.h).
 MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4), ("resolution", I4),
-                 ("majorant_resolution", I4), ("to_voxel", ("<f4", (3, 4))))
+                 ("majorant_resolution", I4), ("to_voxel", ("<f4", (3, 4))), ("albedo_grid", I4),
+                 ("albedo_resolution", I4))
 
 # name -> (struct member, first lane, lanes). sigma_a, sigma_s: RGB coefficients in 1/length (the
 # scene's scale applied), for a grid medium per unit density (sigma(x) = density(x) sigma).
@@ -122,7 +123,11 @@ MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4),
 # grid buffer; majorant_offset, the first majorant block in the majorant buffer (two floats each,
 # max then min); majorant_block, a block's edge in voxels; resolution, voxels per axis;
 # majorant_resolution, blocks per axis. The member to_voxel holds the three rows of the affine
-# map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz] (kernels/media/grid.h).
+# map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz] (kernels/media/grid.h). A grid medium
+# with an albedo grid: albedo_channels 1 or 3 (0: none; sigma_s / sigma_t is the albedo),
+# albedo_offset its first float in the grid buffer, albedo_resolution its samples per axis (it
+# fills the density grid's unit cube); sigma_s then holds sigma_t and sigma_a 0, and the kernel
+# splits sigma_t by the albedo at each point.
 MEDIUM_FIELDS = {
     "sigma_a": ("sigma_a", 0, 3),
     "sigma_s": ("sigma_s", 0, 3),
@@ -133,6 +138,9 @@ MEDIUM_FIELDS = {
     "majorant_block": ("grid", 3, 1),
     "resolution": ("resolution", 0, 3),
     "majorant_resolution": ("majorant_resolution", 0, 3),
+    "albedo_offset": ("albedo_grid", 0, 1),
+    "albedo_channels": ("albedo_grid", 1, 1),
+    "albedo_resolution": ("albedo_resolution", 0, 3),
 }
 
 CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4))
@@ -141,13 +149,14 @@ RENDER_PARAMS = np.dtype([
     ("camera", CAMERA),
     ("frame", I4),         # width, height, first sample, samples in this pass
     ("config", I4),        # max depth, roulette depth, seed, emitter count
-    ("environment", I4),   # emitter index, image width, image height, hide from camera rays (1/0)
+    ("environment", I4),   # emitter index, image width, image height, hidden from camera rays (HIDDEN_FROM_CAMERA bits)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("volume", F4),        # grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
-    ("sampling", I4),      # x the sampler of camera paths (SAMPLERS)
+    ("sampling", I4),      # x the sampler of camera paths (SAMPLERS); y, z the direct integrator's
+                           # light and BSDF samples per camera hit (0, 0: path tracing)
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
@@ -181,6 +190,10 @@ MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 # The random numbers of camera paths (render.sampler, kernels/rng.h); RenderParams.sampling.x.
 SAMPLERS = {"independent": 0, "sobol": 1}
+# What camera rays do not see (bits of RenderParams.environment.w, kernels/path.h): the
+# environment (render.hide_environment), and emitting shapes, which they pass through
+# (render.hide_emitters, Mitsuba's hide_emitters: both bits).
+HIDDEN_FROM_CAMERA = {"environment": 1, "emitting_shapes": 2}
 # Textures (Texture.info.x), how their texels are stored (Texture.format.y: 8-bit sRGB-encoded,
 # decoded at lookup; 8-bit linear; float32), filters and wrap modes (Mitsuba's bitmap names).
 TEXTURE_KINDS = {"bitmap": 0, "checkerboard": 1}
@@ -258,7 +271,8 @@ def c_constants():
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("EMITTER", EMITTER_KINDS),
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
                           ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("TEXTURE", TEXTURE_KINDS),
-                          ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS)):
+                          ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS),
+                          ("HIDE", HIDDEN_FROM_CAMERA)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")

@@ -73,7 +73,7 @@ def read_sensor(plugin, reader):
     else:
         camera["medium"] = None
         if media:
-            reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
+            reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `{reader.integrator}` integrator ignores media")
     reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg, {spp} spp, seed {seed}")
 
 
