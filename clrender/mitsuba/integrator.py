@@ -65,6 +65,18 @@ def read_integrator(plugin, reader):
     reader.note(plugin, "render", _describe(render))
 
 
+def check_direct_delta_lights(reader, integrator):
+    """Mitsuba 3.9's direct integrator weighs each of its emitter_samples samples of a point,
+    spot or directional light by 1, not 1 / emitter_samples: they come out emitter_samples times
+    too bright (measured against its path integrator). clrender renders them once: a warning."""
+    render = reader.out.scene["render"]
+    delta = [light for light in reader.out.scene["lights"] if light["type"] in ("point", "spot", "directional")]
+    if render.get("integrator") == "direct" and render["emitter_samples"] > 1 and delta:
+        reader.warn(f"{integrator.where()}: Mitsuba 3.9 renders point, spot and directional lights "
+                    f"emitter_samples = {render['emitter_samples']} times too bright with this integrator; "
+                    "clrender renders them as they are")
+
+
 def _read_path(plugin, render):
     """max_depth (-1: unbounded) and rr_depth of path/volpath/volpathmis/ptracer. Roulette starts
     after vertex rr_depth in `path` but after vertex rr_depth + 1 in `volpath(mis)` (which tests

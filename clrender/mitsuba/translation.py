@@ -19,7 +19,7 @@ from ..loader import LoadedScene
 from ..origins import Origins, located
 from ..scene import load_scene_dict
 from .emitter import read_emitter
-from .integrator import read_integrator
+from .integrator import check_direct_delta_lights, read_integrator
 from .medium import check_media_nesting
 from .plugin import Plugin
 from .sensor import read_sensor
@@ -99,6 +99,8 @@ def read_scene(path, parameters=None):
     for tag, read in SCENE_PLUGINS.items():
         for element in by_tag.get(tag, []):
             read(Plugin(element, ids), reader)
+    if integrators:
+        check_direct_delta_lights(reader, integrators[0])
     return reader.out
 
 
