@@ -100,14 +100,19 @@ def homogeneous_medium():
     </shape>""", integrator="volpath", max_depth=16)
 
 
-def grid_medium(use_grid_bbox=False):
-    """A grid whose unit cube is placed at [-0.9, 0.9]^3 (above the floor) either by to_world or
-    by the .vol file's own bounding box (use_grid_bbox), inside a null cube of the same size."""
-    placement = ("""<boolean name="use_grid_bbox" value="true"/>""" if use_grid_bbox else """
+def _grid_placement(use_grid_bbox):
+    """A gridvolume's unit cube at [-0.9, 0.9]^3: by to_world, or by the .vol file's own box."""
+    return ("""<boolean name="use_grid_bbox" value="true"/>""" if use_grid_bbox else """
                 <transform name="to_world">
                     <scale value="1.8"/>
                     <translate value="-0.9, -0.9, -0.9"/>
                 </transform>""")
+
+
+def grid_medium(use_grid_bbox=False, albedo='<rgb name="albedo" value="0.95, 0.9, 0.8"/>', g=-0.3,
+                integrator="volpathmis"):
+    """A grid whose unit cube is placed at [-0.9, 0.9]^3 (above the floor) either by to_world or
+    by the .vol file's own bounding box (use_grid_bbox), inside a null cube of the same size."""
     return _scene(FLOOR + SUN + SKY + f"""
     <shape type="cube">
         <transform name="to_world">
@@ -116,51 +121,27 @@ def grid_medium(use_grid_bbox=False):
         <bsdf type="null"/>
         <medium type="heterogeneous" name="interior">
             <volume type="gridvolume" name="sigma_t">
-                <string name="filename" value="cloud.vol"/>{placement}
+                <string name="filename" value="cloud.vol"/>{_grid_placement(use_grid_bbox)}
             </volume>
-            <rgb name="albedo" value="0.95, 0.9, 0.8"/>
+            {albedo}
             <float name="scale" value="6"/>
             <phase type="hg">
-                <float name="g" value="-0.3"/>
+                <float name="g" value="{g}"/>
             </phase>
         </medium>
-    </shape>""", integrator="volpathmis", max_depth=16)
+    </shape>""", integrator=integrator, max_depth=16)
 
 
 def grid_albedo(rgb=True, texture=False):
     """grid_medium with an albedo grid of its own resolution: RGB placed by to_world, or one
     channel placed by the files' bounding boxes; or that RGB grid inside a volume texture, which
     Mitsuba evaluates at the world origin only."""
-    albedo_file = "albedo_rgb.vol" if rgb else "albedo_grey.vol"
-    placement = """
-                <transform name="to_world">
-                    <scale value="1.8"/>
-                    <translate value="-0.9, -0.9, -0.9"/>
-                </transform>""" if rgb else """<boolean name="use_grid_bbox" value="true"/>"""
-    albedo = f"""
-            <volume type="gridvolume" name="{'volume' if texture else 'albedo'}">
-                <string name="filename" value="{albedo_file}"/>{placement}
+    albedo = f"""<volume type="gridvolume" name="{'volume' if texture else 'albedo'}">
+                <string name="filename" value="{'albedo_rgb.vol' if rgb else 'albedo_grey.vol'}"/>{_grid_placement(not rgb)}
             </volume>"""
     if texture:
-        albedo = f"""
-            <texture type="volume" name="albedo">{albedo}
-            </texture>"""
-    return _scene(FLOOR + SUN + SKY + f"""
-    <shape type="cube">
-        <transform name="to_world">
-            <scale value="0.9"/>
-        </transform>
-        <bsdf type="null"/>
-        <medium type="heterogeneous" name="interior">
-            <volume type="gridvolume" name="sigma_t">
-                <string name="filename" value="cloud.vol"/>{placement}
-            </volume>{albedo}
-            <float name="scale" value="6"/>
-            <phase type="hg">
-                <float name="g" value="0.3"/>
-            </phase>
-        </medium>
-    </shape>""", integrator="volpath", max_depth=16)
+        albedo = f"""<texture type="volume" name="albedo">{albedo}</texture>"""
+    return grid_medium(use_grid_bbox=not rgb, albedo=albedo, g=0.3, integrator="volpath")
 
 
 def direct(emitter_samples, bsdf_samples, hide_emitters=False):

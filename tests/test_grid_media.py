@@ -80,6 +80,13 @@ class MediaKernels:
         cl.enqueue_copy(self.queue, host, device)
         return host
 
+    def lookup(self, world):
+        """(density, albedo) of medium 0 at world points (n, 3), as (n, 4) (grid_lookup)."""
+        points = np.c_[world, np.zeros(len(world))].astype(np.float32)
+        out, out_buffer = self.output((len(points), 4), np.float32)
+        self.kernel("grid_lookup")(self.queue, (len(points),), None, *self.buffers, self.input(points), out_buffer)
+        return self.fetch(out, out_buffer)
+
     def transmittance(self, origin, direction, t_max, count, seed=1, spectral_mis=True, kernel="transmittance_estimates"):
         out, out_buffer = self.output((count, 4), np.float32)
         self.kernel(kernel)(
@@ -138,15 +145,13 @@ def test_kernel_lookup_matches_the_reference_trilinear(context, queue):
     unit = rng.uniform(-0.05, 1.05, (4000, 3))           # some outside the box: density 0
     unit[:100] = rng.integers(0, 2, (100, 3)) * 1.0      # the corners themselves
     world = (np.c_[unit, np.ones(len(unit))] @ grid.to_world.T)[:, :3]
-    points = np.c_[world, np.zeros(len(world))].astype(np.float32)
-    out, out_buffer = kernels.output(len(points), np.float32)
-    kernels.kernel("grid_lookup")(queue, (len(points),), None, *kernels.buffers, kernels.input(points), out_buffer)
-    kernels.fetch(out, out_buffer)
+    out = kernels.lookup(world)
     expected = grids.trilinear(grid.density, unit)
     # float32 world -> voxel maps differ from float64 by ~1e-6 voxel; the density's slope is
     # bounded by its range, so 1e-4 is far above rounding and far below any indexing mistake.
-    assert np.max(np.abs(out - expected)) < 1e-4
-    assert np.all(out[np.any((unit < 0) | (unit > 1), axis=1)] == 0)
+    assert np.max(np.abs(out[:, 0] - expected)) < 1e-4
+    assert np.all(out[np.any((unit < 0) | (unit > 1), axis=1), 0] == 0)
+    assert np.all(out[:, 1:] == 0)   # no albedo grid
 
 
 def test_kernel_albedo_lookup_matches_the_reference_trilinear(context, queue, tmp_path):
@@ -161,13 +166,10 @@ def test_kernel_albedo_lookup_matches_the_reference_trilinear(context, queue, tm
     rng = np.random.default_rng(1)
     unit = rng.uniform(-0.05, 1.05, (3000, 3))
     world = (np.c_[unit, np.ones(len(unit))] @ scene.media[0].grid.to_world.T)[:, :3]
-    points = np.c_[world, np.zeros(len(world))].astype(np.float32)
-    out, out_buffer = kernels.output((len(points), 4), np.float32)
-    kernels.kernel("albedo_lookup")(queue, (len(points),), None, *kernels.buffers, kernels.input(points), out_buffer)
-    kernels.fetch(out, out_buffer)
+    out = kernels.lookup(world)
     clamped = np.clip(unit, 0, 1)
     expected = np.stack([grids.trilinear(albedo[..., c], clamped) for c in range(3)], axis=1)
-    assert np.max(np.abs(out[:, :3] - expected)) < 1e-4   # as the density lookup's bound
+    assert np.max(np.abs(out[:, 1:] - expected)) < 1e-4   # as the density lookup's bound
 
 
 def test_majorant_bounds_the_density_everywhere_and_segments_cover_nonempty_blocks(context, queue):
