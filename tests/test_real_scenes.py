@@ -69,6 +69,19 @@ def test_version_2_scenes_read(scene, version, first):
         assert "version" not in error.message
 
 
+@pytest.mark.parametrize("scene,integrator,aovs", [
+    ("tutorials-simple-teapot/simple.xml", "direct", ()),
+    ("test-hetero-volume/tests/scenes/participating_media/test_hetero_sigmat_volpath.xml", "path", ("variance",)),
+    ("test-homo-dielectric-envmap/tests/scenes/participating_media/test_homo_dielectric_envmap_volpath.xml", "path",
+     ("variance",)),
+])
+def test_scenes_of_mitsubas_direct_and_moment_integrators_load(scene, integrator, aovs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)   # clipping planes, envmap resampling
+        loaded = clrender.load_scene(real_scene(scene), parameters={"res": "8"} if "tests/" in scene else {})
+    assert (loaded.render.integrator, loaded.render.aovs) == (integrator, aovs)
+
+
 def test_staircase_meshes_without_area_are_skipped_with_a_warning(tmp_path):
     # 20 of the staircase's 775 meshes are lines (their corners collinear): Mitsuba loads them
     # and never hits them; clrender skips them, naming each. Read here without the BSDFs.
