@@ -481,7 +481,12 @@ def _info(args):
     print(f"scene:      {args.scene}")
     for index, note in enumerate(notes or []):
         print(f"{'mitsuba:' if index == 0 else '':<12}{note}")
-    print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
+    settings = scene.render
+    integrator = (f"direct integrator, {settings.emitter_samples} emitter and {settings.bsdf_samples} BSDF samples"
+                  if settings.integrator == "direct" else f"max depth {settings.max_depth}")
+    print(f"image:      {width} x {height}, {settings.spp} spp, {integrator}"
+          + (", emitters hidden from the camera" if settings.hide_emitters else "")
+          + (f", AOVs {', '.join(settings.aovs)}" if settings.aovs else ""))
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")
     print(f"triangles:  {len(arrays.triangles) - arrays.spheres}"

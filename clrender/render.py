@@ -364,6 +364,7 @@ class Renderer:
         launches completed."""
         limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
+        self._check_depths(max_depth, rr_depth)
         names, denoising = output_request(self.scene.render.aovs if aovs is None else aovs, denoise,
                                           denoise_prefilter, denoise_keep_emission)
         if spp is None and time_limit is None:
@@ -390,6 +391,7 @@ class Renderer:
         self._check_accumulation(state, samples)
         limits.check_settings(seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
+        self._check_depths(max_depth, rr_depth)
         settings = self.scene.render
         seed = settings.seed if seed is None else seed
         max_depth = settings.max_depth if max_depth is None else max_depth
@@ -446,6 +448,12 @@ class Renderer:
                                                    aov_buffer, seconds),
                                     getattr(interrupt, "signal", signal.SIGINT)) from None
         return self._download(state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, done)
+
+    def _check_depths(self, max_depth, rr_depth):
+        """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""
+        for name, value in (("max_depth", max_depth), ("rr_depth", rr_depth)):
+            if value is not None and self.scene.render.integrator == "direct":
+                raise ArgumentError(name, "does not apply to the direct integrator (render.integrator 'direct')")
 
     def _check_accumulation(self, state, samples):
         """`state` is an Accumulation of a tile inside the image, and `samples` more keep its

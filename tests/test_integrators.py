@@ -63,6 +63,13 @@ def test_direct_counts_a_delta_light_once_per_shading_point(device):
     assert np.allclose(image, 0.5 / np.pi, rtol=1e-6, atol=0)
 
 
+def test_path_depths_do_not_apply_to_the_direct_integrator(device):
+    scene = clrender.load_scene_dict({"camera": camera(resolution=(4, 4)), "render": direct(1, 1)})
+    for name in ("max_depth", "rr_depth"):
+        with pytest.raises(clrender.ArgumentError, match=f"^{name}: does not apply to the direct integrator"):
+            clrender.Renderer(scene, device).render(spp=1, **{name: 3})
+
+
 @pytest.mark.parametrize("render,message", [
     (direct(0, 0), "render.emitter_samples: and bsdf_samples are both 0"),
     (direct(1025, 1), "render.emitter_samples: must be <= 1024"),
