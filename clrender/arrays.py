@@ -492,6 +492,13 @@ def _medium_array(media, scale=1.0):
         majorants.append(np.stack([high.ravel(), low.ravel()], axis=1).ravel())
         voxel_count += grid.density.size
         cell_count += high.size
+        if medium.albedo_grid is not None:
+            nz, ny, nx, channels = medium.albedo_grid.shape
+            put("albedo_offset", voxel_count)
+            put("albedo_channels", channels)
+            put("albedo_resolution", (nx, ny, nz))
+            voxels.append(medium.albedo_grid.ravel())
+            voxel_count += medium.albedo_grid.size
     if voxel_count + cell_count * 2 >= 2**31:
         raise SceneError("media", "grid media too large: more than 2^31 floats in all")
     grid_data = np.concatenate(voxels).astype(np.float32) if voxels else np.zeros(1, np.float32)

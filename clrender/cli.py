@@ -114,7 +114,8 @@ def _parser():
                              "scattering (default: the scene's, else on)")
     render.add_argument("--aov", default="", metavar="NAMES",
                         help="auxiliary outputs, comma-separated: albedo, normal, emission, variance, depth, object_id "
-                             "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png)")
+                             "(EXR: layers of the output file; 8-bit formats: files NAME.LAYER.png; default: the "
+                             "scene's render.aovs, e.g. those of a Mitsuba moment or aov integrator)")
     render.add_argument("--denoise", action="store_true",
                         help="denoise with Intel Open Image Denoise (needs pyoidn: pip install 'clrender[denoise]')")
     render.add_argument("--denoise-prefilter", action="store_true",
@@ -246,12 +247,12 @@ def _render(args):
     """Every argument and output path is checked before the first scene renders."""
     from .aovs import parse_aovs
 
-    aovs = parse_aovs(args.aov, source="--aov")
+    aovs = parse_aovs(args.aov, source="--aov") if args.aov else None   # None: each scene's render.aovs
     for flag in ("keep_noisy", "denoise_prefilter", "denoise_keep_emission"):
         if getattr(args, flag) and not args.denoise:
             raise ArgumentError(f"--{flag.replace('_', '-')}", "only with --denoise")
     parameters = _parameters(args)
-    layers = aovs + (("noisy",) if args.keep_noisy else ())
+    layers = (aovs or ()) + (("noisy",) if args.keep_noisy else ())
     outputs = _output_paths(args.output, args.scene, layers)
     _check_scene_files(args.scene)
     cluster = "--workers" if args.workers else "--scheduler" if args.scheduler else None
@@ -307,7 +308,7 @@ def _output_paths(output, scene_paths, layers=()):
     or for several scenes an existing folder) holds STEM.exr; a pattern names {stem} (the scene
     file's name without its suffix) and/or {index} (its position, from 0; format specs allowed:
     {index:04d}). One scene and an existing folder without the / is an error, not a guess."""
-    from .image import LDR_SUFFIXES, check_output_path, layer_path
+    from .image import check_output_path
 
     is_folder = output.endswith(("/", "\\")) or (len(scene_paths) > 1 and Path(output).is_dir())
     if "{" in output or is_folder:
@@ -331,10 +332,17 @@ def _output_paths(output, scene_paths, layers=()):
         seen[path] = scene_path
     for path in paths:
         check_output_path(path, "--output")
-        if path.suffix.lower() in LDR_SUFFIXES:
-            for name in layers:
-                check_output_path(layer_path(path, name), "--output")
+        _check_layer_paths(path, layers)
     return paths
+
+
+def _check_layer_paths(path, layers):
+    """With an 8-bit format, the files NAME.LAYER.png of the `layers` can be written."""
+    from .image import LDR_SUFFIXES, check_output_path, layer_path
+
+    if path.suffix.lower() in LDR_SUFFIXES:
+        for name in layers:
+            check_output_path(layer_path(path, name), "--output")
 
 
 def _render_local(args, scene_path, output, aovs, parameters):
@@ -342,6 +350,9 @@ def _render_local(args, scene_path, output, aovs, parameters):
     from .render import Renderer, RenderInterrupted
 
     scene, _ = _load_scene(scene_path, parameters)
+    if aovs is None:
+        aovs = scene.render.aovs
+        _check_layer_paths(output, aovs)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering, sampler=args.sampler)
     for note in renderer.notes:
@@ -375,6 +386,9 @@ def _render_distributed(args, outputs, parameters, aovs):
     scenes = (_load_scene(path, parameters)[0] for path in args.scene)
     scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
+    if aovs is None:   # a batch renders the AOVs of --aov only: one request for every scene
+        aovs = () if batch else scenes[0].render.aovs
+        _check_layer_paths(outputs[0], aovs)
     with dask_client(args.workers, args.scheduler) as client:
         where = f"{len(client.scheduler_info()['workers'])} Dask workers"
         bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
@@ -467,7 +481,12 @@ def _info(args):
     print(f"scene:      {args.scene}")
     for index, note in enumerate(notes or []):
         print(f"{'mitsuba:' if index == 0 else '':<12}{note}")
-    print(f"image:      {width} x {height}, {scene.render.spp} spp, max depth {scene.render.max_depth}")
+    settings = scene.render
+    integrator = (f"direct integrator, {settings.emitter_samples} emitter and {settings.bsdf_samples} BSDF samples"
+                  if settings.integrator == "direct" else f"max depth {settings.max_depth}")
+    print(f"image:      {width} x {height}, {settings.spp} spp, {integrator}"
+          + (", emitters hidden from the camera" if settings.hide_emitters else "")
+          + (f", AOVs {', '.join(settings.aovs)}" if settings.aovs else ""))
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")
     print(f"triangles:  {len(arrays.triangles) - arrays.spheres}"
@@ -540,6 +559,10 @@ def _print_kernel_table(device, width, height, no_launch):
 
 def _describe_medium(medium):
     coefficients = f"sigma_a {_fmt(medium.sigma_a)}, sigma_s {_fmt(medium.sigma_s)}, g {medium.g:g}"
+    if medium.albedo_grid is not None:
+        nz, ny, nx, channels = medium.albedo_grid.shape
+        coefficients = (f"sigma_t {_fmt(medium.sigma_t)} split by a {nx}x{ny}x{nz} albedo grid of {channels} "
+                        f"channel{'s' if channels > 1 else ''}, g {medium.g:g}")
     if medium.grid is None:
         return f"homogeneous, {coefficients}"
     grid = medium.grid

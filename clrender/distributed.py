@@ -54,7 +54,7 @@ class DistributedRenderError(DeviceError):
 
 def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
            step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
-           samples_per_chunk=None, progress=None, aovs=(), denoise=False, denoise_prefilter=False,
+           samples_per_chunk=None, progress=None, aovs=None, denoise=False, denoise_prefilter=False,
            denoise_keep_emission=False, sampler=None):
     """Render `scene` on the Dask cluster of `client` (a distributed.Client) and return a
     RenderResult whose image is exactly (bit for bit) that of `clrender.render(scene, spp, ...)`
@@ -66,8 +66,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     time from the rate of the tile's previous chunk (the first chunk of a tile takes one sample);
     `samples_per_chunk` fixes their size instead. `progress(spp_done, spp, seconds)` follows each
     chunk, with spp_done averaged over the pixels and `seconds` wall time. RenderResult.seconds
-    is wall time, so samples_per_second is the cluster's rate. `aovs` and the denoising
-    arguments are those of `Renderer.render`: the AOVs are accumulated with the colour, chunk by
+    is wall time, so samples_per_second is the cluster's rate. `aovs` (None: the scene's) and the
+    denoising arguments are those of `Renderer.render`: the AOVs are accumulated with the colour, chunk by
     chunk, so they are bit-identical to a local render's too. `sampler` overrides the scene's
     render.sampler, as in `Renderer`.
 
@@ -81,7 +81,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 
     results = render_many([scene], client, spp, seed, max_depth, device, volume_method, step,
                           raymarch_multiple_scattering, tiles, chunk_seconds, samples_per_chunk,
-                          frame_progress if progress else None, aovs=aovs, denoise=denoise,
+                          frame_progress if progress else None,
+                          aovs=scene.render.aovs if aovs is None else aovs, denoise=denoise,
                           denoise_prefilter=denoise_prefilter, denoise_keep_emission=denoise_keep_emission,
                           sampler=sampler)
     try:
@@ -104,8 +105,9 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
     `scenes` may be any iterable (e.g. a generator loading files): it is consumed as scenes are
     started, `scenes_in_flight` at a time, earlier scenes first. `spp` None: each scene's own.
     `progress(frames_done, frames, seconds)`: frames_done counts finished scenes plus the
-    completed fraction of those in flight; frames is len(scenes), or None for an iterator. The
-    other arguments are those of `render`. Ctrl-C cancels the chunks in flight and raises
+    completed fraction of those in flight; frames is len(scenes), or None for an iterator.
+    `aovs`: the same AOVs for every scene (not the scenes' own render.aovs). The other arguments
+    are those of `render`. Ctrl-C cancels the chunks in flight and raises
     RenderInterrupted whose result is the list of (index, partial RenderResult) of the scenes in
     flight; Ctrl-C's signal (SIGTERM, SIGHUP in the CLI) is its `signal`. The arguments are
     checked as by `Renderer.render` (limits.py) by this call, each scene as it starts: before

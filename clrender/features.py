@@ -89,8 +89,10 @@ def packets_cover(scene, features):
     features, every material some shape uses diffuse (emissive included) or smooth dielectric
     reflecting untinted,
     no light but emitting triangles (no emitting spheres, point, directional or environment
-    lights)."""
+    lights), path tracing (not the direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
+        return False
+    if scene.render.integrator != "path" or scene.render.hide_emitters:
         return False
     for shape in scene.shapes:
         material = scene.materials[shape.material]

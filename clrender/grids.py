@@ -66,6 +66,11 @@ def check_density(array):
     array = np.asarray(array)
     if array.ndim != 3:
         return f"must be a 3D array (z, y, x), got shape {array.shape}"
+    return _check_values(array)
+
+
+def _check_values(array):
+    """The problem with the values of a grid (any shape), or None."""
     if array.size == 0:
         return f"must not be empty, got shape {array.shape}"
     if array.size > MAX_VOXELS:
@@ -87,6 +92,13 @@ def load_density_file(path):
 
     Raises ValueError with a message meant for the user."""
     path = Path(path)
+    if path.suffix.lower() == ".vol":
+        return read_vol(path)[0]
+    return _load_numpy(path, "density")
+
+
+def _load_numpy(path, name):
+    """The array of an .npy file, or of an .npz file the one named `name` (or its only one)."""
     suffix = path.suffix.lower()
     if suffix == ".npy":
         with open(path, "rb") as f:
@@ -95,18 +107,36 @@ def load_density_file(path):
     if suffix == ".npz":
         with np.load(path, allow_pickle=False) as archive:
             keys = list(archive.keys())
-            if "density" in keys:
-                key = "density"
+            if name in keys:
+                key = name
             elif len(keys) == 1:
                 key = keys[0]
             else:
-                raise ValueError(f"holds {len(keys)} arrays ({', '.join(keys)}) and none named 'density'")
+                raise ValueError(f"holds {len(keys)} arrays ({', '.join(keys)}) and none named {name!r}")
             with archive.zip.open(f"{key}.npy") as f:
                 _check_npy_header(f)
             return archive[key]
-    if suffix == ".vol":
-        return read_vol(path)[0]
     raise ValueError(f"unsupported grid format {suffix!r}; valid: {', '.join(GRID_SUFFIXES)}")
+
+
+def load_albedo_file(path):
+    """An albedo grid (nz, ny, nx, channels), channels 1 or 3, from .npy, .npz (key 'albedo', or
+    its only array) or a .vol of 1 or 3 channels; a 3D array is one channel. Raises ValueError
+    with a message meant for the user."""
+    path = Path(path)
+    values = read_vol(path, channels_allowed=(1, 3))[0] if path.suffix.lower() == ".vol" else _load_numpy(path, "albedo")
+    values = np.asarray(values)
+    if values.ndim == 3:
+        values = values[..., None]
+    if values.ndim != 4 or values.shape[3] not in (1, 3):
+        raise ValueError(f"must be a (z, y, x) or (z, y, x, 3) array, got shape {values.shape}")
+    problem = _check_values(values)
+    if problem:
+        raise ValueError(problem)
+    values = values.astype(np.float32)
+    if np.any(values > 1):
+        raise ValueError(f"albedos must be in [0, 1], the largest is {values.max():g}")
+    return values
 
 
 def _check_npy_header(f):
@@ -123,11 +153,11 @@ def _check_npy_header(f):
 _VOL_HEADER = struct.Struct("<3sBiiiii6f")   # magic, version, encoding, x/y/z res, channels, bbox
 
 
-def read_vol(path):
+def read_vol(path, channels_allowed=(1,)):
     """Mitsuba's binary grid: 'VOL', version 3, encoding 1 (float32), xres, yres, zres,
     channels, bounding box (6 floats), then the data with x fastest, then y, z, channels
-    interleaved. Returns (density (nz, ny, nx) float32, bbox (2, 3)). Only single-channel float32
-    grids are densities."""
+    interleaved. Returns (values, bbox (2, 3)): values (nz, ny, nx) float32 for one channel,
+    (nz, ny, nx, channels) for more. Densities have one channel, albedos one or three."""
     data = Path(path).read_bytes()
     if len(data) < _VOL_HEADER.size:
         raise ValueError(f"too short for a .vol header ({len(data)} bytes)")
@@ -138,26 +168,29 @@ def read_vol(path):
         raise ValueError(f"unsupported .vol version {version} (expected 3)")
     if encoding != 1:
         raise ValueError(f"unsupported .vol encoding {encoding} (only 1 = float32)")
-    if channels != 1:
-        raise ValueError(f"a density grid has 1 channel, this .vol has {channels}")
+    if channels not in channels_allowed:
+        raise ValueError(f"this .vol has {channels} channels, expected {' or '.join(map(str, channels_allowed))}")
     if min(nx, ny, nz) < 1:
         raise ValueError(f"invalid .vol resolution {nx} x {ny} x {nz}")
-    count = nx * ny * nz
+    count = nx * ny * nz * channels
     if count > MAX_VOXELS:
-        raise ValueError(f"{nx} x {ny} x {nz} voxels, more than the limit of {MAX_VOXELS}")
+        raise ValueError(f"{nx} x {ny} x {nz} x {channels} values, more than the limit of {MAX_VOXELS}")
     expected = _VOL_HEADER.size + 4 * count
     if len(data) != expected:
-        raise ValueError(f"size {len(data)} bytes does not match {nx} x {ny} x {nz} floats ({expected} bytes)")
+        raise ValueError(f"size {len(data)} bytes does not match {nx} x {ny} x {nz} x {channels} floats "
+                         f"({expected} bytes)")
     values = np.frombuffer(data, dtype="<f4", count=count, offset=_VOL_HEADER.size)
-    return values.reshape(nz, ny, nx).astype(np.float32), np.array(bbox, dtype=float).reshape(2, 3)
+    shape = (nz, ny, nx) if channels == 1 else (nz, ny, nx, channels)
+    return values.reshape(shape).astype(np.float32), np.array(bbox, dtype=float).reshape(2, 3)
 
 
-def write_vol(path, density, bbox=((0, 0, 0), (1, 1, 1))):
-    """Write a (nz, ny, nx) density as a Mitsuba .vol (version 3, float32, 1 channel)."""
-    density = np.ascontiguousarray(density, dtype="<f4")
-    nz, ny, nx = density.shape
-    header = _VOL_HEADER.pack(b"VOL", 3, 1, nx, ny, nz, 1, *np.asarray(bbox, float).ravel())
-    Path(path).write_bytes(header + density.tobytes())
+def write_vol(path, values, bbox=((0, 0, 0), (1, 1, 1))):
+    """Write (nz, ny, nx) values, or (nz, ny, nx, channels), as a Mitsuba .vol (version 3, float32)."""
+    values = np.ascontiguousarray(values, dtype="<f4")
+    nz, ny, nx = values.shape[:3]
+    channels = values.shape[3] if values.ndim == 4 else 1
+    header = _VOL_HEADER.pack(b"VOL", 3, 1, nx, ny, nz, channels, *np.asarray(bbox, float).ravel())
+    Path(path).write_bytes(header + values.tobytes())
 
 
 # --------------------------------------------------------------------------------------------

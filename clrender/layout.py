@@ -137,7 +137,8 @@ EMITTER = _struct(("kind", I4), ("radiance", F4), ("p0", F4), ("e1", F4), ("e2",
 
 # A medium; lanes named in MEDIUM_FIELDS (accessors: kernels/media/medium_record.h).
 MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4), ("resolution", I4),
-                 ("majorant_resolution", I4), ("to_voxel", ("<f4", (3, 4))))
+                 ("majorant_resolution", I4), ("to_voxel", ("<f4", (3, 4))), ("albedo_grid", I4),
+                 ("albedo_resolution", I4))
 
 # name -> (struct member, first lane, lanes). sigma_a, sigma_s: RGB coefficients in 1/length (the
 # scene's scale applied), for a grid medium per unit density (sigma(x) = density(x) sigma).
@@ -145,7 +146,11 @@ MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4),
 # grid buffer; majorant_offset, the first majorant block in the majorant buffer (two floats each,
 # max then min); majorant_block, a block's edge in voxels; resolution, voxels per axis;
 # majorant_resolution, blocks per axis. The member to_voxel holds the three rows of the affine
-# map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz] (kernels/media/grid.h).
+# map world -> voxel coordinates [0, nx] x [0, ny] x [0, nz] (kernels/media/grid.h). A grid medium
+# with an albedo grid: albedo_channels 1 or 3 (0: none; sigma_s / sigma_t is the albedo),
+# albedo_offset its first float in the grid buffer, albedo_resolution its samples per axis (it
+# fills the density grid's unit cube); sigma_s then holds sigma_t and sigma_a 0, and the kernel
+# splits sigma_t by the albedo at each point.
 MEDIUM_FIELDS = {
     "sigma_a": ("sigma_a", 0, 3),
     "sigma_s": ("sigma_s", 0, 3),
@@ -156,6 +161,9 @@ MEDIUM_FIELDS = {
     "majorant_block": ("grid", 3, 1),
     "resolution": ("resolution", 0, 3),
     "majorant_resolution": ("majorant_resolution", 0, 3),
+    "albedo_offset": ("albedo_grid", 0, 1),
+    "albedo_channels": ("albedo_grid", 1, 1),
+    "albedo_resolution": ("albedo_resolution", 0, 3),
 }
 
 # lens: x the aperture radius (0: a pinhole), y the distance of the plane in focus along forward
@@ -179,13 +187,14 @@ RENDER_PARAMS = np.dtype([
     ("camera", CAMERA),
     ("frame", I4),         # width, height, first sample, samples in this pass
     ("config", I4),        # max depth, roulette depth, seed, emitter count
-    ("environment", I4),   # emitter index, image width, image height, hide from camera rays (1/0)
+    ("environment", I4),   # emitter index, image width, image height, hidden from camera rays (HIDDEN_FROM_CAMERA bits)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("volume", F4),        # grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
-    ("sampling", I4),      # x the sampler of camera paths (SAMPLERS)
+    ("sampling", I4),      # x the sampler of camera paths (SAMPLERS); y, z the direct integrator's
+                           # light and BSDF samples per camera hit (0, 0: path tracing)
     ("filter", FILTER),    # the pixel reconstruction filter
 ])
 
@@ -228,6 +237,10 @@ VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
 SAMPLERS = {"independent": 0, "sobol": 1}
 # Pixel reconstruction filters (camera.filter, kernels/filter.h); RenderParams.filter.kind.x.
 PIXEL_FILTERS = {"box": 0, "gaussian": 1, "tent": 2}
+# What camera rays do not see (bits of RenderParams.environment.w, kernels/path.h): the
+# environment (render.hide_environment), and emitting shapes, which they pass through
+# (render.hide_emitters, Mitsuba's hide_emitters: both bits).
+HIDDEN_FROM_CAMERA = {"environment": 1, "emitting_shapes": 2}
 # Textures (Texture.info.x), how their texels are stored (Texture.format.y: 8-bit sRGB-encoded,
 # decoded at lookup; 8-bit linear; float32), filters and wrap modes (Mitsuba's bitmap names).
 TEXTURE_KINDS = {"bitmap": 0, "checkerboard": 1}
@@ -315,7 +328,7 @@ def c_constants():
                           ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
                           ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("TEXTURE", TEXTURE_KINDS),
                           ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS),
-                          ("PIXEL_FILTER", PIXEL_FILTERS)):
+                          ("PIXEL_FILTER", PIXEL_FILTERS), ("HIDE", HIDDEN_FROM_CAMERA)):
         lines += [f"#define {prefix}_{name.upper()} {value}" for name, value in table.items()]
     lines.append(f"#define ALBEDO_TABLE_SIZE {ALBEDO_TABLE_SIZE}")
     lines.append(f"#define COAT_TABLE_SIZE {COAT_TABLE_SIZE}")

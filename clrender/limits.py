@@ -29,6 +29,8 @@ MAX_TRANSFORM_CONDITION = 1e12   # largest / smallest stretch of a transform: be
 MAX_IMAGE_VALUES = 2**29   # width x height x channels of an image file read (textures, environment
                            # maps): 2 GiB as float32, e.g. 16384 x 8192 RGBA; checked before reading
 
+MAX_SHADING_SAMPLES = 1024 # the direct integrator's light or BSDF samples per camera hit: a ray each
+
 MIN_MARCH_STEP = 1e-3       # ray marching's step, in voxels: below, a march takes millions of steps
 MAX_LOCAL_WORKERS = 1024   # processes of a local Dask cluster, each with its own device context
 

@@ -18,7 +18,7 @@ starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_dep
 `volpath` at `depth > rr_depth`, so volpath gets rr_depth - 1.
 
 Only what has an exact Mitsuba counterpart is exported: diffuse, emissive, smooth dielectric,
-smooth conductor and index-matched interfaces; homogeneous and grey grid media with
+smooth conductor and index-matched interfaces; homogeneous and grey grid media (albedo grids too) with
 Henyey-Greenstein phase; constant environments, point, spot and directional lights. Anything else
 raises ValueError naming the object.
 """
@@ -153,12 +153,18 @@ def _medium(medium, index, asset_dir):
                          "Mitsuba 3 counterpart (its heterogeneous medium scales one density grid)")
     from .grids import write_vol  # noqa: E402 (only the exporting process needs it)
 
-    path = asset_dir / f"medium_{index}.vol"
-    write_vol(path, medium.grid.density)
-    return {"type": "heterogeneous", "id": f"medium_{index}", "albedo": _rgb(albedo), "scale": float(sigma_t[0]),
-            "sigma_t": {"type": "gridvolume", "filename": str(path.resolve()),
-                        "to_world": np.asarray(medium.grid.to_world, float).tolist()},
-            "phase": phase}
+    def grid_volume(values, name):
+        path = asset_dir / name
+        write_vol(path, values)
+        return {"type": "gridvolume", "filename": str(path.resolve()),
+                "to_world": np.asarray(medium.grid.to_world, float).tolist()}
+
+    if medium.albedo_grid is not None:   # filling the density's unit cube, as in clrender
+        albedo = grid_volume(medium.albedo_grid, f"medium_{index}_albedo.vol")
+    else:
+        albedo = _rgb(albedo)
+    return {"type": "heterogeneous", "id": f"medium_{index}", "albedo": albedo, "scale": float(sigma_t[0]),
+            "sigma_t": grid_volume(medium.grid.density, f"medium_{index}.vol"), "phase": phase}
 
 
 def _light(light, index):

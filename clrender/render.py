@@ -192,7 +192,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["frame"] = (width, height, first_sample, samples)
     # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
     p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))
-    p["environment"] = (arrays.env_index, *arrays.env_size, int(scene.render.hide_environment))
+    p["environment"] = (arrays.env_index, *arrays.env_size, hidden_from_camera(scene.render))
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
     step = settings.step if step is None else step
@@ -202,9 +202,23 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["scene_sphere"] = arrays.scene_sphere
     p["lights"] = (arrays.first_light, 0, 0, 0)
     p["tile"] = (0, 0, width, height) if tile is None else tile
-    p["sampling"] = (sampler_code(scene, sampler), 0, 0, 0)
+    p["sampling"] = (sampler_code(scene, sampler), *direct_samples(scene.render), 0)
     p["filter"] = filters.filter_record(camera.filter)
     return p
+
+
+def hidden_from_camera(settings):
+    """RenderParams.environment.w: the layout.HIDDEN_FROM_CAMERA bits of the render settings."""
+    hidden = layout.HIDDEN_FROM_CAMERA
+    return ((hidden["environment"] if settings.hide_environment or settings.hide_emitters else 0)
+            | (hidden["emitting_shapes"] if settings.hide_emitters else 0))
+
+
+def direct_samples(settings):
+    """RenderParams.sampling.yz: the direct integrator's light and BSDF samples, (0, 0) for path tracing."""
+    if settings.integrator != "direct":
+        return 0, 0
+    return settings.emitter_samples, settings.bsdf_samples
 
 
 def march_notes(scene):
@@ -334,7 +348,7 @@ class Renderer:
 
     @device_errors()
     def render(self, spp=None, seed=None, max_depth=None, rr_depth=None, progress=None,
-               samples_per_pass=None, time_limit=None, aovs=(), denoise=False, denoise_prefilter=False,
+               samples_per_pass=None, time_limit=None, aovs=None, denoise=False, denoise_prefilter=False,
                denoise_keep_emission=False):
         """Render and return a RenderResult. `progress(samples_done, spp, seconds)` is called
         after every launch (samples_done a fraction after a band of rows); `progress=True` shows
@@ -343,8 +357,8 @@ class Renderer:
         fixed by `samples_per_pass` (whole frames); the image does not depend on the split. With
         `time_limit` (seconds of kernel time) rendering stops after the launch that reaches it,
         or at `spp` if given.
-        `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py); they
-        leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
+        `aovs`: names of auxiliary images to return in result.aovs (clrender/aovs.py; None:
+        the scene's render.aovs); they leave the colour bit for bit as it is. `denoise`: the image is denoised by Open Image
         Denoise guided by the albedo and normal AOVs (returned too), result.noisy_image keeps the
         raw one; `denoise_prefilter` denoises the guides first, `denoise_keep_emission` leaves the
         emission AOV out of the filter and adds it back (clrender/denoise.py, docs/denoising.md).
@@ -352,7 +366,9 @@ class Renderer:
         launches completed."""
         limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
-        names, denoising = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
+        self._check_depths(max_depth, rr_depth)
+        names, denoising = output_request(self.scene.render.aovs if aovs is None else aovs, denoise,
+                                          denoise_prefilter, denoise_keep_emission)
         if spp is None and time_limit is None:
             spp = self.scene.render.spp
         width, height = self.scene.camera.resolution
@@ -377,6 +393,7 @@ class Renderer:
         self._check_accumulation(state, samples)
         limits.check_settings(seed=seed, max_depth=max_depth, rr_depth=rr_depth,
                               samples_per_pass=samples_per_pass, time_limit=time_limit)
+        self._check_depths(max_depth, rr_depth)
         settings = self.scene.render
         seed = settings.seed if seed is None else seed
         max_depth = settings.max_depth if max_depth is None else max_depth
@@ -433,6 +450,12 @@ class Renderer:
                                                    aov_buffer, seconds),
                                     getattr(interrupt, "signal", signal.SIGINT)) from None
         return self._download(state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, done)
+
+    def _check_depths(self, max_depth, rr_depth):
+        """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""
+        for name, value in (("max_depth", max_depth), ("rr_depth", rr_depth)):
+            if value is not None and self.scene.render.integrator == "direct":
+                raise ArgumentError(name, "does not apply to the direct integrator (render.integrator 'direct')")
 
     def _check_accumulation(self, state, samples):
         """`state` is an Accumulation of a tile inside the image, and `samples` more keep its

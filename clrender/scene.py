@@ -15,6 +15,7 @@ from . import grids, limits, meshes, textures
 from .errors import ArgumentError, FileError, SceneError
 from .conductor_presets import CONDUCTOR_PRESETS
 from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
+from .aovs import parse_aovs
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "thin_dielectric",
@@ -29,6 +30,7 @@ FILTER_TYPES = ("box", "gaussian", "tent")   # clrender/filters.py
 # narrower than MIN_FILTER_RADIUS of a pixel is a box in all but name.
 MAX_FILTER_RADIUS = 16.0
 MIN_FILTER_RADIUS = 0.01
+INTEGRATORS = ("path", "direct")
 MAX_TOON_BANDS = 32
 MESH_SUFFIXES = (".obj", ".ply", ".serialized", ".gltf", ".glb", ".stl", ".off")
 
@@ -163,6 +165,10 @@ class Medium:
     g: float = 0.0
     type: str = "homogeneous"
     grid: grids.DensityGrid = None   # set for type "grid" only
+    # A grid medium's single-scattering albedo per point: (nz, ny, nx, 1 or 3) float32 in [0, 1]
+    # filling the density grid's unit cube (sigma_s(x) = albedo(x) sigma_t(x)); sigma_s then
+    # holds sigma_t and sigma_a is 0.
+    albedo_grid: np.ndarray = None
 
     @property
     def sigma_t(self):
@@ -192,7 +198,15 @@ class RenderSettings:
     volume_method: str = "null"
     step: float = 2.0
     raymarch_multiple_scattering: bool = True
-    hide_environment: bool = False   # camera rays that escape see black (Mitsuba's hide_emitters)
+    hide_environment: bool = False   # camera rays that escape see black
+    # Mitsuba's hide_emitters: camera rays also pass through emitting shapes (kernels/path.h).
+    hide_emitters: bool = False
+    # "path" (path tracing) or "direct" (Mitsuba's direct integrator: at the first hit,
+    # emitter_samples light samples and bsdf_samples BSDF samples, balanced by MIS; kernels/direct.h).
+    integrator: str = "path"
+    emitter_samples: int = 1
+    bsdf_samples: int = 1
+    aovs: tuple = ()                 # AOVs written with the image unless the render names others
     # Random numbers of camera paths: "sobol" (padded Owen-scrambled Sobol, stratified per
     # pixel) or "independent" (hashed i.i.d. numbers); kernels/rng.h.
     sampler: str = "sobol"
@@ -460,6 +474,7 @@ def load_scene_dict(data, base_dir="."):
     outlines = _read_outlines(root.child("outlines")) if "outlines" in data else Outlines()
     root.finish()
     _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium)
+    _check_direct_integrator(render, materials, media)
     return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium,
                  outlines=outlines, textures=texture_list)
 
@@ -528,10 +543,42 @@ def _read_render(node):
         step=float(node.setting("step", 2.0)),
         raymarch_multiple_scattering=node.boolean("raymarch_multiple_scattering", True),
         hide_environment=node.boolean("hide_environment", False),
+        hide_emitters=node.boolean("hide_emitters", False),
         sampler=node.string("sampler", "sobol", choices=SAMPLERS),
+        integrator=node.string("integrator", "path", choices=INTEGRATORS),
+        aovs=_read_aovs(node),
     )
+    if settings.integrator == "direct":
+        settings.emitter_samples, settings.bsdf_samples = (
+            node.number(key, 1, low=0, high=limits.MAX_SHADING_SAMPLES, integer=True)
+            for key in ("emitter_samples", "bsdf_samples"))
+        if settings.emitter_samples + settings.bsdf_samples == 0:
+            raise SceneError(node.at("emitter_samples"), "and bsdf_samples are both 0: the direct integrator "
+                                                         "needs a sample of one technique")
     node.finish()
     return settings
+
+
+def _check_direct_integrator(render, materials, media):
+    """The direct integrator renders surfaces lit by emitters, as Mitsuba's: no media (Mitsuba's
+    ignores them) and no toon shading (a path-tracer vertex of its own)."""
+    if render.integrator != "direct":
+        return
+    if media or any(m.type == "interface" or m.index_matched for m in materials):
+        raise SceneError("render.integrator", "'direct' renders no media: remove the media and interfaces "
+                                              "(index-matched dielectrics are interfaces), or use 'path'")
+    if any(m.type == "toon" for m in materials):
+        raise SceneError("render.integrator", "'direct' does not render toon materials: use 'path'")
+
+
+def _read_aovs(node):
+    value = node.raw("aovs", [])
+    if not (isinstance(value, list) and all(isinstance(name, str) for name in value)):
+        raise SceneError(node.at("aovs"), f"must be a list of AOV names, got {limits.show(value)}")
+    try:
+        return parse_aovs(value)
+    except ArgumentError as e:
+        raise SceneError(node.at("aovs"), e.message) from None
 
 
 def _read_material(node, texture_names=()):
@@ -720,7 +767,11 @@ def _medium_reference(node, key, medium_names):
 def _read_medium(node, base_dir):
     name = node.string("name")
     kind = node.string("type", "homogeneous", choices=MEDIUM_TYPES)
-    if "sigma_t" in node.data or "albedo" in node.data:
+    albedo_grid = _read_albedo_grid(node, base_dir, kind) if "albedo_grid" in node.data else None
+    if albedo_grid is not None:
+        sigma_s = node.vector("sigma_t", [1, 1, 1], non_negative=True, allow_scalar=True)
+        sigma_a = np.zeros(3)
+    elif "sigma_t" in node.data or "albedo" in node.data:
         if "sigma_a" in node.data or "sigma_s" in node.data:
             raise SceneError(node.where, "give either sigma_a and sigma_s, or sigma_t and albedo")
         sigma_t = node.vector("sigma_t", non_negative=True, allow_scalar=True)
@@ -740,7 +791,34 @@ def _read_medium(node, base_dir):
     node.finish()
     sigma_a, sigma_s = sigma_a * scale, sigma_s * scale
     limits.float32_values(sigma_a + sigma_s, node.where, SceneError)   # the product with `scale`
-    return Medium(name, sigma_a, sigma_s, float(g), kind, grid)
+    return Medium(name, sigma_a, sigma_s, float(g), kind, grid, albedo_grid)
+
+
+def _read_albedo_grid(node, base_dir, kind):
+    """A grid medium's `albedo_grid` ({"file": ...}, 1 or 3 channels in [0, 1]), with `sigma_t`."""
+    where = node.at("albedo_grid")
+    if kind != "grid":
+        raise SceneError(where, "only a grid medium takes an albedo grid")
+    if any(key in node.data for key in ("albedo", "sigma_a", "sigma_s")):
+        raise SceneError(where, "replaces `albedo`: give `sigma_t` only (the albedo grid splits it)")
+    file_node = node.child("albedo_grid")
+    albedo = _load_grid_file(file_node, base_dir, grids.load_albedo_file)
+    file_node.finish()
+    return np.ascontiguousarray(albedo)
+
+
+def _load_grid_file(node, base_dir, load):
+    """`load(path)` of the grid file named by node.file (SceneError naming it if that fails)."""
+    path = (base_dir / node.string("file")).resolve()
+    if path.suffix.lower() not in grids.GRID_SUFFIXES:
+        raise SceneError(node.at("file"), f"unsupported grid format {path.suffix!r}; "
+                                          f"valid: {', '.join(grids.GRID_SUFFIXES)}")
+    if not path.is_file():
+        raise SceneError(node.at("file"), f"file not found: {path}")
+    try:
+        return load(path)
+    except Exception as e:  # numpy and struct raise many types for malformed files
+        raise SceneError(node.at("file"), f"cannot load grid {path}: {e}") from None
 
 
 def _read_grid(node, base_dir):
@@ -761,16 +839,8 @@ def _read_density(node, base_dir):
     if ("file" in node.data) == ("procedural" in node.data):
         raise SceneError(node.where, "give either a `file` or a `procedural` generator")
     if "file" in node.data:
+        density = _load_grid_file(node, base_dir, grids.load_density_file)
         path = (base_dir / node.string("file")).resolve()
-        if path.suffix.lower() not in grids.GRID_SUFFIXES:
-            raise SceneError(node.at("file"), f"unsupported grid format {path.suffix!r}; "
-                                              f"valid: {', '.join(grids.GRID_SUFFIXES)}")
-        if not path.is_file():
-            raise SceneError(node.at("file"), f"file not found: {path}")
-        try:
-            density = grids.load_density_file(path)
-        except Exception as e:  # numpy and struct raise many types for malformed files
-            raise SceneError(node.at("file"), f"cannot load grid {path}: {e}") from None
         node.finish()
         return density, path.name
     name = node.string("procedural", choices=tuple(grids.PROCEDURAL))

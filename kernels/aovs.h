@@ -17,8 +17,8 @@
 //     the front face of an emitter: its emission, scaled down to a maximum component of 1 when
 //       brighter (its hue; OIDN wants albedos in [0, 1]);
 //     the back of a one-sided material: 0 (it is black);
-//     a scattering point in a medium: its single-scattering albedo sigma_s / sigma_t (the same at
-//       any density of a grid medium);
+//     a scattering point in a medium: its single-scattering albedo sigma_s / sigma_t there (the
+//       same at any density of a grid medium, unless it has an albedo grid);
 //     an escaped ray: the environment's radiance scaled like an emitter's (0 without one, and
 //       for camera rays when the environment is hidden from them).
 //   normal = the unit shading normal on the side the path arrived from (facing the camera for
@@ -41,7 +41,7 @@
 #include "lights.h"
 #include "materials/material.h"
 #include "materials/bsdf.h"
-#include "media/medium_record.h"
+#include "media/medium.h"
 
 // What one path sample records (filled at most once, by the first non-delta vertex).
 typedef struct {
@@ -91,15 +91,15 @@ void aov_record_surface(AovSample* aov, const Material* m, const SurfacePoint* s
                emits ? throughput * emission : (float3)(0.0f));
 }
 
-// A real scattering event in a medium.
-void aov_record_medium(AovSample* aov, __global const Medium* md, float3 throughput, float eta_scale) {
+#if MEDIA
+// A real scattering event at p in a medium.
+void aov_record_medium(AovSample* aov, const Scene* scene, int medium, float3 p, float3 throughput,
+                       float eta_scale) {
     if (!AOVS || aov->found) return;
-    float3 sigma_t = medium_sigma_t(md), sigma_s = medium_sigma_s(md);
-    float3 albedo = (float3)(sigma_t.x > 0.0f ? sigma_s.x / sigma_t.x : 0.0f,
-                             sigma_t.y > 0.0f ? sigma_s.y / sigma_t.y : 0.0f,
-                             sigma_t.z > 0.0f ? sigma_s.z / sigma_t.z : 0.0f);
-    aov_record(aov, aov_filter(throughput, eta_scale) * albedo, (float3)(0.0f), (float3)(0.0f));
+    aov_record(aov, aov_filter(throughput, eta_scale) * medium_albedo(scene, medium, p), (float3)(0.0f),
+               (float3)(0.0f));
 }
+#endif
 
 // A ray leaving the scene; `visible`: whether the colour shows the environment there (not to
 // camera rays when it is hidden from them).

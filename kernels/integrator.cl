@@ -9,6 +9,7 @@
 #include "scene.h"
 #include "aovs.h"
 #include "path.h"
+#include "direct.h"
 #include "aux_buffers.h"
 
 KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
@@ -30,7 +31,8 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
         Rng rng = rng_for_path((uint)pixel, (uint)s, (uint)params->config.z, params->sampling.x);
         CameraSample camera = sample_camera(params, x, y, &rng);
         AovSample aov = aov_sample_none();
-        float3 radiance = trace_path(&scene, camera.ray, &rng, &aov) * camera.weight;
+        float3 radiance = (direct_integrator(&scene) ? trace_direct(&scene, camera.ray, &rng, &aov)
+                                                     : trace_path(&scene, camera.ray, &rng, &aov)) * camera.weight;
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         bool finite = isfinite(radiance.x) && isfinite(radiance.y) && isfinite(radiance.z);
         discarded += finite ? 0 : 1;

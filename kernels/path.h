@@ -52,8 +52,10 @@ INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const Surf
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
+// Next-event estimation at a surface point. bsdf_share scales the BSDF technique's pdf in the
+// MIS weight: 1 for one sample of each, n_bsdf / n_light in the direct integrator (direct.h).
 INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                           int medium, Rng* rng) {
+                           int medium, float bsdf_share, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float3 f = eval_bsdf(scene, m, sp, wo, ls.wi);
@@ -65,8 +67,15 @@ INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfaceP
     float pdf_ratio;
     float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
-    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(scene, m, sp, wo, ls.wi) * pdf_ratio);
+    float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(scene, m, sp, wo, ls.wi) * pdf_ratio * bsdf_share);
     return f * tr * ls.radiance * (weight / ls.pdf_w);
+}
+
+// Mitsuba's hide_emitters (RenderParams.environment.w & HIDE_EMITTING_SHAPES): camera rays pass
+// through emitting shapes, whichever side they hit, as if they were not there; paths that
+// scattered before still see them.
+bool hidden_from_camera(const Scene* scene, const SurfacePoint* sp) {
+    return (scene->params->environment.w & HIDE_EMITTING_SHAPES) != 0 && sp->emitter >= 0;
 }
 
 // Survive with probability equal to the throughput without the eta^2 radiance scaling of
@@ -94,9 +103,9 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     // must use, or it would kill paths for being inside glass (pbrt-v4's etaScale).
     float eta_scale = 1.0f;
     int medium = -1;
+    int null_crossings = 0;   // index-matched boundaries and hidden emitters passed
 #if MEDIA
     medium = scene->params->media.x;
-    int null_crossings = 0;
 #endif
     int depth = 1;
     while (depth <= max_depth) {
@@ -113,7 +122,8 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #if MEDIA
         if (medium >= 0) {
             MediumSample ms = sample_medium(scene, medium, flight, ray, found ? hit.t : INFINITY, rng);
-            if (ms.event == MEDIUM_EVENT_SCATTER) aov_record_medium(aov, scene->media + medium, throughput, eta_scale);
+            if (ms.event == MEDIUM_EVENT_SCATTER)
+                aov_record_medium(aov, scene, medium, ray.origin + ms.t * ray.direction, throughput, eta_scale);
             throughput *= ms.weight;
             prev_pdf_w *= ms.pdf_ratio;
             if (ms.event == MEDIUM_EVENT_ABSORB || is_black(throughput)) break;
@@ -135,14 +145,23 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #endif
         if (!found) {
             aov_record_escape(aov, scene, ray.direction, throughput, eta_scale,
-                              depth > 1 || scene->params->environment.w == 0);
-            // RenderParams.environment.w (render.hide_environment): camera rays that escape,
-            // through null boundaries or not, see black; the environment still lights the scene.
-            if (depth > 1 || scene->params->environment.w == 0)
+                              depth > 1 || (scene->params->environment.w & HIDE_ENVIRONMENT) == 0);
+            // RenderParams.environment.w & HIDE_ENVIRONMENT (render.hide_environment): camera
+            // rays that escape, through null boundaries or not, see black; the environment still
+            // lights the scene.
+            if (depth > 1 || (scene->params->environment.w & HIDE_ENVIRONMENT) == 0)
                 radiance += throughput * escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
             break;
         }
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
+        if (depth == 1 && hidden_from_camera(scene, &sp)) {
+#if MEDIA
+            medium = medium_beyond(&sp);
+#endif
+            ray.origin = spawn_ray_origin(&sp, ray.direction);
+            if (++null_crossings > MAX_NULL_CROSSINGS) break;
+            continue;
+        }
         Material m = surface_material(scene, &sp);
 #if MEDIA
         if (material_is_interface(&m)) {
@@ -167,7 +186,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             break;
         }
 #endif
-        if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, rng);
+        if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, 1.0f, rng);
 
         BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;

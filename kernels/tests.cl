@@ -48,6 +48,7 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = OFFSET(md, sigma_a); out[k++] = OFFSET(md, sigma_s); out[k++] = OFFSET(md, params);
     out[k++] = OFFSET(md, grid); out[k++] = OFFSET(md, resolution);
     out[k++] = OFFSET(md, majorant_resolution); out[k++] = OFFSET(md, to_voxel);
+    out[k++] = OFFSET(md, albedo_grid); out[k++] = OFFSET(md, albedo_resolution);
     out[k++] = sizeof(Camera);
     out[k++] = OFFSET(c, origin); out[k++] = OFFSET(c, forward); out[k++] = OFFSET(c, right);
     out[k++] = OFFSET(c, up); out[k++] = OFFSET(c, lens);
@@ -309,14 +310,19 @@ Scene media_scene(__constant RenderParams* params, __global const Medium* media,
     return scene;
 }
 
-// Density of grid medium points[i].w at world point points[i].xyz.
+// Density (x) and albedo (yzw; 0 without an albedo grid) of grid medium points[i].w at world
+// point points[i].xyz.
 KERNEL void grid_lookup(__constant RenderParams* params, __global const Medium* media,
                         __global const float* grid_data, __global const float* majorant_data,
-                        __global const float4* points, __global float* out) {
+                        __global const float4* points, __global float4* out) {
     int i = get_global_id(0);
     Scene scene = media_scene(params, media, grid_data, majorant_data);
     __global const Medium* m = media + (int)points[i].w;
-    out[i] = grid_density(&scene, m, world_to_voxel(m, points[i].xyz));
+    float3 v = world_to_voxel(m, points[i].xyz);
+    float3 albedo = medium_has_albedo_grid(m) ? grid_albedo(&scene, m, v) : (float3)(0.0f);
+    // Lane by lane: Oclgrind's uninitialised-value checker crashes on the shuffle that
+    // (float4)(float, float3) makes of a float3's undefined fourth lane.
+    out[i] = (float4)(grid_density(&scene, m, v), albedo.x, albedo.y, albedo.z);
 }
 
 // The majorant segments of ray i (at most max_segments: (t0, t1, d_max, d_min)), their count,

@@ -43,6 +43,7 @@ typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } 
 typedef struct {
     float4 sigma_a; float4 sigma_s; float4 params;
     int4 grid; int4 resolution; int4 majorant_resolution; float4 to_voxel[3];
+    int4 albedo_grid; int4 albedo_resolution;
 } Medium;
 
 // right/up are pre-scaled by tan(fov/2) (and the aspect ratio), so a pixel's direction is
@@ -61,13 +62,14 @@ typedef struct {
     int4 frame;        // x width, y height, z first sample index of this pass, w samples in pass
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
     int4 environment;  // x emitter index (-1: none), y image width, z image height,
-                       // w hide the environment from camera rays (1/0)
+                       // w what camera rays do not see (HIDE_* bits: path.h)
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
-    int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h)
+    int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h); y, z the direct
+                       // integrator's light and BSDF samples per camera hit (0, 0: path tracing)
     Filter filter;     // the pixel reconstruction filter (filter.h)
 } RenderParams;
 

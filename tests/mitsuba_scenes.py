@@ -9,12 +9,14 @@ from clrender.image import save_image
 
 
 def _scene(body, integrator="path", max_depth=8, origin="0 1.2 5", target="0 -0.2 0", fov=36,
-           hide_emitters=False, sensor="perspective", lens=""):
+           hide_emitters=False, sensor="perspective", lens="", properties=None):
+    """`properties`: the integrator's, instead of max_depth."""
+    properties = properties or f'<integer name="max_depth" value="{max_depth}"/>'
     return f"""<scene version="3.0.0">
     <default name="spp" value="16"/>
     <default name="res" value="16"/>
     <integrator type="{integrator}">
-        <integer name="max_depth" value="{max_depth}"/>
+        {properties}
         <boolean name="hide_emitters" value="{str(hide_emitters).lower()}"/>
     </integrator>
     <sensor type="{sensor}">{lens}
@@ -98,14 +100,19 @@ def homogeneous_medium():
     </shape>""", integrator="volpath", max_depth=16)
 
 
-def grid_medium(use_grid_bbox=False):
-    """A grid whose unit cube is placed at [-0.9, 0.9]^3 (above the floor) either by to_world or
-    by the .vol file's own bounding box (use_grid_bbox), inside a null cube of the same size."""
-    placement = ("""<boolean name="use_grid_bbox" value="true"/>""" if use_grid_bbox else """
+def _grid_placement(use_grid_bbox):
+    """A gridvolume's unit cube at [-0.9, 0.9]^3: by to_world, or by the .vol file's own box."""
+    return ("""<boolean name="use_grid_bbox" value="true"/>""" if use_grid_bbox else """
                 <transform name="to_world">
                     <scale value="1.8"/>
                     <translate value="-0.9, -0.9, -0.9"/>
                 </transform>""")
+
+
+def grid_medium(use_grid_bbox=False, albedo='<rgb name="albedo" value="0.95, 0.9, 0.8"/>', g=-0.3,
+                integrator="volpathmis"):
+    """A grid whose unit cube is placed at [-0.9, 0.9]^3 (above the floor) either by to_world or
+    by the .vol file's own bounding box (use_grid_bbox), inside a null cube of the same size."""
     return _scene(FLOOR + SUN + SKY + f"""
     <shape type="cube">
         <transform name="to_world">
@@ -114,15 +121,89 @@ def grid_medium(use_grid_bbox=False):
         <bsdf type="null"/>
         <medium type="heterogeneous" name="interior">
             <volume type="gridvolume" name="sigma_t">
-                <string name="filename" value="cloud.vol"/>{placement}
+                <string name="filename" value="cloud.vol"/>{_grid_placement(use_grid_bbox)}
             </volume>
-            <rgb name="albedo" value="0.95, 0.9, 0.8"/>
+            {albedo}
             <float name="scale" value="6"/>
             <phase type="hg">
-                <float name="g" value="-0.3"/>
+                <float name="g" value="{g}"/>
             </phase>
         </medium>
-    </shape>""", integrator="volpathmis", max_depth=16)
+    </shape>""", integrator=integrator, max_depth=16)
+
+
+def grid_albedo(rgb=True, texture=False):
+    """grid_medium with an albedo grid of its own resolution: RGB placed by to_world, or one
+    channel placed by the files' bounding boxes; or that RGB grid inside a volume texture, which
+    Mitsuba evaluates at the world origin only."""
+    albedo = f"""<volume type="gridvolume" name="{'volume' if texture else 'albedo'}">
+                <string name="filename" value="{'albedo_rgb.vol' if rgb else 'albedo_grey.vol'}"/>{_grid_placement(not rgb)}
+            </volume>"""
+    if texture:
+        albedo = f"""<texture type="volume" name="albedo">{albedo}</texture>"""
+    return grid_medium(use_grid_bbox=not rgb, albedo=albedo, g=0.3, integrator="volpath")
+
+
+def direct(emitter_samples, bsdf_samples, hide_emitters=False):
+    """Mitsuba's direct integrator on Veach's MIS test: emitting spheres of four sizes above rough
+    conductors from sharp to blurry, a mirror ball (emitters seen in it through BSDF samples) and a
+    sky. No point light: Mitsuba 3.9 counts a delta light emitter_samples times (docs/mitsuba-xml.md)."""
+    spheres = "".join(f"""
+    <shape type="sphere">
+        <point name="center" x="{x}" y="1.4" z="-0.8"/>
+        <float name="radius" value="{radius}"/>
+        <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter>
+    </shape>""" for x, radius, radiance in ((-1.5, 0.04, "300, 250, 200"), (-0.5, 0.12, "40, 40, 40"),
+                                            (0.5, 0.3, "5, 6, 7"), (1.5, 0.6, "1.2, 1, 0.8")))
+    plates = "".join(f"""
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="1.8" y="0.3"/>
+            <rotate x="1" angle="{angle}"/>
+            <translate y="{y}" z="{z}"/>
+        </transform>
+        <bsdf type="roughconductor">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="{alpha}"/>
+        </bsdf>
+    </shape>""" for y, z, angle, alpha in ((-0.9, 1.2, -70, 0.01), (-0.7, 0.6, -60, 0.05),
+                                           (-0.45, 0.0, -50, 0.15), (-0.15, -0.6, -40, 0.4)))
+    properties = (f'<integer name="emitter_samples" value="{emitter_samples}"/>'
+                  f'<integer name="bsdf_samples" value="{bsdf_samples}"/>')
+    return _scene(FLOOR + SKY + spheres + plates + """
+    <shape type="sphere">
+        <point name="center" x="1.6" y="-0.6" z="0.8"/>
+        <float name="radius" value="0.4"/>
+        <bsdf type="conductor"/>
+    </shape>""", integrator="direct", properties=properties, origin="0 1 5", target="0 0 0", fov=45,
+                  hide_emitters=hide_emitters)
+
+
+def hidden_emitters():
+    """hide_emitters with emitting shapes seen directly (one of them from behind) and in a mirror:
+    camera rays pass through them, the mirror and the lit floor still show them."""
+    return _scene(FLOOR + SKY + """
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale value="0.4"/>
+            <translate x="-0.6" y="0" z="0.5"/>
+        </transform>
+        <emitter type="area"><rgb name="radiance" value="6, 5, 4"/></emitter>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="0.3" y="0.1" z="0.3"/>
+        <float name="radius" value="0.3"/>
+        <boolean name="flip_normals" value="true"/>
+        <emitter type="area"><rgb name="radiance" value="2, 3, 4"/></emitter>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale value="0.8"/>
+            <rotate y="1" angle="-150"/>
+            <translate x="0.4" y="0" z="-1.2"/>
+        </transform>
+        <bsdf type="conductor"/>
+    </shape>""", hide_emitters=True)
 
 
 def environment_map(hide_emitters=False):
@@ -446,6 +527,13 @@ SCENES = {
     "meshes": meshes,
     "plastic_spheres": plastic_spheres,
     "textured_plastic": textured_plastic,
+    "grid_albedo_rgb": grid_albedo,
+    "grid_albedo_grey": lambda: grid_albedo(rgb=False),
+    "grid_albedo_texture": lambda: grid_albedo(texture=True),
+    "direct_mis": lambda: direct(2, 3),
+    "direct_emitter_samples": lambda: direct(3, 0),
+    "direct_bsdf_samples": lambda: direct(0, 2, hide_emitters=True),
+    "hidden_emitters": hidden_emitters,
 }
 
 
@@ -466,6 +554,12 @@ def cloud_density(resolution=(12, 10, 8)):
     return (ball * (0.3 + 1.4 * x) * (0.6 + 0.8 * z)).astype(np.float32)
 
 
+def cloud_albedo(resolution=(5, 7, 3)):
+    """RGB albedos at another resolution than the cloud's: red to blue along x, darker along y."""
+    x, y, z = grids.voxel_centres(resolution)
+    return np.stack([0.95 - 0.8 * x, 0.3 + 0.4 * z, 0.15 + 0.8 * x * (1 - 0.5 * y)], axis=-1).astype(np.float32)
+
+
 def write(folder, name):
     """Write scene `name` and its data files into `folder`; returns the XML path."""
     ball = trimesh.creation.icosphere(subdivisions=3)
@@ -474,6 +568,9 @@ def write(folder, name):
     save_image(sky_image(), folder / "sky.exr")
     # The bounding box is where the to_world variant places the unit cube.
     grids.write_vol(folder / "cloud.vol", cloud_density(), bbox=((-0.9,) * 3, (0.9,) * 3))
+    albedo = cloud_albedo()
+    grids.write_vol(folder / "albedo_rgb.vol", albedo, bbox=((-0.9,) * 3, (0.9,) * 3))
+    grids.write_vol(folder / "albedo_grey.vol", albedo[..., 1], bbox=((-0.9,) * 3, (0.9,) * 3))
     path = folder / f"{name}.xml"
     path.write_text(SCENES[name]())
     return path

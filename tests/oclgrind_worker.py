@@ -16,6 +16,7 @@ import json
 import sys
 import time
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pyopencl as cl
@@ -58,13 +59,31 @@ def run_combination(case, device):
     packets = features["LANES"] > 1
     info = render(scene, device, method, aovs=SAMPLE_AOVS if features["AOVS"] else (), packets=packets)
     # Run-time switches, on a quarter of the pixels: ray marching's other next-event path (one
-    # light sample per segment instead of per step), and hero-only free-flight sampling.
+    # light sample per segment instead of per step), hero-only free-flight sampling, an albedo
+    # grid, emitters hidden from the camera and the direct integrator (surfaces only).
     small, _ = feature_scene(features, (4, 4))
     if method == "raymarch":
         info = add(info, render(small, device, method, launches=1, raymarch_multiple_scattering=True))
     if features["MEDIA"]:
         info = add(info, render(small, device, method, launches=1, spectral_mis=False))
+    if features["GRID_MEDIA"]:
+        info = add(info, render(with_albedo_grid(small), device, method, launches=1,
+                                aovs=SAMPLE_AOVS if features["AOVS"] else ()))
+    if not packets:
+        small.render = replace(small.render, hide_emitters=True)
+        info = add(info, render(small, device, method, launches=1))
+    if not (packets or features["MEDIA"] or features["TOON"]):
+        small.render = replace(small.render, integrator="direct", emitter_samples=2, bsdf_samples=3)
+        info = add(info, render(small, device, launches=1))
     return info
+
+
+def with_albedo_grid(scene):
+    """`scene` with an RGB albedo grid (another resolution than the density's) in its grid medium."""
+    cloud = next(medium for medium in scene.media if medium.grid is not None)
+    cloud.albedo_grid = np.random.default_rng(5).uniform(0.2, 1.0, (3, 2, 4, 3)).astype(np.float32)
+    cloud.sigma_a, cloud.sigma_s = np.zeros(3), cloud.sigma_t
+    return scene
 
 
 def run_scene(case, device):
@@ -178,7 +197,7 @@ def run_test_kernels(case, device):
         cloud = [m.name for m in scene.media].index("cloud")
         points = float4(rng.uniform(-1.5, 1.5, (n, 3)))
         points[:, 3] = cloud   # grid_lookup reads grid media only; the fog is walked below
-        kernel("grid_lookup")(queue, (n,), None, params, *media, upload(context, points), *outputs(context, n))
+        kernel("grid_lookup")(queue, (n,), None, params, *media, upload(context, points), *outputs(context, (n, 4)))
         kernel("majorant_walk")(queue, (n,), None, params, *media, np.int32(cloud), upload(context, cam_origins), upload(context, cam_dirs),
                                 np.float32(10.0), np.int32(8), np.int32(2), np.uint32(1),
                                 *outputs(context, (n, 8, 4), n, (n, 2)))
@@ -189,6 +208,10 @@ def run_test_kernels(case, device):
             # Delta tracking serves grid media only (homogeneous media are sampled analytically).
             if features["GRID_MEDIA"] == layout.VOLUME_METHODS["null"] and medium == cloud:
                 kernel("delta_pass_estimates")(queue, (n,), None, *args, *outputs(context, (n, 4)))
+        albedo = build_scene_arrays(with_albedo_grid(scene))
+        albedo_media = [upload(context, a) for a in (albedo.media, albedo.grid_data, albedo.majorant_data)]
+        kernel("grid_lookup")(queue, (n,), None, params, *albedo_media, upload(context, points),
+                              *outputs(context, (n, 4)))
     if features["TEXTURES"]:
         run_texture_kernels(context, queue, kernel, rng)
     queue.finish()

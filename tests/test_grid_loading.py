@@ -106,6 +106,45 @@ def test_malformed_grid_files_are_reported(tmp_path):
         assert text.startswith("media[0].density"), text
 
 
+def test_albedo_grids_load_from_vol_npy_and_npz(tmp_path):
+    albedo = np.random.default_rng(2).uniform(0, 1, (3, 4, 5, 3)).astype(np.float32)
+    grids.write_vol(tmp_path / "rgb.vol", albedo)
+    grids.write_vol(tmp_path / "grey.vol", albedo[..., 0])
+    np.save(tmp_path / "rgb.npy", albedo)
+    np.savez(tmp_path / "grey.npz", albedo=albedo[..., 0], other=np.ones(2))
+    for name, expected in (("rgb.vol", albedo), ("grey.vol", albedo[..., :1]), ("rgb.npy", albedo),
+                           ("grey.npz", albedo[..., :1])):
+        data = grid_scene({"procedural": "constant", "resolution": [2, 2, 2]}, {"albedo_grid": {"file": name}})
+        data["media"][0].pop("albedo")
+        medium = clrender.load_scene_dict(data, base_dir=tmp_path).media[0]
+        assert np.array_equal(medium.albedo_grid, expected), name
+        assert np.allclose(medium.sigma_s, 2.0) and np.all(medium.sigma_a == 0)
+
+
+def test_invalid_albedo_grids_are_reported(tmp_path):
+    grids.write_vol(tmp_path / "bright.vol", np.full((2, 2, 2, 3), 1.5))
+    grids.write_vol(tmp_path / "two.vol", np.ones((2, 2, 2, 2)))
+    np.save(tmp_path / "flat.npy", np.ones((4, 4)))
+    density = {"procedural": "constant", "resolution": [2, 2, 2]}
+
+    def error(medium, pop_albedo=True):
+        data = grid_scene(density, medium)
+        if pop_albedo:
+            data["media"][0].pop("albedo")
+        return error_of(data, tmp_path)
+
+    assert error({"albedo_grid": {"file": "bright.vol"}}) == (
+        f"media[0].albedo_grid.file: cannot load grid {tmp_path / 'bright.vol'}: albedos must be in [0, 1], the largest is 1.5")
+    assert "this .vol has 2 channels, expected 1 or 3" in error({"albedo_grid": {"file": "two.vol"}})
+    assert "must be a (z, y, x) or (z, y, x, 3) array" in error({"albedo_grid": {"file": "flat.npy"}})
+    assert error({"albedo_grid": {"file": "none.vol"}}).startswith("media[0].albedo_grid.file: file not found")
+    assert error({"albedo_grid": {"file": "bright.vol"}}, pop_albedo=False) == (
+        "media[0].albedo_grid: replaces `albedo`: give `sigma_t` only (the albedo grid splits it)")
+    homogeneous = {"name": "fog", "sigma_t": 1.0, "albedo_grid": {"file": "bright.vol"}}
+    assert error_of({"camera": camera(), "media": [homogeneous]}, tmp_path) == (
+        "media[0].albedo_grid: only a grid medium takes an albedo grid")
+
+
 def test_a_grid_medium_must_be_placed_where_it_can_be_seen():
     data = grid_scene({"procedural": "constant", "resolution": [2, 2, 2]}, top_level=False)
     assert "used nowhere" in error_of(data) and error_of(data).startswith("media[0]:")

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import clrender
-from clrender import cie, grids, limits, meshes, mitsuba
+from clrender import cie, grids, layout, limits, meshes, mitsuba
 from clrender.arrays import build_scene_arrays
 from clrender.mitsuba import MitsubaXmlError, MitsubaXmlWarning
 
@@ -201,15 +201,73 @@ def test_meshes_without_area_are_skipped_with_a_warning_at_the_xml_element(tmp_p
     ('<integrator type="volpathmis"><integer name="rr_depth" value="0"/></integrator>', {"max_depth": limits.MAX_DEPTH, "rr_depth": 1}),
     ('<integrator type="path"><integer name="rr_depth" value="0"/></integrator>', {"max_depth": limits.MAX_DEPTH, "rr_depth": 1}),
     ('<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>',
-     {"max_depth": limits.MAX_DEPTH, "rr_depth": 5, "hide_environment": True}),
+     {"max_depth": limits.MAX_DEPTH, "rr_depth": 5, "hide_emitters": True}),
+    ('<integrator type="direct"/>', {"integrator": "direct", "emitter_samples": 1, "bsdf_samples": 1}),
+    ('<integrator type="direct"><integer name="shading_samples" value="3"/><integer name="bsdf_samples" value="0"/>'
+     '<boolean name="hide_emitters" value="true"/></integrator>',
+     {"integrator": "direct", "emitter_samples": 3, "bsdf_samples": 0, "hide_emitters": True}),
+    ('<integrator type="moment"><integrator type="volpath"><integer name="max_depth" value="6"/></integrator>'
+     '</integrator>', {"max_depth": 6, "rr_depth": 6, "aovs": ["variance"]}),
+    ('<integrator type="aov"><string name="aovs" value="dd.y:depth, nn:sh_normal,gg:geo_normal"/>'
+     '<integrator type="path" name="my_image"/></integrator>',
+     {"max_depth": limits.MAX_DEPTH, "rr_depth": 5, "aovs": ["normal", "depth"]}),
+    ('<integrator type="moment"><integrator type="aov"><string name="aovs" value="al:albedo,si:shape_index"/>'
+     '<integrator type="direct"/></integrator></integrator>',
+     {"integrator": "direct", "emitter_samples": 1, "bsdf_samples": 1, "aovs": ["albedo", "variance", "object_id"]}),
 ])
 def test_integrators(tmp_path, integrator, expected):
     scene, _ = translate(tmp_path, integrator)
     assert {k: v for k, v in scene["render"].items() if k not in ("spp", "seed", "sampler")} == expected
 
 
+def test_integrator_wrappers_note_their_aovs_and_warn_how_they_differ(tmp_path):
+    body = ('<integrator type="aov"><string name="aovs" value="dd.y:depth"/><integrator type="path"/>'
+            '</integrator>')
+    translation = mitsuba.read_scene(write(tmp_path, body))
+    assert translation.warnings == [
+        f"scene.xml:{line_of(body, 'aov')} <integrator type='aov'>: AOV 'dd.y:depth' is written as clrender's "
+        "'depth' layer: the planar depth (along the view axis) at the pixel centre, inf where nothing is hit; "
+        "Mitsuba's is the distance along each ray, averaged, 0 there"]
+    assert any("<integrator type='aov'> -> render.aovs: depth" in note for note in translation.notes)
+    with pytest.warns(MitsubaXmlWarning, match="AOV 'dd.y:depth'"):
+        assert clrender.load_scene(tmp_path / "scene.xml").render.aovs == ("depth",)
+
+
+def test_ptracer_renders_by_path_tracing_with_a_warning(tmp_path):
+    scene, warned = translate(tmp_path, '<integrator type="ptracer"><integer name="max_depth" value="6"/>'
+                                        '<integer name="samples_per_pass" value="4"/></integrator>')
+    assert scene["render"]["max_depth"] == 6 and scene["render"]["rr_depth"] == 5
+    assert len(warned) == 1 and "rendered by path tracing" in warned[0] and "smooth mirrors and glass" in warned[0]
+
+
+def test_hide_emitters_with_area_emitters_hides_the_shapes_from_camera_rays(tmp_path):
+    scene, _ = translate(tmp_path, '<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>'
+                                   '<shape type="rectangle"><emitter type="area"/></shape>')
+    assert scene["render"]["hide_emitters"] is True
+    assert clrender.load_scene(tmp_path / "scene.xml").render.hide_emitters
+
+
 @pytest.mark.parametrize("integrator,message", [
-    ('<integrator type="bdpt"/>', "unsupported integrator 'bdpt' (supported: path, volpath, volpathmis)"),
+    ('<integrator type="bdpt"/>', "unsupported integrator 'bdpt' (supported: path, volpath, volpathmis, ptracer, "
+                                  "direct, moment, aov); Mitsuba too renders it only with a plugin of that name"),
+    ('<integrator type="statistical_integrator"><integrator type="aov"><string name="aovs" value="a:albedo"/>'
+     '<integrator type="path"/></integrator></integrator>', "<integrator type='statistical_integrator'>: unsupported"),
+    ('<integrator type="moment"><integrator type="path_guiding_integrator"/></integrator>',
+     "<integrator type='path_guiding_integrator'>: unsupported integrator"),
+    ('<integrator type="direct"><integer name="emitter_samples" value="0"/><integer name="bsdf_samples" value="0"/>'
+     '</integrator>', "emitter_samples and bsdf_samples are both 0"),
+    ('<integrator type="direct"><integer name="shading_samples" value="-1"/></integrator>',
+     "shading_samples must be in 0..1024, got -1"),
+    ('<integrator type="direct"><integer name="max_depth" value="2"/></integrator>',
+     "parameter 'max_depth' of scene.xml:9 <integrator type='direct'> is not supported"),
+    ('<integrator type="aov"><string name="aovs" value="pp:position"/><integrator type="path"/></integrator>',
+     "AOV 'pp:position': clrender writes the types albedo, sh_normal, geo_normal, depth, shape_index"),
+    ('<integrator type="aov"><string name="aovs" value="depth"/><integrator type="path"/></integrator>',
+     "AOV 'depth': clrender writes the types"),
+    ('<integrator type="aov"><string name="aovs" value="d:depth"/></integrator>',
+     "clrender renders the colour of one nested integrator, this aov integrator has 0"),
+    ('<integrator type="moment"><integrator type="path"/><integrator type="volpath"/></integrator>',
+     "this moment integrator has 2"),
     ('<integrator type="path"><integer name="max_depth" value="0"/></integrator>', "max_depth 0 renders a black image"),
     ('<integrator type="path"><integer name="max_depth" value="-3"/></integrator>', "max_depth must be -1"),
     ('<integrator type="path"><integer name="rr_depth" value="-1"/></integrator>', "rr_depth must be >= 0"),
@@ -217,8 +275,6 @@ def test_integrators(tmp_path, integrator, expected):
     ('<integrator type="path"><integer name="max_depth" valeu="2"/></integrator>',   # found by test_fuzz
      "<integer name='max_depth'>: missing attribute 'value'"),
     ('<integrator type="path"/><integrator type="path"/>', "only one <integrator>"),
-    ('<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>'
-     '<shape type="rectangle"><emitter type="area"/></shape>', "hide_emitters with area emitters is not supported"),
 ])
 def test_integrator_errors(tmp_path, integrator, message):
     assert message in error_of(tmp_path, integrator)
@@ -757,9 +813,12 @@ def test_emitter_errors(tmp_path, body, message):
 
 
 def test_hide_emitters_hides_the_environment(tmp_path):
-    scene, _ = translate(tmp_path, '<integrator type="path"><boolean name="hide_emitters" value="true"/>'
-                                   '</integrator><emitter type="constant"/>')
-    assert scene["render"]["hide_environment"] is True
+    from clrender.render import hidden_from_camera
+
+    translate(tmp_path, '<integrator type="path"><boolean name="hide_emitters" value="true"/>'
+                        '</integrator><emitter type="constant"/>')
+    settings = clrender.load_scene(tmp_path / "scene.xml").render
+    assert hidden_from_camera(settings) == layout.HIDDEN_FROM_CAMERA["environment"] | layout.HIDDEN_FROM_CAMERA["emitting_shapes"]
 
 
 # ============================================================================================
@@ -814,6 +873,41 @@ def test_grid_medium_from_a_vol_file(tmp_path):
         assert np.allclose(loaded.sigma_s, 3 * np.array([0.9, 0.8, 0.7]))
 
 
+def test_grid_albedo_from_a_vol_file(tmp_path):
+    # An RGB albedo grid of its own resolution, placed as the density grid is (here by both files'
+    # bounding boxes): the grid medium's albedo_grid; sigma_t splits by it in the kernel.
+    box = ((1, 2, 3), (2, 4, 6))
+    grids.write_vol(tmp_path / "smoke.vol", np.ones((3, 4, 5)), bbox=box)
+    albedo = np.random.default_rng(5).uniform(0, 1, (2, 3, 2, 3)).astype(np.float32)
+    grids.write_vol(tmp_path / "albedo.vol", albedo, bbox=box)
+    bbox = '<boolean name="use_grid_bbox" value="true"/>'
+    medium = (f'<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"><string name="filename" '
+              f'value="smoke.vol"/>{bbox}</volume><volume type="gridvolume" name="albedo"><string name="filename" '
+              f'value="albedo.vol"/>{bbox}</volume><float name="scale" value="2"/></medium>')
+    scene, _ = translate(tmp_path, '<integrator type="volpath"/>', sensor=SENSOR.replace("</sensor>", medium + "</sensor>"))
+    assert scene["media"][0]["albedo_grid"] == {"file": str((tmp_path / "albedo.vol").resolve())}
+    assert "albedo" not in scene["media"][0]
+    loaded = clrender.load_scene(tmp_path / "scene.xml").media[0]
+    assert np.array_equal(loaded.albedo_grid, albedo)
+    assert np.allclose(loaded.sigma_s, 2) and np.all(loaded.sigma_a == 0)
+
+
+def test_a_volume_texture_as_albedo_is_its_value_at_the_origin(tmp_path):
+    # Mitsuba 3.9 wraps a texture given as a medium's albedo in a constvolume that evaluates it at
+    # a zeroed interaction (its render equals that constant's: tests/test_mitsuba_parity.py).
+    values = np.zeros((2, 2, 2, 3), np.float32)
+    values[..., 0] = [[[0.1, 0.3], [0.1, 0.3]], [[0.1, 0.3], [0.1, 0.3]]]   # red along x
+    values[..., 1:] = 0.5
+    grids.write_vol(tmp_path / "albedo.vol", values)
+    texture = ('<texture type="volume" name="albedo"><volume type="gridvolume" name="volume"><string '
+               'name="filename" value="albedo.vol"/><transform name="to_world"><scale value="4"/>'
+               '<translate x="-1" y="-2" z="-2"/></transform></volume></texture>')
+    scene, warned = translate(tmp_path, medium_scene(f'<medium type="homogeneous">{texture}</medium>'))
+    # The origin is at unit x 0.25, the first sample's centre: 0.1.
+    assert np.allclose(scene["media"][0]["albedo"], [0.1, 0.5, 0.5])
+    assert len(warned) == 1 and "its value at the world origin, (0.1, 0.5, 0.5)" in warned[0]
+
+
 @pytest.mark.parametrize("medium,message", [
     ('<medium type="sparse"/>', "unsupported medium 'sparse' (supported: homogeneous, heterogeneous)"),
     ('<medium type="homogeneous"><float name="sigma_a" value="1"/><float name="sigma_t" value="1"/></medium>',
@@ -830,14 +924,25 @@ def test_grid_medium_from_a_vol_file(tmp_path):
     ('<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>'
      '<float name="max_value" value="3"/></volume></medium>', "max_value is not supported"),
     ('<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>'
-     '</volume><volume type="gridvolume" name="albedo"><string name="filename" value="g.vol"/></volume></medium>',
-     "only constant albedo"),
+     '</volume><volume type="gridvolume" name="albedo"><string name="filename" value="g.vol"/>'
+     '<transform name="to_world"><scale value="2"/></transform></volume></medium>',
+     "the albedo grid must be placed as the sigma_t grid is"),
+    ('<medium type="heterogeneous"><volume type="gridvolume" name="albedo"><string name="filename" value="g.vol"/>'
+     '</volume></medium>', "a grid albedo needs a gridvolume sigma_t"),
+    ('<medium type="heterogeneous"><texture type="checkerboard" name="albedo"/></medium>',
+     "unsupported texture 'checkerboard' for a medium's albedo"),
+    ('<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>'
+     '</volume><volume type="gridvolume" name="albedo"><string name="filename" value="big.vol"/></volume></medium>',
+     "albedos must be in [0, 1], the largest is 2"),
+    ('<medium type="homogeneous"><float name="sigma_t" value="1"/><float name="sigma_a" value="1"/></medium>',
+     "give either sigma_t and albedo, or sigma_a and sigma_s"),
     ('<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"><string name="filename" value="g.npy"/>'
      '</volume></medium>', "file not found: g.npy"),
     ('<medium type="heterogeneous"><volume type="grid3d" name="sigma_t"/></medium>', "unsupported volume 'grid3d'"),
 ])
 def test_medium_errors(tmp_path, medium, message):
     grids.write_vol(tmp_path / "g.vol", np.ones((2, 2, 2)))
+    grids.write_vol(tmp_path / "big.vol", np.full((2, 2, 2, 3), 2.0))
     assert message in error_of(tmp_path, medium_scene(medium))
 
 

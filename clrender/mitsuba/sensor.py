@@ -76,7 +76,7 @@ def read_sensor(plugin, reader):
     else:
         camera["medium"] = None
         if media:
-            reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `path` integrator ignores media")
+            reader.warn(f"{media[0].element.where()}: ignored, as Mitsuba's `{reader.integrator}` integrator ignores media")
     lens_note = (f", thin lens of aperture radius {lens['aperture_radius']:g} focused at {lens['focus_distance']:g}"
                  if lens else "")
     reader.note(plugin, "camera", f"{width} x {height}, vertical fov {fov_y:.6g} deg{lens_note}, {spp} spp, "

@@ -63,14 +63,13 @@ def read_shape(plugin, reader):
     emission = None
     if emitters:
         emission = read_area_emitter(emitters[0], reader)
-        reader.has_area_emitters = True
     bsdfs = plugin.nested("bsdf")
     if len(bsdfs) > 1:
         raise plugin.error("a shape takes at most one BSDF")
     bsdf = bsdfs[0] if bsdfs else None
     shape["material"] = _material(bsdf, reader, emission, emitters[0].element.where() if emitters else None)
     if bsdf is not None and bsdf.type == "null" and reader.ignore_media:
-        raise bsdf.error("the null BSDF needs integrator volpath or volpathmis (Mitsuba's path "
+        raise bsdf.error(f"the null BSDF needs integrator volpath or volpathmis (Mitsuba's {reader.integrator} "
                          "integrator lets rays through it but blocks shadow rays)")
     plugin.finish()
     reader.out.scene["shapes"].append(shape)
@@ -108,7 +107,7 @@ def _read_shape_media(plugin, reader, shape):
         shape["interior"] = read_medium(interior, reader) if interior else None
         shape["exterior"] = read_medium(exterior, reader) if exterior else None
     elif interior or exterior:
-        reader.warn(f"{plugin.element.where()}: interior/exterior media ignored, as Mitsuba's `path` "
+        reader.warn(f"{plugin.element.where()}: interior/exterior media ignored, as Mitsuba's `{reader.integrator}` "
                     "integrator ignores media")
 
 

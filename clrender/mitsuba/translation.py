@@ -19,7 +19,7 @@ from ..loader import LoadedScene
 from ..origins import Origins, located
 from ..scene import load_scene_dict
 from .emitter import read_emitter
-from .integrator import read_integrator
+from .integrator import check_direct_delta_lights, read_integrator
 from .medium import check_media_nesting
 from .plugin import Plugin
 from .sensor import read_sensor
@@ -54,8 +54,8 @@ class Reader:
         self.material_names = {}   # (id() of the BSDF element or None, emission or None) -> name
         self.texture_names = {}    # id() of the texture element -> name
         self.medium_names = {}     # id() of the medium element -> name
-        self.ignore_media = False  # Mitsuba's `path` integrator renders without media
-        self.has_area_emitters = False
+        self.integrator = "path"    # the type of the integrator that renders the colour
+        self.ignore_media = False  # Mitsuba's `path`, `ptracer` and `direct` render without media
 
     def warn(self, message):
         self.out.warnings.append(message)
@@ -99,10 +99,8 @@ def read_scene(path, parameters=None):
     for tag, read in SCENE_PLUGINS.items():
         for element in by_tag.get(tag, []):
             read(Plugin(element, ids), reader)
-    if reader.out.scene["render"].get("hide_environment") and reader.has_area_emitters:
-        raise integrators[0].error(
-            "hide_emitters with area emitters is not supported: Mitsuba makes emitting shapes "
-            "transparent to camera rays, clrender only hides the environment")
+    if integrators:
+        check_direct_delta_lights(reader, integrators[0])
     return reader.out
 
 

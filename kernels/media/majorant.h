@@ -111,10 +111,13 @@ bool majorant_next(const Scene* scene, __global const Medium* m, MajorantIterato
     return false;
 }
 
+// Voxel coordinates of distance t along the iterator's ray.
+float3 majorant_ray_voxel(const MajorantIterator* it, float t) { return it->voxel_origin + t * it->voxel_dir; }
+
 // Density at distance t along the iterator's ray.
 float majorant_ray_density(const Scene* scene, __global const Medium* m, const MajorantIterator* it,
                            float t) {
-    return medium_is_grid(m) ? grid_density(scene, m, it->voxel_origin + t * it->voxel_dir) : 1.0f;
+    return medium_is_grid(m) ? grid_density(scene, m, majorant_ray_voxel(it, t)) : 1.0f;
 }
 
 #endif

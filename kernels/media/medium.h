@@ -9,7 +9,7 @@
 //                          pass, the ratio of the segment's transmittance pdfs (unidirectional
 //                          over light technique) that MIS needs
 //   medium_transmittance   transmittance of a shadow segment, and the same pdf ratio
-//   sample_medium_phase, eval_medium_phase, medium_scatters_once, medium_beyond
+//   sample_medium_phase, eval_medium_phase, medium_scatters_once, medium_beyond, medium_albedo
 //
 // A homogeneous medium is always sampled analytically (media/homogeneous.h). Grid media use the
 // one estimator compiled in: GRID_MEDIA picks the implementation of sample_grid_medium,
@@ -70,6 +70,18 @@ float3 medium_transmittance(const Scene* scene, int medium, float3 origin, float
     if (medium_is_grid(m)) return grid_transmittance(scene, m, origin, dir, t_max, rng, pdf_ratio);
 #endif
     return homogeneous_transmittance(m, t_max, pdf_ratio);
+}
+
+// The single-scattering albedo sigma_s / sigma_t at p (per channel, 0 where sigma_t is 0).
+float3 medium_albedo(const Scene* scene, int medium, float3 p) {
+    __global const Medium* m = scene->media + medium;
+    float3 sigma_a = medium_sigma_a(m), sigma_s = medium_sigma_s(m);
+#if GRID_MEDIA
+    if (medium_is_grid(m)) grid_coefficients(scene, m, world_to_voxel(m, p), 1.0f, &sigma_a, &sigma_s);
+#endif
+    float3 sigma_t = sigma_a + sigma_s;
+    return (float3)(sigma_t.x > 0.0f ? sigma_s.x / sigma_t.x : 0.0f, sigma_t.y > 0.0f ? sigma_s.y / sigma_t.y : 0.0f,
+                    sigma_t.z > 0.0f ? sigma_s.z / sigma_t.z : 0.0f);
 }
 
 // Whether a path ends after the light sample at a scattering vertex in this medium (ray

@@ -15,6 +15,11 @@ int medium_majorant_offset(__global const Medium* m) { return m->grid.z; }
 int medium_majorant_block(__global const Medium* m) { return m->grid.w; }
 int3 medium_resolution(__global const Medium* m) { return m->resolution.xyz; }
 int3 medium_majorant_resolution(__global const Medium* m) { return m->majorant_resolution.xyz; }
+int medium_albedo_offset(__global const Medium* m) { return m->albedo_grid.x; }
+int medium_albedo_channels(__global const Medium* m) { return m->albedo_grid.y; }
+int3 medium_albedo_resolution(__global const Medium* m) { return m->albedo_resolution.xyz; }
+
+bool medium_has_albedo_grid(__global const Medium* m) { return medium_albedo_channels(m) > 0; }
 
 float3 medium_sigma_t(__global const Medium* m) { return medium_sigma_a(m) + medium_sigma_s(m); }
 

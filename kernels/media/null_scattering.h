@@ -97,7 +97,6 @@ float mixture_pdf_ratio(float3 pu, float log_u, float3 pl, float log_l) {
 // (weight f / p and the pdf ratio for MIS). *collisions: tentative collisions (for the tests).
 MediumSample delta_tracking_sample(const Scene* scene, __global const Medium* m, Ray ray, float t_max,
                                    bool spectral_mis, Rng* rng, int* collisions) {
-    float3 sigma_a = medium_sigma_a(m), sigma_s = medium_sigma_s(m);
     int h = sample_hero(rng);
     RatioProduct u_ratio = ratio_one();   // prod sigma_kind,c / sigma_kind,h: p_u,c / p_u,h
     RatioProduct l_ratio = ratio_one();   // prod sigma_r,c / sigma_n,h over the null vertices
@@ -108,7 +107,8 @@ MediumSample delta_tracking_sample(const Scene* scene, __global const Medium* m,
     CollisionWalk w = collision_walk(scene, m, ray.origin, ray.direction, t_max, h, false);
     while (next_collision(scene, m, &w, rng)) {
         float3 sigma_maj = walk_sigma_maj(&w);
-        float3 s_a = w.density * sigma_a, s_s = w.density * sigma_s;
+        float3 s_a, s_s;
+        grid_coefficients(scene, m, majorant_ray_voxel(&w.blocks, w.t), w.density, &s_a, &s_s);
         float3 s_n = fmax(sigma_maj - s_a - s_s, (float3)(0.0f));
         // The vertex kind, with the hero's probabilities sigma_kind,h / sigma_maj,h.
         float u = rng_float(rng) * channel(sigma_maj, h);

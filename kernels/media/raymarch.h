@@ -108,8 +108,11 @@ MediumSample sample_grid_medium(const Scene* scene, __global const Medium* m, Ra
     while (depth < limit && march_next(scene, m, &mr)) {
         float step_depth = mr.density * mr.dt;
         if (depth + step_depth > target) {
+            float t = mr.t + (target - depth) / mr.density;
+            float3 sigma_a;   // per unit density, where the albedo grid (if any) is read
+            grid_coefficients(scene, m, majorant_ray_voxel(&mr.blocks, t), 1.0f, &sigma_a, &sigma_s);
             MediumSample s = free_flight_sample(sigma_t, sigma_s, target, true, hero, spectral_mis);
-            s.t = mr.t + (target - depth) / mr.density;
+            s.t = t;
             return s;
         }
         depth += step_depth;

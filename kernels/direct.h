@@ -1,0 +1,73 @@
+// Mitsuba's direct integrator (render.integrator "direct"; RenderParams.sampling.y, .z): the
+// camera ray's first surface is lit by n_l light samples and n_b BSDF samples, each sample
+// weighted by the power heuristic over the two techniques' pdfs times their sample counts
+// (Veach's multi-sample MIS) and divided by its own count; nothing else, no indirect light and
+// no media. Emitters and the environment are seen directly (unless hidden from the camera) and
+// through the BSDF samples, so also in smooth mirrors and glass, one bounce deep.
+#ifndef CLRENDER_DIRECT_H
+#define CLRENDER_DIRECT_H
+#include "rng.h"
+#include "scene.h"
+#include "materials/material.h"
+#include "materials/textured_params.h"
+#include "materials/bsdf.h"
+#include "aovs.h"
+#include "path.h"
+
+bool direct_integrator(const Scene* scene) {
+    return scene->params->sampling.y + scene->params->sampling.z > 0;
+}
+
+// The emission one BSDF sample from sp finds, MIS-weighted against n_light light samples.
+float3 direct_bsdf_sample(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                          int n_light, int n_bsdf, Rng* rng) {
+    BsdfSample bs = sample_bsdf(scene, m, sp, wo, rng);
+    if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) return (float3)(0.0f);
+    // The power heuristic is scale-invariant: the pdf times n_b / n_l weighs the counts; without
+    // light samples the BSDF sample has the whole weight, as a delta one.
+    bool alone = bs.delta || n_light == 0;
+    float pdf_w = alone ? 0.0f : bs.pdf_w * ((float)n_bsdf / (float)n_light);
+    float3 origin = spawn_ray_origin(sp, bs.wi);
+    Hit hit;
+    if (!intersect_scene(scene, origin, bs.wi, INFINITY, &hit))
+        return bs.weight * escaped_radiance(scene, bs.wi, pdf_w, alone);
+    SurfacePoint light = surface_point(scene, &hit, bs.wi);
+    Material lm = surface_material(scene, &light);
+    return bs.weight * emitted_radiance(scene, &lm, &light, sp->p, bs.wi, pdf_w, alone);
+}
+
+// The radiance of one camera sample, as Mitsuba's direct integrator estimates it.
+float3 trace_direct(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
+    int n_light = scene->params->sampling.y, n_bsdf = scene->params->sampling.z;
+    bool hide_environment = (scene->params->environment.w & HIDE_ENVIRONMENT) != 0;
+    Hit hit;
+    SurfacePoint sp;
+    for (int crossing = 0;; ++crossing) {
+        if (!intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit)) {
+            aov_record_escape(aov, scene, ray.direction, (float3)(1.0f), 1.0f, !hide_environment);
+            return hide_environment ? (float3)(0.0f) : escaped_radiance(scene, ray.direction, 0.0f, true);
+        }
+        sp = surface_point(scene, &hit, ray.direction);
+        if (!hidden_from_camera(scene, &sp)) break;
+        if (crossing == MAX_NULL_CROSSINGS) return (float3)(0.0f);
+        ray.origin = spawn_ray_origin(&sp, ray.direction);
+    }
+    Material m = surface_material(scene, &sp);
+    if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, (float3)(1.0f), 1.0f);
+    float3 radiance = emitted_radiance(scene, &m, &sp, ray.origin, ray.direction, 0.0f, true);
+    float3 wo = -ray.direction;
+    if (!material_is_delta(&m) && n_light > 0) {
+        float3 lit = (float3)(0.0f);
+        for (int i = 0; i < n_light; ++i)
+            lit += direct_light(scene, &m, &sp, wo, -1, (float)n_bsdf / (float)n_light, rng);
+        radiance += lit / (float)n_light;
+    }
+    if (n_bsdf > 0) {
+        float3 found = (float3)(0.0f);
+        for (int i = 0; i < n_bsdf; ++i) found += direct_bsdf_sample(scene, &m, &sp, wo, n_light, n_bsdf, rng);
+        radiance += found / (float)n_bsdf;
+    }
+    return radiance;
+}
+
+#endif
