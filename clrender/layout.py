@@ -59,13 +59,16 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #   back_material: the material seen from behind (Mitsuba's twosided with two BSDFs), -1: this one.
 #   albedo_tables: offset of the material's tables in Scene.specular_albedo (-1: none: smooth, or
 #     `energy_compensation` off; kernels/materials/energy.h).
-#   normal_map, bump_map: texture indices (-1: none) that bend the shading normal.
+#   normal_map, bump_map: texture indices (-1: none) that bend the shading normal (Mitsuba's
+#     normalmap and bumpmap, kernels/materials/shading_maps.h); bump_scale: the height's factor.
+#   masked: 1 when this material or its back material may let light through (opacity below 1 or
+#     from a texture): shadow rays that hit it look at its opacity (kernels/materials/mask.h).
 #   emission: radiance of an emitting material (textured: w).
 #   color (textured): albedo (diffuse), tint (dielectric: transmission, conductor: reflectance),
 #     base colour (toon), transmittance (interface).
 #   alpha (textured): the microfacet width of rough lobes (dielectric, conductor).
 #   ior / exterior_ior: indices of refraction inside and outside (dielectric).
-#   opacity (textured): the fraction of light the surface stops (1: opaque); bump_scale.
+#   opacity (textured): the fraction of light the surface stops (1: opaque; Mitsuba's mask).
 #   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
 #     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
 #     factor, band count and softness, highlight size, softness and colour, rim width, colour and
@@ -77,6 +80,7 @@ MATERIAL_FIELDS = {
     "albedo_tables": ("kind", 3, 1),
     "normal_map": ("maps", 0, 1),
     "bump_map": ("maps", 1, 1),
+    "masked": ("maps", 2, 1),
     "emission": ("emission", 0, 3),
     "color": (("slot", 0), 0, 3),
     "alpha": (("slot", 1), 0, 1),

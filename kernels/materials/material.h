@@ -12,6 +12,7 @@ int material_back_material(const Material* m) { return m->kind.z; }
 int material_albedo_tables(const Material* m) { return m->kind.w; }
 int material_normal_map(const Material* m) { return m->maps.x; }
 int material_bump_map(const Material* m) { return m->maps.y; }
+int material_masked(const Material* m) { return m->maps.z; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
 float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
@@ -38,6 +39,9 @@ lane_int material_kind_at(__global const Material* materials, lane_int index) {
 }
 lane_int material_one_sided_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD_INT(materials, index, .kind.y);
+}
+lane_int material_masked_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD_INT(materials, index, .maps.z);
 }
 lane_float3 material_color_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD3(materials, index, .slot[0]);
