@@ -18,7 +18,7 @@ starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_dep
 `volpath` at `depth > rr_depth`, so volpath gets rr_depth - 1.
 
 Only what has an exact Mitsuba counterpart is exported: diffuse, emissive, smooth dielectric,
-smooth conductor and index-matched interfaces; homogeneous and grey grid media with
+smooth conductor and index-matched interfaces, without textures or surface wrappers; homogeneous and grey grid media with
 Henyey-Greenstein phase; constant environments, point and directional lights. Anything else
 raises ValueError naming the object.
 """
@@ -88,6 +88,10 @@ def _sensor(scene, spp):
 
 def _bsdf(material):
     kind = material.type
+    if material.textures or material.opacity < 1 or material.bump_map >= 0 or material.normal_map >= 0 \
+            or material.back >= 0:
+        raise ValueError(f"material {material.name!r} has textures or surface wrappers (opacity, bump, "
+                         "normal_map, back), which are not exported")
     if kind in ("diffuse", "emissive"):
         return {"type": "diffuse", "reflectance": _rgb(material.albedo)}
     if kind == "interface":

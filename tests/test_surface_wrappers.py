@@ -447,3 +447,16 @@ def test_xml_wrapper_errors_name_the_element(tmp_path, bsdf, line, message):
     with pytest.raises(MitsubaXmlError) as error:
         read_materials(xml_scene(tmp_path, bsdf, emitter='<emitter type="area"/>' if "null" in bsdf else ""))
     assert f"scene.xml:{line}" in str(error.value) and message in str(error.value), str(error.value)
+
+
+def test_surface_wrappers_are_not_exported_to_mitsuba_as_plain_materials(tmp_path):
+    # mitsuba_export (tools/peers.py) exports only exact counterparts: a mask, map, back or
+    # texture is refused, not dropped.
+    from clrender.mitsuba_export import mitsuba_description
+    for fields in ({"opacity": 0.5}, {"bump": {"texture": "t"}}, {"back": "d"}, {"albedo": {"texture": "t"}}):
+        scene = clrender.load_scene_dict(material_scene({"name": "d", "type": "diffuse"},
+                                                        {"name": "m", "type": "diffuse", **fields}))
+        with pytest.raises(ValueError, match="'m' has textures or surface wrappers"):
+            mitsuba_description(scene, tmp_path)
+    plain = clrender.load_scene_dict(material_scene({"name": "m", "type": "diffuse"}))
+    assert mitsuba_description(plain, tmp_path)["shape_0"]["bsdf"]["type"] == "diffuse"
