@@ -136,8 +136,8 @@ def build_scene_arrays(scene):
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
-    materials = _material_array(scene.materials, scene.textures)
-    used = {shape.material for shape in scene.shapes}
+    materials = _material_array(scene.materials, scene.textures, scale)
+    used = set(scene.used_material_indices())
     # Plastic's coat tables are its model, not a compensation.
     compensated = {i for i, m in enumerate(scene.materials) if m.energy_compensation or m.type == "plastic"}
     table_size, table_materials = _assign_albedo_tables(materials, used & compensated)
@@ -383,7 +383,10 @@ def _info_array(info):
     return out
 
 
-def _material_array(materials, textures=()):
+def _material_array(materials, textures=(), length_scale=1.0):
+    """The Material records; textures: the scene's (plastic's sampling weight reads their means);
+    length_scale: the device's (device_length_scale), by which a bump map's heights scale as the
+    surface's derivatives do."""
     out = np.zeros(len(materials), layout.MATERIAL)
     layout.clear_texture_references(out)
     for i, m in enumerate(materials):
@@ -393,9 +396,12 @@ def _material_array(materials, textures=()):
         record = out[i]
         _set(record, "kind", layout.MATERIAL_KINDS[kind])
         _set(record, "one_sided", int(not m.two_sided))
-        _set(record, "back_material", -1)
-        _set(record, "normal_map", -1)
-        _set(record, "bump_map", -1)
+        _set(record, "back_material", m.back)
+        _set(record, "normal_map", m.normal_map)
+        _set(record, "bump_map", m.bump_map)
+        _set(record, "bump_scale", m.bump_scale * length_scale)
+        _set(record, "opacity", m.opacity)
+        _set(record, "masked", int(any(_lets_light_through(materials[j]) for j in (i, m.back) if j >= 0)))
         _set(record, "emission", m.emission)
         if kind == "interface":   # the transmittance of the boundary
             _set(record, "color", m.tint if m.index_matched else 1.0)
@@ -419,6 +425,11 @@ def _material_array(materials, textures=()):
         for name, texture in m.textures.items():
             layout.set_texture_reference(record, name, texture)
     return out
+
+
+def _lets_light_through(material):
+    """A mask: an opacity below 1, or one from a texture."""
+    return material.opacity < 1 or "opacity" in material.textures
 
 
 def _set(material, name, value):

@@ -25,9 +25,11 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
     kinds of media; TEXTURES a checkerboard floor, an 8-bit sRGB bitmap on the box (mirrored
-    repeats), a textured emitting sphere, and with DIELECTRIC float bitmaps driving the rough
-    mirror's roughness and the rough plastic's (rows of coat tables), the sRGB bitmap its diffuse
-    reflectance. The spheres are analytic (they share BVH leaves with the triangles), or
+    repeats), a textured emitting sphere, a leaf-like panel masked by a bitmap, a bump-mapped and
+    a normal-mapped sphere, a card with different front and back materials, and with DIELECTRIC
+    float bitmaps driving the rough mirror's roughness and the rough plastic's (rows of coat
+    tables), the sRGB bitmap its diffuse reflectance (the card's back then a rough mirror). The
+    spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
     lights and materials (features.packets_cover): their scene keeps only the rectangle light,
     and DIELECTRIC adds the smooth glass only; it needs its features when the renderer asks for
@@ -130,6 +132,7 @@ def _add_textures(textures, materials, shapes, sphere, dielectric):
                   {"name": "glowing", "type": "emissive", "radiance": {"texture": "glow"}}]
     shapes[0]["material"], shapes[1]["material"] = "checked", "painted"
     sphere("glowing", "glowing", [-1.3, 0.8, -0.6], 0.2, transform={"rotate": [30, 0, 10]})
+    _add_surface_wrappers(textures, materials, shapes, sphere, rng, dielectric)
     if dielectric:
         textures.append({"name": "bumps", "type": "bitmap", "image": rng.uniform(0.05, 0.5, (3, 3, 1)).astype(np.float32)})
         rough = next(m for m in materials if m["name"] == "rough_mirror")
@@ -138,6 +141,29 @@ def _add_textures(textures, materials, shapes, sphere, dielectric):
         textures.append({"name": "gloss", "type": "bitmap", "image": rng.uniform(0.1, 0.15, (2, 3, 1)).astype(np.float32)})
         rough_plastic = next(m for m in materials if m["name"] == "rough_plastic")
         rough_plastic.update(alpha={"texture": "gloss"}, diffuse={"texture": "painted"})
+
+
+def _add_surface_wrappers(textures, materials, shapes, sphere, rng, dielectric):
+    """A masked panel between the rectangle light and the floor (an 8-bit opacity bitmap), a
+    bump-mapped and a normal-mapped sphere, and a card whose back is another material."""
+    textures += [{"name": "leaf_mask", "type": "bitmap", "raw": True,
+                  "image": rng.integers(0, 256, (6, 5, 1), dtype=np.uint8)},
+                 {"name": "heights", "type": "bitmap", "image": rng.uniform(0, 0.2, (5, 6)).astype(np.float32)},
+                 {"name": "normals", "type": "bitmap", "raw": True,
+                  "image": rng.integers(96, 256, (4, 4, 3), dtype=np.uint8)}]
+    materials += [{"name": "leaf", "type": "diffuse", "albedo": [0.2, 0.6, 0.1], "opacity": {"texture": "leaf_mask"}},
+                  {"name": "bumpy", "type": "diffuse", "albedo": [0.6, 0.5, 0.4],
+                   "bump": {"texture": "heights", "scale": 0.5}},
+                  {"name": "dented", "type": "diffuse", "albedo": [0.4, 0.5, 0.6], "normal_map": {"texture": "normals"}},
+                  {"name": "card_back", "type": "conductor", "tint": [0.8, 0.6, 0.4], "roughness": 0.4}
+                  if dielectric else {"name": "card_back", "type": "diffuse", "albedo": [0.1, 0.3, 0.7]},
+                  {"name": "card", "type": "diffuse", "albedo": [0.8, 0.2, 0.2], "back": "card_back"}]
+    shapes += [{"name": "leaf", "type": "rectangle", "material": "leaf",
+                "transform": {"scale": 0.5, "rotate": [80, 20, 0], "translate": [0.1, 0.9, 0.1]}},
+               {"name": "card", "type": "rectangle", "material": "card",
+                "transform": {"scale": 0.35, "rotate": [0, 150, 0], "translate": [1.5, -0.5, 0.8]}}]
+    sphere("bumpy", "bumpy", [-0.9, -0.7, 1.0], 0.3)
+    sphere("dented", "dented", [0.6, -0.75, 1.4], 0.25)
 
 
 def _sky(width, height):

@@ -29,8 +29,9 @@ FEATURE_VALUES = {
     # Sample-level AOVs (albedo, normal, colour variance: kernels/aovs.h): decided by the render
     # request, not the scene, so that colour-only renders carry none of their code.
     "AOVS": (0, 1),
-    # Surface detail: uv at hits, and textures driving material parameters (kernels/textures/,
-    # materials/textured_params.h).
+    # Surface detail: uv at hits, textures driving material parameters (kernels/textures/,
+    # materials/textured_params.h), masks, bump and normal maps, back materials (materials/mask.h,
+    # materials/shading_maps.h).
     "TEXTURES": (0, 1),
     # Camera paths per work-item (kernels/lanes.h): 8 traces them in the vector lanes of a CPU
     # (kernels/integrator_packets.cl, 1.3-1.4x faster on PoCL: docs/performance.md) for the
@@ -70,10 +71,10 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
     features = {
         "ENVIRONMENT": env_mode,
         "MEDIA": int(_uses_media(scene)),
-        # Only materials some shape uses: an unused toon material cannot be hit.
-        "TOON": int(any(scene.materials[shape.material].type == "toon" for shape in scene.shapes)),
-        # Only materials that some shape uses: an unused glass definition costs no kernel code.
-        "DIELECTRIC": int(any(_is_specular(scene.materials[shape.material]) for shape in scene.shapes)),
+        # Only materials some shape shows: an unused toon material cannot be hit.
+        "TOON": int(any(m.type == "toon" for m in scene.used_materials())),
+        # Only materials that some shape shows: an unused glass definition costs no kernel code.
+        "DIELECTRIC": int(any(_is_specular(m) for m in scene.used_materials())),
         "GRID_MEDIA": VOLUME_METHODS[method] if any(m.type == "grid" for m in scene.media) else 0,
         "AOVS": int(bool(sample_aovs)),
         "TEXTURES": int(scene_uses_textures(scene)),

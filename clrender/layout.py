@@ -79,7 +79,11 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #     alphas of the first and last rows of the rough coat's tables, coat_alpha_rows their count
 #     (1 for a constant alpha; a textured one spans the texture's values, clrender/plastic.py;
 #     0: a smooth coat).
-#   opacity (textured): the fraction of light the surface stops (1: opaque); bump_scale.
+#   normal_map, bump_map: (above) Mitsuba's normalmap and bumpmap (kernels/materials/shading_maps.h);
+#     bump_scale: the height's factor.
+#   masked: 1 when this material or its back material may let light through (opacity below 1 or
+#     from a texture): shadow rays that hit it look at its opacity (kernels/materials/mask.h).
+#   opacity (textured): the fraction of light the surface stops (1: opaque; Mitsuba's mask).
 #   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
 #     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
 #     factor, band count and softness, highlight size, softness and colour, rim width, colour and
@@ -107,6 +111,7 @@ MATERIAL_FIELDS = {
     "coat_alpha_rows": (("slot", 5), 0, 1),
     "opacity": (("slot", 12), 0, 1),
     "bump_scale": (("slot", 12), 1, 1),
+    "masked": (("slot", 12), 2, 1),
     "toon_shadow_color": (("slot", 3), 0, 3),
     "toon_shadow_factor": (("slot", 4), 0, 1),
     "toon_bands": (("slot", 4), 1, 1),

@@ -18,8 +18,9 @@ starts at our `rr_depth` in both: Mitsuba's `path` starts it at `depth >= rr_dep
 `volpath` at `depth > rr_depth`, so volpath gets rr_depth - 1.
 
 Only what has an exact Mitsuba counterpart is exported: diffuse, emissive, smooth dielectric,
-smooth conductor and index-matched interfaces; homogeneous and grey grid media (albedo grids too) with
-Henyey-Greenstein phase; constant environments, point, spot and directional lights. Anything else
+smooth conductor and index-matched interfaces, without textures or surface wrappers; homogeneous and grey grid
+media (albedo grids too) with Henyey-Greenstein phase; constant environments, point, spot and directional lights.
+Anything else
 raises ValueError naming the object.
 """
 from pathlib import Path
@@ -95,6 +96,10 @@ def _rfilter(pixel_filter):
 
 def _bsdf(material):
     kind = material.type
+    if material.textures or material.opacity < 1 or material.bump_map >= 0 or material.normal_map >= 0 \
+            or material.back >= 0:
+        raise ValueError(f"material {material.name!r} has textures or surface wrappers (opacity, bump, "
+                         "normal_map, back), which are not exported")
     if kind in ("diffuse", "emissive"):
         return {"type": "diffuse", "reflectance": _rgb(material.albedo)}
     if kind == "interface":

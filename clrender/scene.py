@@ -135,8 +135,17 @@ class Material:
     energy_compensation: bool = True
     # Parameters driven by textures: device field (layout.TEXTURABLE_FIELDS: "color" for the
     # albedo, tint or colour, "alpha" for the roughness as Mitsuba's microfacet width,
-    # "emission") -> index into Scene.textures.
+    # "emission", "opacity") -> index into Scene.textures.
     textures: dict = field(default_factory=dict)
+    # Surface wrappers (Mitsuba's mask, bumpmap, normalmap, twosided with two BSDFs): the fraction
+    # of light the surface stops (the rest passes straight through); a height field (texture
+    # index, -1 none) scaled by bump_scale, or a tangent-space normal map, bending the shading
+    # normal; the material seen from behind (index into Scene.materials, -1: this one).
+    opacity: float = 1.0
+    bump_map: int = -1
+    bump_scale: float = 1.0
+    normal_map: int = -1
+    back: int = -1
 
     @property
     def index_matched(self):
@@ -259,6 +268,14 @@ class Scene:
     @property
     def environment(self):
         return next((light for light in self.lights if light.type == "environment"), None)
+
+    def used_material_indices(self):
+        """The indices of the materials some shape shows: its own and the one seen from behind it."""
+        used = {shape.material for shape in self.shapes}
+        return sorted(used | {self.materials[i].back for i in used if self.materials[i].back >= 0})
+
+    def used_materials(self):
+        return [self.materials[i] for i in self.used_material_indices()]
 
     def bounds(self):
         """(min, max) corners of all geometry; a unit box around the origin if there is none."""
@@ -453,11 +470,14 @@ def load_scene_dict(data, base_dir="."):
     render = _read_render(root.child("render", {}))
     texture_list = [_read_texture(node, base_dir) for node in root.items("textures")]
     texture_names = _unique_names(texture_list, "textures")
-    materials = [_read_material(node, texture_names) for node in root.items("materials")]
+    material_nodes = root.items("materials")
+    material_names = [node.data.get("name") for node in material_nodes]   # `back` may name a later one
+    materials = [_read_material(node, texture_names, material_names) for node in material_nodes]
     names = [m.name for m in materials]
     for i, name in enumerate(names):
         if names.index(name) != i:
             raise SceneError(f"materials[{i}].name", f"duplicate material name {name!r}")
+    _check_back_materials(materials)
     media = [_read_medium(node, base_dir) for node in root.items("media")]
     medium_names = [m.name for m in media]
     for i, name in enumerate(medium_names):
@@ -581,7 +601,7 @@ def _read_aovs(node):
         raise SceneError(node.at("aovs"), e.message) from None
 
 
-def _read_material(node, texture_names=()):
+def _read_material(node, texture_names=(), material_names=()):
     name = node.string("name")
     kind = node.string("type", choices=MATERIAL_TYPES)
     maps = {}
@@ -601,7 +621,8 @@ def _read_material(node, texture_names=()):
         material = Material(name, kind, albedo=np.zeros(3), tint=texturable.color("tint", "color", [1.0] * 3, high=1),
                             roughness=_read_roughness(node, texturable),
                             distribution=node.string("distribution", "ggx", choices=MICROFACET_DISTRIBUTIONS),
-                            masking=node.string("masking", "height_correlated", choices=MASKINGS))
+                            masking=node.string("masking", "height_correlated", choices=MASKINGS),
+                            emission=texturable.color("emission", "emission", [0, 0, 0], allow_scalar=False))
         material.energy_compensation = node.boolean("energy_compensation", "alpha" not in maps)
         if material.energy_compensation and "alpha" in maps:
             raise SceneError(node.at("energy_compensation"), "needs a constant roughness, not a texture")
@@ -617,6 +638,10 @@ def _read_material(node, texture_names=()):
         material = _read_plastic(node, name, texturable)
     else:  # an index-matched boundary: only separates media
         material = Material(name, kind, albedo=np.zeros(3))
+    if kind in ("thin_dielectric", "plastic"):   # emitting, as an area emitter on any BSDF in Mitsuba
+        material.emission = texturable.color("emission", "emission", [0, 0, 0], allow_scalar=False)
+    if kind != "interface":
+        _read_surface_wrappers(node, texturable, material, texture_names, material_names)
     material.textures = maps
     node.finish()
     return material
@@ -659,6 +684,57 @@ def _read_plastic(node, name, texturable):
     return material
 
 
+def _read_surface_wrappers(node, texturable, material, texture_names, material_names):
+    """`opacity`, `bump` or `normal_map`, and `back`, which any surface material may have."""
+    material.opacity = float(texturable.number("opacity", "opacity", 1.0, low=0, high=1))
+    if "bump" in node.data and "normal_map" in node.data:
+        raise SceneError(node.where, "give either bump or normal_map")
+    if "bump" in node.data:
+        bump = node.child("bump")
+        material.bump_map = _texture_index(bump, texture_names)
+        material.bump_scale = float(bump.number("scale", 1.0))
+        bump.finish()
+    if "normal_map" in node.data:
+        normal_map = node.child("normal_map")
+        material.normal_map = _texture_index(normal_map, texture_names)
+        normal_map.finish()
+    if "back" in node.data:
+        back = node.string("back")
+        if back not in material_names:
+            raise SceneError(node.at("back"), f"unknown material {back!r}; defined: "
+                                              f"{', '.join(n for n in material_names if isinstance(n, str))}")
+        material.back = material_names.index(back)
+
+
+def _check_back_materials(materials):
+    """A material seen from behind another (Mitsuba's twosided with two BSDFs) is seen from
+    behind itself: it must reflect from that side (two-sided) and not transmit, as the front."""
+    for index, material in enumerate(materials):
+        if material.back < 0:
+            continue
+        back = materials[material.back]
+        where = f"materials[{index}].back"
+        if material.back == index:
+            raise SceneError(where, "names the material itself")
+        for which in (material, back):
+            if which.type in ("dielectric", "thin_dielectric", "interface"):
+                raise SceneError(where, f"{which.name!r} is a {which.type}: materials with a back must not "
+                                        "transmit, nor their back (Mitsuba's twosided)")
+        if not back.two_sided:
+            raise SceneError(where, f"{back.name!r} is one-sided: seen from behind it would be black")
+        if back.back >= 0:
+            raise SceneError(where, f"{back.name!r} has a back material of its own")
+
+
+def _texture_index(node, texture_names):
+    """The index of the texture that node["texture"] names."""
+    name = node.string("texture")
+    if name not in texture_names:
+        raise SceneError(node.at("texture"), f"unknown texture {name!r}; defined: "
+                                             f"{', '.join(texture_names) or 'none'}")
+    return list(texture_names).index(name)
+
+
 def _read_roughness(node, texturable):
     """`roughness` (perceptual: alpha = roughness^2) or `alpha` (the microfacet width, Mitsuba's;
     a number or a texture), as the roughness."""
@@ -682,12 +758,8 @@ class _TexturableReader:
         if not isinstance(value, dict):
             return False
         reference = self.node.child(key)
-        name = reference.string("texture")
+        self.maps[field] = _texture_index(reference, self.texture_names)
         reference.finish()
-        if name not in self.texture_names:
-            raise SceneError(reference.at("texture"), f"unknown texture {name!r}; defined: "
-                                                      f"{', '.join(self.texture_names) or 'none'}")
-        self.maps[field] = self.texture_names.index(name)
         return True
 
     def color(self, key, field, default=None, high=None, allow_scalar=True):

@@ -96,36 +96,73 @@ def _wrap(index, size, mode):
     return np.clip(index, 0, size - 1)
 
 
-def lookup(texture, uv):
-    """Linear RGB of `texture` at surface uv (..., 2): the reference of textures/texture.h."""
+def _st(texture, uv):
     uv = np.asarray(uv, dtype=np.float64)
-    st = uv @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]
-    if texture.type == "checkerboard":
-        upper = (st - np.floor(st)) > 0.5
-        same = upper[..., 0] == upper[..., 1]
-        return np.where(same[..., None], np.asarray(texture.color0, float), np.asarray(texture.color1, float))
-    values = _as_rgb(_linear(texture.pixels, texture.srgb)).astype(np.float64)
+    return uv @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]
+
+
+def _bilinear_texels(texture, values, st):
+    """The four texels that bilinear filtering blends at st, (v00, v10, v01, v11), and the
+    weights (fx, fy) of the second ones."""
     height, width = values.shape[:2]
-    x, y = st[..., 0] * width, st[..., 1] * height
-    if texture.filter == "nearest":
-        i = _wrap(np.floor(x).astype(np.int64), width, texture.wrap)
-        j = _wrap(np.floor(y).astype(np.int64), height, texture.wrap)
-        return values[j, i]
-    x, y = x - 0.5, y - 0.5
+    x, y = st[..., 0] * width - 0.5, st[..., 1] * height - 0.5
     i0, j0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
     fx, fy = (x - i0)[..., None], (y - j0)[..., None]
     i1, j1 = _wrap(i0 + 1, width, texture.wrap), _wrap(j0 + 1, height, texture.wrap)
     i0, j0 = _wrap(i0, width, texture.wrap), _wrap(j0, height, texture.wrap)
-    return ((values[j0, i0] * (1 - fx) + values[j0, i1] * fx) * (1 - fy)
-            + (values[j1, i0] * (1 - fx) + values[j1, i1] * fx) * fy)
+    return (values[j0, i0], values[j0, i1], values[j1, i0], values[j1, i1]), (fx, fy)
+
+
+def _texel_values(texture):
+    return _as_rgb(_linear(texture.pixels, texture.srgb)).astype(np.float64)
+
+
+def lookup(texture, uv):
+    """Linear RGB of `texture` at surface uv (..., 2): the reference of textures/texture.h."""
+    st = _st(texture, uv)
+    if texture.type == "checkerboard":
+        upper = (st - np.floor(st)) > 0.5
+        same = upper[..., 0] == upper[..., 1]
+        return np.where(same[..., None], np.asarray(texture.color0, float), np.asarray(texture.color1, float))
+    values = _texel_values(texture)
+    height, width = values.shape[:2]
+    if texture.filter == "nearest":
+        i = _wrap(np.floor(st[..., 0] * width).astype(np.int64), width, texture.wrap)
+        j = _wrap(np.floor(st[..., 1] * height).astype(np.int64), height, texture.wrap)
+        return values[j, i]
+    (v00, v10, v01, v11), (fx, fy) = _bilinear_texels(texture, values, st)
+    return (v00 * (1 - fx) + v10 * fx) * (1 - fy) + (v01 * (1 - fx) + v11 * fx) * fy
+
+
+def _as_number(texture, rgb):
+    """RGB values as numbers: a one-channel bitmap's value, else the luminance."""
+    if texture.type == "bitmap" and texture.channels == 1:
+        return rgb[..., 0]
+    return rgb @ LUMINANCE
 
 
 def lookup_number(texture, uv):
     """The texture as a number at uv: a one-channel bitmap's value, else the luminance."""
-    rgb = lookup(texture, uv)
-    if texture.type == "bitmap" and texture.channels == 1:
-        return rgb[..., 0]
-    return rgb @ LUMINANCE
+    return _as_number(texture, lookup(texture, uv))
+
+
+def lookup_number_gradient(texture, uv):
+    """The gradient of lookup_number with respect to uv (..., 2), as Mitsuba 3.9's eval_1_grad
+    defines it: the derivative of the bilinear interpolant within its cell, 0 for nearest
+    filtering and checkerboards (Mitsuba has none for checkerboards); texel differences are
+    multiplied by the transposed to_uv, then by the resolution per axis."""
+    uv = np.asarray(uv, dtype=np.float64)
+    if texture.type == "checkerboard" or texture.filter == "nearest":
+        return np.zeros(uv.shape)
+    values = _texel_values(texture)
+    height, width = values.shape[:2]
+    (f00, f10, f01, f11), (fx, fy) = _bilinear_texels(texture, values, _st(texture, uv))
+    f00, f10, f01, f11 = (_as_number(texture, f)[..., None] for f in (f00, f10, f01, f11))
+    dx = (1 - fy) * (f10 - f00) + fy * (f11 - f01)
+    dy = (1 - fx) * (f01 - f00) + fx * (f11 - f10)
+    matrix = texture.to_uv[:, :2]
+    return np.concatenate([width * (matrix[0, 0] * dx + matrix[1, 0] * dy),
+                           height * (matrix[0, 1] * dx + matrix[1, 1] * dy)], axis=-1)
 
 
 def texture_arrays(textures):
@@ -176,6 +213,13 @@ def srgb8_header():
 
 
 def scene_uses_textures(scene):
-    """Whether a material that some shape uses takes a parameter from a texture: then the scene
-    needs uv at its hits (the TEXTURES feature, clrender/features.py)."""
-    return any(scene.materials[shape.material].textures for shape in scene.shapes)
+    """Whether a material that some shape shows takes a parameter from a texture, lets light
+    through, bends its shading normal or has a back material: the surface detail the TEXTURES
+    feature compiles (clrender/features.py), with uv at the scene's hits."""
+    return any(has_surface_detail(m) for m in scene.used_materials())
+
+
+def has_surface_detail(material):
+    """Textured parameters, an opacity below 1, a bump or normal map, or a back material."""
+    return bool(material.textures or material.opacity < 1 or material.bump_map >= 0
+                or material.normal_map >= 0 or material.back >= 0)

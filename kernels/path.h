@@ -4,7 +4,8 @@
 // depth 1 renders emission only and max depth 2 direct lighting (the convention of Mitsuba).
 // Index-matched boundaries (MATERIAL_INTERFACE: interfaces and index-matched dielectrics) only
 // switch the current medium and transmit their colour (the dielectric's tint, else 1); they are
-// not path vertices. Media are reached only through media/medium.h and media/transport.h.
+// not path vertices, nor is a mask the path passes through (materials/mask.h). Media are reached
+// only through media/medium.h and media/transport.h.
 //
 // MIS weights use the pdf of the technique that did not produce the sample, measured the same
 // way: prev_pdf_w is the directional pdf of the last vertex times the transmittance pdf ratio
@@ -21,6 +22,8 @@
 #include "materials/material.h"
 #include "materials/textured_params.h"
 #include "materials/bsdf.h"
+#include "materials/mask.h"
+#include "materials/shading_maps.h"
 #include "materials/toon.h"
 #include "media/medium.h"
 #include "media/transport.h"
@@ -58,7 +61,7 @@ INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfaceP
                            int medium, float bsdf_share, Rng* rng) {
     LightSample ls = sample_light(scene, sp->p, rng);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
-    float3 f = eval_bsdf(scene, m, sp, wo, ls.wi);
+    float3 f = eval_bsdf(scene, m, sp, wo, ls.wi) * shading_map_factor(m, sp, ls.wi);
     if (is_black(f)) return (float3)(0.0f);
     float3 origin = spawn_ray_origin(sp, ls.wi);
 #if MEDIA
@@ -172,9 +175,20 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             continue;
         }
 #endif
-        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
+#if TEXTURES
+        if (passes_through_mask(&m, rng)) {
+            ray.origin = spawn_ray_origin(&sp, ray.direction);
+#if MEDIA
+            medium = medium_beyond(&sp);
+#endif
+            if (++null_crossings > MAX_NULL_CROSSINGS) break;
+            continue;
+        }
+        bend_shading_normal(scene, &m, &sp, -ray.direction);
+#endif
+        if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, throughput, eta_scale);
         if (depth == max_depth) break;
         float3 wo = -ray.direction;
 #if TOON
@@ -189,6 +203,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
         if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, 1.0f, rng);
 
         BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
+        bs.weight *= shading_map_factor(&m, &sp, bs.wi);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
         throughput *= bs.weight;
         prev_pdf_w = bs.pdf_w;

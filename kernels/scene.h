@@ -55,6 +55,7 @@ typedef struct {
 #if TEXTURES   // (never with LANES > 1: features.py)
     float2 uv;         // texture coordinates, as Mitsuba's (surface_uv)
     float3 dpdu, dpdv; // the surface's derivatives along u and v (kernel lengths per unit uv)
+    float3 ns_unbent;  // ns before a bump or normal map bent it (materials/shading_maps.h)
 #endif
 } SurfacePoint;
 
@@ -64,11 +65,17 @@ bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max,
     return traverse_bvh(scene->nodes, scene->triangles, origin, dir, false, hit);
 }
 
-bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
+// The primitive slot of some surface (any, not the nearest) between origin and t_max along dir;
+// -1 for none.
+int occluder(const Scene* scene, float3 origin, float3 dir, float t_max) {
     Hit hit;
     hit.t = t_max;
     hit.prim = -1;
-    return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit);
+    return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit) ? hit.prim : -1;
+}
+
+bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
+    return occluder(scene, origin, dir, t_max) >= 0;
 }
 
 // The nearest hits of the lanes' rays that are `active` (one traversal per lane: the tree is

@@ -13,6 +13,7 @@
 #include "media/medium.h"
 #include "textures/texture.h"
 #include "materials/textured_params.h"
+#include "materials/shading_maps.h"
 
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
@@ -408,6 +409,44 @@ KERNEL void eval_texture_values(__global const Texture* textures, __global const
     scene.textures = textures;
     scene.texels = texels;
     out[i] = (float4)(eval_texture(&scene, index, uv[i]), eval_texture_number(&scene, index, uv[i]));
+}
+
+// eval_texture_number_gradient of texture `index` at uv[i].
+KERNEL void texture_gradient_values(__global const Texture* textures, __global const uchar* texels, int index,
+                                    __global const float2* uv, __global float2* out) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.textures = textures;
+    scene.texels = texels;
+    out[i] = eval_texture_number_gradient(&scene, index, uv[i]);
+}
+
+// The BSDF of material 0 under its bump or normal map, at surface points given by frame[5 i ...]:
+// (uv, front face, -), the front side's shading and geometric normals, dp/du, dp/dv. For wo[i],
+// wi[i]: out_f (eval_bsdf x shading_map_factor, and sample_bsdf_pdf where that factor is not 0, as
+// path.h uses it), out_n the bent normal.
+KERNEL void shading_map_values(__global const Material* material, __global const Texture* textures,
+                               __global const uchar* texels, __global const float4* frame,
+                               __global const float4* wo, __global const float4* wi,
+                               __global float4* out_f, __global float4* out_n) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.textures = textures;
+    scene.texels = texels;
+    __global const float4* f = frame + 5 * i;
+    bool front = f[0].z != 0.0f;
+    SurfacePoint sp = test_surface_point(front, (float3)(0.0f, 0.0f, 1.0f));
+    sp.ns = front ? f[1].xyz : -f[1].xyz;
+    sp.ng = front ? f[2].xyz : -f[2].xyz;
+    sp.uv = f[0].xy;
+    sp.dpdu = f[3].xyz;
+    sp.dpdv = f[4].xyz;
+    Material m = *material;
+    bend_shading_normal(&scene, &m, &sp, wo[i].xyz);
+    float factor = shading_map_factor(&m, &sp, wi[i].xyz);
+    float3 value = eval_bsdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz) * factor;
+    out_f[i] = (float4)(value, factor > 0.0f ? sample_bsdf_pdf(&m, &sp, wo[i].xyz, wi[i].xyz) : 0.0f);
+    out_n[i] = (float4)(sp.ns, 0.0f);
 }
 
 // resolve_textured_params on material 0 at uv[i]: every slot's lanes, then the emission's.

@@ -509,12 +509,90 @@ def textured_plastic():
     </shape>""", origin="0 2 5", target="0 -0.5 0")
 
 
+def masked_leaf():
+    """A leaf-like panel masked by a bitmap (soft, bilinear) between an area light and the floor,
+    and two cards with a front and a back BSDF, one seen from each side. Mitsuba's shadow rays
+    stop at masks (light reaches through them by BSDF sampling), clrender's cross them: the same
+    expectation."""
+    return _scene(FLOOR + """
+    <emitter type="constant"><rgb name="radiance" value="0.1, 0.12, 0.15"/></emitter>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.7"/><rotate x="1" angle="90"/><translate y="2.2" z="-0.3"/></transform>
+        <emitter type="area"><rgb name="radiance" value="12, 11, 10"/></emitter>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.9"/><rotate x="1" angle="60"/><rotate y="1" angle="20"/>
+            <translate y="0.4" z="-0.3"/></transform>
+        <bsdf type="mask">
+            <texture type="bitmap" name="opacity"><string name="filename" value="mask.png"/></texture>
+            <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.6, 0.1"/></bsdf></bsdf>
+        </bsdf>
+    </shape>
+    <bsdf type="twosided" id="card">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.2, 0.2"/></bsdf>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.3, 0.8"/></bsdf>
+    </bsdf>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.4"/><rotate y="1" angle="30"/><translate x="-1.1" y="-0.5"/></transform>
+        <ref id="card"/>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.4"/><rotate y="1" angle="200"/><translate x="1.1" y="-0.5"/></transform>
+        <ref id="card"/>
+    </shape>""", max_depth=12)
+
+
+def bent_normals():
+    """A bump-mapped diffuse sphere and mirror sphere, and a normal-mapped floor (raw normals)
+    and sphere, lit by the sun and the sky."""
+    return _scene(SUN + SKY + """
+    <texture type="bitmap" id="heights"><string name="filename" value="heights.png"/></texture>
+    <texture type="bitmap" id="normals">
+        <string name="filename" value="normals.png"/><boolean name="raw" value="true"/>
+    </texture>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/><translate y="-1"/></transform>
+        <bsdf type="normalmap">
+            <ref name="normalmap" id="normals"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.6"/>
+        <transform name="to_world"><rotate x="1" angle="50"/><translate x="-1" y="-0.2"/></transform>
+        <bsdf type="bumpmap">
+            <ref id="heights"/>
+            <float name="scale" value="0.08"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.7, 0.6"/></bsdf>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.5"/>
+        <transform name="to_world"><translate x="0.2" y="-0.3" z="0.4"/></transform>
+        <bsdf type="bumpmap">
+            <ref id="heights"/>
+            <float name="scale" value="0.05"/>
+            <bsdf type="conductor"><rgb name="specular_reflectance" value="0.9, 0.8, 0.7"/></bsdf>
+        </bsdf>
+    </shape>
+    <shape type="sphere">
+        <float name="radius" value="0.45"/>
+        <transform name="to_world"><rotate y="1" angle="70"/><translate x="1.2" y="-0.4"/></transform>
+        <bsdf type="normalmap">
+            <ref name="normalmap" id="normals"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.3, 0.5, 0.8"/></bsdf>
+        </bsdf>
+    </shape>""", max_depth=8)
+
+
 SCENES = {
     "metals": metals,
     "beckmann_glass": beckmann_glass,
     "thin_pane": thin_pane,
     "depth_of_field": depth_of_field,
     "spot_lights": spot_lights,
+    "masked_leaf": masked_leaf,
+    "bent_normals": bent_normals,
     "textured_spheres": textured_spheres,
     "glass_sphere": glass_sphere,
     "rough_glass": rough_glass,
@@ -560,8 +638,35 @@ def cloud_albedo(resolution=(5, 7, 3)):
     return np.stack([0.95 - 0.8 * x, 0.3 + 0.4 * z, 0.15 + 0.8 * x * (1 - 0.5 * y)], axis=-1).astype(np.float32)
 
 
+def mask_image(size=32):
+    """A leaf's opacity: 1 inside an ellipse with soft edges and a few holes, 0 outside (8-bit)."""
+    u, v = np.meshgrid((np.arange(size) + 0.5) / size, (np.arange(size) + 0.5) / size)
+    leaf = np.clip((1 - ((u - 0.5) / 0.45) ** 2 - ((v - 0.5) / 0.3) ** 2) * 4, 0, 1)
+    holes = np.cos(7 * np.pi * u) * np.cos(5 * np.pi * v) > 0.6
+    return (255 * leaf * ~holes).astype(np.uint8)
+
+
+def height_image(size=16, seed=11):
+    """Smooth random heights (8-bit grey, sRGB-encoded as Mitsuba reads it by default)."""
+    noise = np.random.default_rng(seed).uniform(0, 1, (size, size))
+    smooth = (noise + np.roll(noise, 1, 0) + np.roll(noise, 1, 1) + np.roll(noise, (1, 1), (0, 1))) / 4
+    return (255 * smooth).astype(np.uint8)
+
+
+def normal_image(size=16, seed=12):
+    """Tangent-space normals tilted up to about 35 degrees, as (n + 1) / 2 in 8 bits."""
+    rng = np.random.default_rng(seed)
+    n = np.concatenate([rng.uniform(-0.4, 0.4, (size, size, 2)), np.ones((size, size, 1))], axis=2)
+    n /= np.linalg.norm(n, axis=2, keepdims=True)
+    return np.round(255 * (n + 1) / 2).astype(np.uint8)
+
+
 def write(folder, name):
     """Write scene `name` and its data files into `folder`; returns the XML path."""
+    import imageio.v3 as iio
+    iio.imwrite(folder / "mask.png", mask_image())
+    iio.imwrite(folder / "heights.png", height_image())
+    iio.imwrite(folder / "normals.png", normal_image())
     ball = trimesh.creation.icosphere(subdivisions=3)
     (folder / "ball.obj").write_text(ball.export(file_type="obj", include_normals=False))
     (folder / "ball.ply").write_bytes(ball.export(file_type="ply"))

@@ -24,7 +24,7 @@ import pyopencl as cl
 import clrender
 from clrender import filters, layout, textures, wide_bvh
 from clrender.aovs import SAMPLE_AOVS
-from clrender.arrays import build_scene_arrays
+from clrender.arrays import _material_array, build_scene_arrays
 from clrender.bvh import build_bvh
 from clrender.device import build_program
 from clrender.energy import fill_albedo_tables
@@ -219,8 +219,9 @@ def run_test_kernels(case, device):
 
 
 def run_texture_kernels(context, queue, kernel, rng):
-    """Lookups of every texel encoding, filter and wrap mode, far outside [0, 1] too (the texel
-    indices they wrap stay in the buffer), and a material resolved from textures."""
+    """Lookups and gradients of every texel encoding, filter and wrap mode, far outside [0, 1]
+    too (the texel indices they wrap stay in the buffer), a material resolved from textures, and
+    a diffuse BSDF under a bump map and a normal map, seen from both sides."""
     texture_list = [textures.Texture("checks", "checkerboard")]
     for encoding, pixels in (("srgb8", rng.integers(0, 256, (3, 5, 3), dtype=np.uint8)),
                              ("linear8", rng.integers(0, 256, (4, 2, 1), dtype=np.uint8)),
@@ -235,6 +236,20 @@ def run_texture_kernels(context, queue, kernel, rng):
     for index in range(len(texture_list)):
         kernel("eval_texture_values")(queue, (len(uv),), None, upload(context, records), upload(context, texels),
                                       np.int32(index), upload(context, uv), *outputs(context, (len(uv), 4)))
+        kernel("texture_gradient_values")(queue, (len(uv),), None, upload(context, records), upload(context, texels),
+                                          np.int32(index), upload(context, uv), *outputs(context, (len(uv), 2)))
+    frames = np.zeros((len(uv), 5, 4), np.float32)
+    frames[:, 0, :2], frames[:, 0, 2] = uv, [1, 0, 1, 0]
+    frames[:, 1, :3] = frames[:, 2, :3] = [0, 0, 1]
+    frames[:, 3, :3], frames[:, 4, :3] = [2, 0, 0.3], [0, 1.5, 0]
+    directions = float4([[0.3, 0.1, 0.9], [0.6, 0.0, -0.8], [0.1, -0.2, 0.97], [0.99, 0.0, 0.14]])
+    for field, index in (("bump", 2), ("normal", 3)):
+        bent = clrender.scene.Material("m", "diffuse", bump_map=index if field == "bump" else -1,
+                                       normal_map=index if field == "normal" else -1)
+        kernel("shading_map_values")(queue, (len(uv),), None, upload(context, _material_array([bent])),
+                                     upload(context, records), upload(context, texels), upload(context, frames),
+                                     upload(context, directions), upload(context, directions[::-1]),
+                                     *outputs(context, (len(uv), 4), (len(uv), 4)))
     material = np.zeros(1, layout.MATERIAL)
     layout.clear_texture_references(material)
     layout.set_texture_reference(material, "color", 1)

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender import cie, filters, grids
+from clrender import cie, filters, grids, textures
 from clrender.conductor_presets import CONDUCTOR_PRESETS
 from clrender.mitsuba import (IOR_PRESETS, MitsubaXmlError, MitsubaXmlWarning, mitsuba_envmap_lookup,
                               read_scene, resample_envmap)
@@ -510,6 +510,31 @@ def test_lookat_with_a_zero_up_is_mitsubas(tmp_path, target):
     theirs = np.array(mi.traverse(mi.load_file(str(tmp_path / "s.xml")))["r.to_world"].matrix)
     ours = read_scene(tmp_path / "s.xml").scene["shapes"][0]["transform"]["matrix"]
     assert np.allclose(ours, theirs, atol=1e-6)
+
+
+@pytest.mark.parametrize("wrap", textures.WRAPS)
+@pytest.mark.parametrize("channels,raw", [(1, True), (3, False), (1, False)])
+def test_texture_gradients_are_mitsubas_eval_1_grad(wrap, channels, raw):
+    # Bilinear bitmaps (8-bit, sRGB-decoded unless raw) under a turned, stretched to_uv on a
+    # non-square image, where Mitsuba scales by the resolution after to_uv's transpose.
+    rng = np.random.default_rng(channels + 2 * raw)
+    pixels = rng.integers(0, 256, (4, 7, channels), dtype=np.uint8)
+    to_uv = mi.ScalarTransform4f().translate([0.1, -0.2, 0]).rotate([0, 0, 1], 35).scale([1.7, 0.6, 1])
+    bitmap = mi.Bitmap(pixels, mi.Bitmap.PixelFormat.Y if channels == 1 else mi.Bitmap.PixelFormat.RGB)
+    bitmap.set_srgb_gamma(not raw)
+    theirs = mi.load_dict({"type": "bitmap", "bitmap": bitmap, "raw": raw, "wrap_mode": wrap, "to_uv": to_uv})
+    ours = textures.Texture("t", "bitmap", pixels=pixels, srgb=not raw, wrap=wrap,
+                            to_uv=np.array(to_uv.matrix)[:2][:, [0, 1, 3]])
+    uv = rng.uniform(-1.5, 2.5, (300, 2))
+    si = mi.SurfaceInteraction3f()
+    expected = []
+    for point in uv:
+        si.uv = mi.Point2f(*point)
+        expected.append(np.array(theirs.eval_1_grad(si)))
+    expected = np.array(expected)
+    assert np.abs(expected).max() > 1
+    np.testing.assert_allclose(textures.lookup_number_gradient(ours, uv), expected, rtol=1e-4,
+                               atol=1e-5 * np.abs(expected).max())
 
 
 def test_default_bsdfs_of_shapes_are_mitsubas(tmp_path):

@@ -563,8 +563,9 @@ def test_conductor_with_a_textured_reflectance_keeps_its_index(tmp_path):
     ('<bsdf type="conductor"><string name="material" value="Xx"/></bsdf>', "unknown conductor material 'Xx'"),
     ('<bsdf type="conductor"><string name="material" value="Au"/><float name="eta" value="1"/></bsdf>',
      "either material or eta and k"),
-    ('<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>', "different front and back"),
-    ('<bsdf type="twosided"><bsdf type="dielectric"/></bsdf>', "twosided around 'dielectric'"),
+    ('<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>',
+     "twosided needs 1 or 2 nested BSDFs, got 3"),
+    ('<bsdf type="twosided"><bsdf type="dielectric"/></bsdf>', "a 'dielectric' inside twosided is not supported"),
     ('<bsdf type="diffuse"><rgb name="reflectance" value="1, 2"/></bsdf>', "expected 3 numbers (or 1)"),
     ('<bsdf type="diffuse"><spectrum name="reflectance" filename="x.spd"/></bsdf>', "no .spd files"),
     ('<bsdf type="diffuse"><spectrum name="reflectance" value="500:0.1, 400:0.2"/></bsdf>', "increasing wavelengths"),
@@ -671,8 +672,8 @@ def test_mesh_file_shapes_pass_their_options(tmp_path):
     ('<shape type="rectangle"><bsdf type="diffuse"/><bsdf type="diffuse"/></shape>', "at most one BSDF"),
     ('<shape type="rectangle"><emitter type="area"/><emitter type="area"/></shape>', "at most one emitter"),
     ('<shape type="rectangle"><emitter type="point"/></shape>', "only 'area' emitters can be attached"),
-    ('<shape type="rectangle"><bsdf type="dielectric"/><emitter type="area"/></shape>',
-     "an area emitter on a 'dielectric' BSDF is not supported"),
+    ('<shape type="rectangle"><bsdf type="null"/><emitter type="area"/></shape>',
+     "an area emitter on a 'null' BSDF is not supported"),
     ('<shape type="rectangle"><medium type="homogeneous"/></shape>', "<medium> inside"),
 ])
 def test_shape_errors(tmp_path, body, message):

@@ -14,6 +14,7 @@ import pytest
 import clrender
 from clrender.arrays import SkippedShapeWarning, build_scene_arrays
 from clrender.cli import main
+from clrender.features import scene_features
 from clrender.mitsuba import MitsubaXmlError, read_scene
 from clrender.mitsuba.xml import Files, check_version, expand, parse_xml
 from conftest import real_scene
@@ -119,7 +120,8 @@ def test_staircase_loads_with_its_roughplastics():
     assert sum("color" in m.textures for m in plastics) == 4
 
 
-# ============================================================================================
+# =====================================================================================
+
 # XML-only scenes with stand-ins: `clrender info` accepts each, or stops where Mitsuba would
 # ============================================================================================
 class Blocked(Exception):
@@ -203,3 +205,44 @@ def test_a_research_scene_without_its_integrator_is_accepted(tmp_path, capsys, s
     assert count == 1
     copy.write_text(text)
     assert_accepted(*info(capsys, copy, {"integrator": "path"}), RESEARCH_WRAPPED[scene])
+
+
+def bsdf_block(path, opening):
+    """The BSDF element of a real scene that starts with `opening`, its files named absolutely."""
+    text = path.read_text()
+    start = text.index(opening)
+    depth, index = 0, start
+    for match in re.finditer(r"<(/?)bsdf\b[^>]*?(/?)>", text[start:]):
+        depth += -1 if match.group(1) else (0 if match.group(2) else 1)
+        if depth == 0:
+            index = start + match.end()
+            break
+    return re.sub(r'value="textures/', f'value="{path.parent}/textures/', text[start:index])
+
+
+def test_the_living_rooms_leaves_are_masked_by_their_bitmap(tmp_path):
+    # Bitterli's LeavesBSDF: mask (opacity textures/leaf_mask.png) around twosided(diffuse with
+    # textures/leaf.png), on a rectangle.
+    block = bsdf_block(real_scene("bitterli-living-room/scene_v3.xml"), '<bsdf type="mask" id="LeavesBSDF">')
+    (tmp_path / "leaf.xml").write_text(f'<scene version="3.0.0"><sensor type="perspective"/>{block}'
+                                       '<shape type="rectangle"><ref id="LeavesBSDF"/></shape></scene>')
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)   # the default film
+        scene = clrender.load_scene(tmp_path / "leaf.xml")
+    (leaf,) = scene.materials
+    assert leaf.type == "diffuse" and leaf.two_sided
+    assert [scene.textures[leaf.textures[f]].source.split("/")[-1] for f in ("opacity", "color")] == ["leaf_mask.png", "leaf.png"]
+    assert scene_features(scene)["TEXTURES"] == 1
+
+
+def test_the_staircases_bump_map_wraps_a_bsdf_its_shapes_reference_by_its_inner_id(tmp_path):
+    # Bitterli's converted scenes give the id to the BSDF inside the bumpmap, and shapes
+    # reference that id: they get the inner twosided, without bumps, in Mitsuba (checked with
+    # Mitsuba 3.9.1) and in clrender; the bumpmap itself is never used.
+    block = bsdf_block(real_scene("bitterli-staircase/scene_gt.xml"), '<bsdf type="bumpmap">\n\t\t<texture name="map" type="bitmap">\n\t\t\t<string name="filename" value="textures/BrushedAluminium.jpg" />')
+    (tmp_path / "bump.xml").write_text(f'<scene version="3.0.0"><sensor type="perspective"/>{block}'
+                                       '<shape type="rectangle"><ref id="BrushedAluminiumBSDF"/></shape></scene>')
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)
+        (aluminium,) = clrender.load_scene(tmp_path / "bump.xml").materials
+    assert aluminium.type == "conductor" and aluminium.two_sided and aluminium.bump_map == -1

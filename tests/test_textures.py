@@ -88,6 +88,57 @@ def test_bitmap_lookup_matches_the_reference(context, queue, program, channels, 
     np.testing.assert_allclose(number[keep], expected_number[keep], rtol=2e-5, atol=2e-5)
 
 
+def kernel_gradient(context, queue, program, texture_list, index, uv):
+    records, texels = textures.texture_arrays(texture_list)
+    uv = np.ascontiguousarray(uv, np.float32).reshape(-1, 2)
+    out = np.empty((len(uv), 2), np.float32)
+    mf = cl.mem_flags
+    buffers = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (records, texels, uv)]
+    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+    cl.Kernel(program, "texture_gradient_values")(queue, (len(uv),), None, buffers[0], buffers[1], np.int32(index),
+                                                  buffers[2], out_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    return out
+
+
+@pytest.mark.parametrize("channels,dtype,srgb", BITMAPS[:5], ids=lambda v: v.__name__ if isinstance(v, type) else str(v))
+@pytest.mark.parametrize("wrap", textures.WRAPS)
+def test_bitmap_gradient_matches_the_reference(context, queue, program, channels, dtype, srgb, wrap):
+    rng = np.random.default_rng(channels * 5 + srgb)
+    first = textures.Texture("first", "bitmap", pixels=random_image(rng, 3, 5, 3, np.uint8), srgb=True)
+    texture = textures.Texture("t", "bitmap", pixels=random_image(rng, 7, 11, channels, dtype), srgb=srgb,
+                               wrap=wrap, to_uv=np.array([[1.5, 0.2, 0.1], [-0.3, 0.8, 0.25]]))
+    uv = sample_points(rng, texture)
+    # Off texel centres, where the one-sided derivative may take either side after rounding.
+    st = uv @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]
+    centred = st * [11, 7] - 0.5
+    keep = np.all(np.abs(centred - np.round(centred)) > 1e-3, axis=1)
+    gradient = kernel_gradient(context, queue, program, [first, texture], 1, uv)
+    expected = textures.lookup_number_gradient(texture, uv)
+    scale = np.abs(expected).max()
+    np.testing.assert_allclose(gradient[keep], expected[keep], rtol=1e-4, atol=1e-5 * scale)
+
+
+def test_gradient_is_the_derivative_of_the_lookup():
+    # Central differences of lookup_number inside the cells (square texture, diagonal to_uv:
+    # where Mitsuba's order of the resolution and to_uv factors is the chain rule), and 0 for
+    # piecewise constant textures.
+    rng = np.random.default_rng(8)
+    texture = textures.Texture("t", "bitmap", pixels=random_image(rng, 6, 6, 3, np.uint8), srgb=True,
+                               to_uv=np.array([[2.0, 0.0, 0.3], [0.0, -1.5, 0.1]]))
+    uv = rng.uniform(-1, 2, (500, 2))
+    centred = (uv @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]) * 6 - 0.5
+    uv = uv[np.all(np.abs(centred - np.round(centred)) > 1e-4, axis=1)]   # not across a cell's edge
+    h = 1e-6
+    central = np.stack([(textures.lookup_number(texture, uv + d) - textures.lookup_number(texture, uv - d)) / (2 * h)
+                        for d in (np.array([h, 0]), np.array([0, h]))], axis=1)
+    assert len(uv) > 450
+    np.testing.assert_allclose(textures.lookup_number_gradient(texture, uv), central, rtol=1e-5, atol=1e-6)
+    for flat in (textures.Texture("c", "checkerboard"), textures.Texture("n", "bitmap", pixels=texture.pixels,
+                                                                          filter="nearest")):
+        assert np.all(textures.lookup_number_gradient(flat, uv) == 0)
+
+
 def test_bitmap_values_are_mitsubas_conventions():
     # Row 0 at v = 0; bilinear weights between texel centres; sRGB decoded before filtering.
     pixels = np.array([[[0], [255]], [[255], [255]]], np.uint8)

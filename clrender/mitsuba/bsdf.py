@@ -3,7 +3,11 @@
 | plugin | parameter (Mitsuba's default) | clrender material |
 |---|---|---|
 | `diffuse` | `reflectance` (0.5) | `diffuse`, one-sided (black seen from behind, as Mitsuba's) |
-| `twosided` | one nested `diffuse`, `conductor`, `roughconductor`, `plastic` or `roughplastic` | the same, `two_sided` |
+| `twosided` | one nested BSDF that does not transmit, or two (front, back) | the same, `two_sided`; the second one its `back` |
+| `mask` | `opacity` (0.5: a number, a texture, or RGB: their mean, as Mitsuba's eval_1), one nested BSDF | the nested one with `opacity` |
+| `bumpmap` | one nested texture (any name; not a checkerboard: Mitsuba has no gradient of one), `scale` (1), one nested BSDF | the nested one with `bump` |
+| `normalmap` | `normalmap` (a texture), one nested BSDF | the nested one with `normal_map` |
+| accepted | `use_shadowing_function`, `flip_invalid_normals` (bumpmap, normalmap) when true, their default | |
 | `dielectric` | `int_ior` (bk7), `ext_ior` (air): numbers or IOR_PRESETS names; `specular_reflectance` (1), `specular_transmittance` (1) | `dielectric` (`ior`, `exterior_ior`, `reflection_tint`, `tint`) |
 | `roughdielectric` | the same, `distribution` (beckmann; or ggx), `alpha` (0.1) or equal `alpha_u`/`alpha_v` | rough `dielectric`, `roughness` sqrt(alpha), `masking` separable, single scattering |
 | `thindielectric` | `int_ior`, `ext_ior`, `specular_reflectance`, `specular_transmittance` as `dielectric` | `thin_dielectric` |
@@ -13,17 +17,21 @@
 | `roughplastic` | the same, `distribution` (beckmann; or ggx), `alpha` (0.1; a number: Mitsuba takes no texture) or equal `alpha_u`/`alpha_v` | rough `plastic`, `roughness` sqrt(alpha) |
 | `null` | | `interface` |
 | accepted | `sample_visible` (rough lobes) | |
+
+Wrappers are flattened onto the material they wrap, whatever their order (`mask` around
+`twosided` around `bumpmap` ...): each sets its field on it, and on its back material when it
+wraps a `twosided` with two BSDFs (read_bsdf returns the back's dict under `back`; shape.py
+makes it a material of its own). An unsupported BSDF inside a wrapper is reported as itself.
 """
 import numpy as np
 
 from ..conductor_presets import CONDUCTOR_PRESETS
 from ..layout import MICROFACET_DISTRIBUTIONS
-from .texture import _is_texture, color_or_texture, is_textured, number_or_texture
+from .texture import _is_texture, color_or_texture, is_textured, number_or_texture, read_texture
 from .values import parse_float
 
 BSDFS = ("diffuse", "dielectric", "roughdielectric", "thindielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic", "twosided", "null")
-TWO_SIDED = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
+         "roughplastic", "twosided", "null", "mask", "bumpmap", "normalmap")
 
 # Mitsuba's named indices of refraction.
 IOR_PRESETS = {
@@ -36,18 +44,10 @@ IOR_PRESETS = {
 }
 
 def read_bsdf(plugin, reader, two_sided=False):
-    """A material dict (without its name) for one BSDF element."""
+    """A material dict (without its name) for one BSDF element; `two_sided`: inside a twosided."""
     kind = plugin.type
-    if kind == "twosided":
-        inner = plugin.nested("bsdf")
-        if len(inner) != 1:
-            raise plugin.error("twosided with different front and back BSDFs is not supported "
-                               "(give one nested BSDF)")
-        plugin.finish()
-        if inner[0].type not in TWO_SIDED:
-            raise inner[0].error(f"twosided around '{inner[0].type}' is not supported "
-                                 f"(only {', '.join(TWO_SIDED)}; Mitsuba rejects transmission)")
-        return read_bsdf(inner[0], reader, two_sided=True)
+    if kind in WRAPPERS:
+        return WRAPPERS[kind](plugin, reader, two_sided)
     if kind == "diffuse":
         material = {"type": "diffuse", "albedo": color_or_texture(plugin, "reflectance", 0.5, reader),
                     "two_sided": two_sided}
@@ -72,6 +72,90 @@ def read_bsdf(plugin, reader, two_sided=False):
         raise plugin.error(f"unsupported BSDF '{kind}' (supported: {', '.join(BSDFS)})")
     plugin.finish()
     return material
+
+
+def _nested_bsdfs(plugin, counts):
+    """The nested BSDF elements of a wrapper (their number in `counts`), its properties done."""
+    nested = plugin.nested("bsdf")
+    plugin.finish()
+    if len(nested) not in counts:
+        raise plugin.error(f"{plugin.type} needs {' or '.join(map(str, counts))} nested BSDF"
+                           + ("s" if max(counts) > 1 else "") + f", got {len(nested)}")
+    return nested
+
+
+def _read_wrapped(plugin, reader, two_sided, key, value):
+    """The nested BSDF's material with `key` set, on its back material too (a wrapper wraps both
+    sides); one of each kind of wrapper (a mask; a bump or a normal map) per material."""
+    material = read_bsdf(_nested_bsdfs(plugin, (1,))[0], reader, two_sided)
+    sides = [material] + ([material["back"]] if "back" in material else [])
+    kinds = ("opacity",) if key == "opacity" else ("bump", "normal_map")
+    if any(k in side for side in sides for k in kinds):
+        raise plugin.error(f"a {plugin.type} around a BSDF that already has "
+                           f"{'a mask' if key == 'opacity' else 'a bump or normal map'} is not supported")
+    for side in sides:
+        side[key] = value
+    return material
+
+
+def _twosided(plugin, reader, two_sided):
+    """Mitsuba's twosided: the BSDF on both sides, or a front and a back BSDF; neither may
+    transmit (Mitsuba rejects them)."""
+    nested = _nested_bsdfs(plugin, (1, 2))
+    sides = [read_bsdf(element, reader, two_sided=True) for element in nested]
+    for element, side in zip(nested, sides):
+        if side["type"] in ("dielectric", "thin_dielectric", "interface") or "opacity" in side:
+            raise element.error(f"a '{element.type}' inside twosided is not supported: it transmits light "
+                                "(Mitsuba's twosided rejects it)")
+    if len(sides) == 2:
+        if "back" in sides[0] or "back" in sides[1]:
+            raise plugin.error("a twosided with two BSDFs around another one is not supported")
+        sides[0]["back"] = sides[1]
+    return sides[0]
+
+
+def _mask(plugin, reader, two_sided):
+    """Mitsuba's mask: opacity clamped to [0, 1] (as Mitsuba's eval_opacity)."""
+    opacity = _opacity(plugin, reader)
+    if not is_textured(opacity):
+        opacity = float(np.clip(opacity, 0.0, 1.0))
+    return _read_wrapped(plugin, reader, two_sided, "opacity", opacity)
+
+
+def _opacity(plugin, reader):
+    """A number or a texture; a constant colour is its mean (Mitsuba's eval_1 of one)."""
+    if plugin.has("opacity") and plugin.properties["opacity"][0].tag in ("rgb", "spectrum"):
+        return float(plugin.color("opacity", 0.5, reader.out.warnings).mean())
+    return number_or_texture(plugin, "opacity", 0.5, reader)
+
+
+def _bumpmap(plugin, reader, two_sided):
+    textures = plugin.nested("texture")
+    if len(textures) != 1:
+        raise plugin.error(f"bumpmap needs one nested texture, got {len(textures)}")
+    if textures[0].type == "checkerboard":
+        raise textures[0].error("a checkerboard has no gradient in Mitsuba (eval_1_grad): a bumpmap needs a bitmap")
+    bump = {"texture": read_texture(textures[0], reader), "scale": plugin.number("scale", 1.0)}
+    _accept_true(plugin, "use_shadowing_function", "flip_invalid_normals")
+    return _read_wrapped(plugin, reader, two_sided, "bump", bump)
+
+
+def _normalmap(plugin, reader, two_sided):
+    texture = plugin.object("normalmap", "texture")
+    if texture is None:
+        raise plugin.error("normalmap needs a texture named 'normalmap'")
+    _accept_true(plugin, "use_shadowing_function", "flip_invalid_normals")
+    return _read_wrapped(plugin, reader, two_sided, "normal_map", {"texture": read_texture(texture, reader)})
+
+
+def _accept_true(plugin, *names):
+    """Options whose default (true) is what clrender does; false is not supported."""
+    for name in names:
+        if plugin.has(name) and not plugin.boolean(name):
+            raise plugin.error(f"{name} false is not supported (clrender does what true does)")
+
+
+WRAPPERS = {"twosided": _twosided, "mask": _mask, "bumpmap": _bumpmap, "normalmap": _normalmap}
 
 
 def _ior(plugin, name, default):

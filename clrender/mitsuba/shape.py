@@ -113,7 +113,8 @@ def _read_shape_media(plugin, reader, shape):
 
 def _material(plugin, reader, emission, emitter_where):
     """The name of the scene material for (BSDF, area emission), made once per distinct pair.
-    A shape without a BSDF is diffuse 0.5, or black when it emits (as in Mitsuba)."""
+    A shape without a BSDF is diffuse 0.5, or black when it emits (as in Mitsuba). The emission
+    belongs to the front material; a twosided's back BSDF becomes a material of its own."""
     key = (id(plugin.element) if plugin else None, repr(emission))
     if key in reader.material_names:
         return reader.material_names[key]
@@ -125,11 +126,21 @@ def _material(plugin, reader, emission, emitter_where):
         material = read_bsdf(plugin, reader)
         base = plugin.id or f"bsdf_line{plugin.element.line}"
     if emission is not None:
-        if material["type"] != "diffuse":
-            raise MitsubaXmlError(emitter_where, f"an area emitter on a '{plugin.type}' BSDF is not "
-                                                 "supported (only on diffuse BSDFs or none)")
+        if material["type"] == "interface":
+            raise MitsubaXmlError(emitter_where, "an area emitter on a 'null' BSDF is not supported (an "
+                                                 "index-matched boundary is no surface to emit from)")
         material["emission"] = emission
         base += "_emitting" if plugin else ""
+    back = material.pop("back", None)
+    name = _add_material(material, base, reader, plugin)
+    if back is not None:
+        material["back"] = _add_material(back, f"{name}_back", reader, plugin)
+    reader.material_names[key] = name
+    return name
+
+
+def _add_material(material, base, reader, plugin):
+    """Add `material` to the scene under a free name made from `base`; returns the name."""
     name, suffix = base, 1
     taken = {m["name"] for m in reader.out.scene["materials"]}
     while name in taken:
@@ -140,5 +151,4 @@ def _material(plugin, reader, emission, emitter_where):
     reader.out.scene["materials"].append(material)
     if plugin is not None:
         reader.note(plugin, f"materials[{index}]", f"{material['type']} '{name}'")
-    reader.material_names[key] = name
     return name

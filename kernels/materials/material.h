@@ -14,6 +14,7 @@ int material_normal_map(const Material* m) { return m->maps.x; }
 int material_bump_map(const Material* m) { return m->maps.y; }
 int material_distribution(const Material* m) { return m->maps.z; }
 int material_masking(const Material* m) { return m->maps.w; }
+int material_masked(const Material* m) { return m->slot[12].z != 0.0f; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
 float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
@@ -47,6 +48,9 @@ lane_int material_kind_at(__global const Material* materials, lane_int index) {
 }
 lane_int material_one_sided_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD_INT(materials, index, .kind.y);
+}
+lane_int material_masked_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD(materials, index, .slot[12].z) != 0.0f;
 }
 lane_float3 material_color_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD3(materials, index, .slot[0]);

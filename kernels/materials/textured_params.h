@@ -7,6 +7,7 @@
 #define CLRENDER_TEXTURED_PARAMS_H
 #include "types.h"
 #include "scene.h"
+#include "materials/material.h"
 #include "textures/texture.h"
 
 #if TEXTURES
@@ -26,10 +27,14 @@ void resolve_textured_params(const Scene* scene, Material* m, float2 uv) {
 
 #endif
 
-// The material at surface point sp, its textures evaluated there: what path vertices read.
+// The material at surface point sp, its textures evaluated there: what path vertices read. Seen
+// from behind, a material with a back material is that one (Mitsuba's twosided with two BSDFs;
+// the frame is already the back's: ng and ns face the ray).
 Material surface_material(const Scene* scene, const SurfacePoint* sp) {
     Material m = scene->materials[sp->material];
 #if TEXTURES
+    int back = material_back_material(&m);
+    if (!sp->front_face && back >= 0) m = scene->materials[back];
     resolve_textured_params(scene, &m, sp->uv);
 #endif
     return m;

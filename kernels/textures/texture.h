@@ -53,23 +53,38 @@ float3 bitmap_texel(const Scene* scene, __global const Texture* t, int i, int j)
     return v;
 }
 
-float3 eval_bitmap(const Scene* scene, __global const Texture* t, float2 st) {
+// The four texels bilinear filtering blends at st (between texel centres, at (i + 0.5) / width):
+// v00 at (i, j), v10 at (i + 1, j), v01 at (i, j + 1), v11; w the weights of the second ones.
+typedef struct { float3 v00, v10, v01, v11; float2 w; } TexelQuad;
+
+TexelQuad bilinear_texels(const Scene* scene, __global const Texture* t, float2 st) {
     int width = t->info.z, height = t->info.w, wrap = t->format.w;
-    float x = reduce_coordinate(st.x, wrap) * (float)width;
-    float y = reduce_coordinate(st.y, wrap) * (float)height;
-    if (t->format.z == FILTER_NEAREST)
-        return bitmap_texel(scene, t, wrap_texel((int)floor(x), width, wrap), wrap_texel((int)floor(y), height, wrap));
-    // Bilinear between texel centres, at (i + 0.5) / width.
-    x -= 0.5f;
-    y -= 0.5f;
+    float x = reduce_coordinate(st.x, wrap) * (float)width - 0.5f;
+    float y = reduce_coordinate(st.y, wrap) * (float)height - 0.5f;
     float fx = floor(x), fy = floor(y);
     int i = (int)fx, j = (int)fy;
-    float wx = x - fx, wy = y - fy;
     int i0 = wrap_texel(i, width, wrap), i1 = wrap_texel(i + 1, width, wrap);
     int j0 = wrap_texel(j, height, wrap), j1 = wrap_texel(j + 1, height, wrap);
-    float3 top = bitmap_texel(scene, t, i0, j0) * (1.0f - wx) + bitmap_texel(scene, t, i1, j0) * wx;
-    float3 bottom = bitmap_texel(scene, t, i0, j1) * (1.0f - wx) + bitmap_texel(scene, t, i1, j1) * wx;
-    return top * (1.0f - wy) + bottom * wy;
+    TexelQuad q;
+    q.v00 = bitmap_texel(scene, t, i0, j0);
+    q.v10 = bitmap_texel(scene, t, i1, j0);
+    q.v01 = bitmap_texel(scene, t, i0, j1);
+    q.v11 = bitmap_texel(scene, t, i1, j1);
+    q.w = (float2)(x - fx, y - fy);
+    return q;
+}
+
+float3 eval_bitmap(const Scene* scene, __global const Texture* t, float2 st) {
+    int width = t->info.z, height = t->info.w, wrap = t->format.w;
+    if (t->format.z == FILTER_NEAREST) {
+        float x = reduce_coordinate(st.x, wrap) * (float)width;
+        float y = reduce_coordinate(st.y, wrap) * (float)height;
+        return bitmap_texel(scene, t, wrap_texel((int)floor(x), width, wrap), wrap_texel((int)floor(y), height, wrap));
+    }
+    TexelQuad q = bilinear_texels(scene, t, st);
+    float3 top = q.v00 * (1.0f - q.w.x) + q.v10 * q.w.x;
+    float3 bottom = q.v01 * (1.0f - q.w.x) + q.v11 * q.w.x;
+    return top * (1.0f - q.w.y) + bottom * q.w.y;
 }
 
 float3 eval_checkerboard(__global const Texture* t, float2 st) {
@@ -84,12 +99,31 @@ float3 eval_texture(const Scene* scene, int index, float2 uv) {
     return t->info.x == TEXTURE_CHECKERBOARD ? eval_checkerboard(t, st) : eval_bitmap(scene, t, st);
 }
 
-// The texture as a number: a one-channel bitmap's value, else the luminance (Mitsuba's eval_1).
-float eval_texture_number(const Scene* scene, int index, float2 uv) {
-    float3 v = eval_texture(scene, index, uv);
-    __global const Texture* t = scene->textures + index;
+// A texture's RGB value as a number: a one-channel bitmap's value, else the luminance (Mitsuba's eval_1).
+float texture_number(__global const Texture* t, float3 v) {
     bool grey = t->info.x == TEXTURE_BITMAP && t->format.x == 1;
     return grey ? v.x : dot(v, LUMINANCE_WEIGHTS);
+}
+
+float eval_texture_number(const Scene* scene, int index, float2 uv) {
+    return texture_number(scene->textures + index, eval_texture(scene, index, uv));
+}
+
+// The gradient of eval_texture_number with respect to the surface's uv, as Mitsuba's
+// eval_1_grad: the derivative of the bilinear interpolant within its cell (one-sided on texel
+// centres), 0 for nearest-filtered bitmaps and checkerboards (piecewise constant). Like
+// Mitsuba's, it scales the texel differences by the transposed to_uv and then by the
+// resolution per axis (the chain rule exactly where width = height or to_uv is diagonal).
+float2 eval_texture_number_gradient(const Scene* scene, int index, float2 uv) {
+    __global const Texture* t = scene->textures + index;
+    if (t->info.x == TEXTURE_CHECKERBOARD || t->format.z == FILTER_NEAREST) return (float2)(0.0f);
+    TexelQuad q = bilinear_texels(scene, t, texture_st(t, uv));
+    float f00 = texture_number(t, q.v00), f10 = texture_number(t, q.v10);
+    float f01 = texture_number(t, q.v01), f11 = texture_number(t, q.v11);
+    float dx = (1.0f - q.w.y) * (f10 - f00) + q.w.y * (f11 - f01);
+    float dy = (1.0f - q.w.x) * (f01 - f00) + q.w.x * (f11 - f10);
+    float4 a = t->to_uv_u, b = t->to_uv_v;
+    return (float2)((float)t->info.z * (a.x * dx + b.x * dy), (float)t->info.w * (a.y * dx + b.y * dy));
 }
 
 #endif
