@@ -12,10 +12,11 @@ from pathlib import Path
 import numpy as np
 
 from . import grids, limits, meshes, textures
+from .principled import Principled, read_principled
 from .errors import ArgumentError, FileError, SceneError
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
-MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface")
+MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "principled")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
@@ -95,6 +96,7 @@ class Material:
     ior: float = 1.5            # index of refraction inside (the side the normals point away from)
     exterior_ior: float = 1.0   # index of refraction outside
     roughness: float = 0.0      # 0: smooth (delta lobes); GGX alpha = roughness^2
+    principled: Principled = None   # set for type "principled" only (albedo: its base_color)
     # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
     # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
     # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
@@ -494,6 +496,9 @@ def _read_material(node, texture_names=()):
     elif kind == "toon":
         material = Material(name, kind, albedo=texturable.color("color", "color", [0.8, 0.8, 0.8], high=1),
                             toon=_read_toon(node))
+    elif kind == "principled":
+        material = Material(name, kind, albedo=texturable.color("base_color", "color", [0.5] * 3, high=1),
+                            principled=read_principled(node, texturable), energy_compensation=False)
     elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
                             emission=texturable.color("radiance", "emission", allow_scalar=True))

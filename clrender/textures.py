@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import layout
+from . import layout, principled
 
 KINDS = tuple(layout.TEXTURE_KINDS)
 FILTERS = tuple(layout.TEXTURE_FILTERS)
@@ -165,6 +165,8 @@ def srgb8_header():
 
 
 def scene_uses_textures(scene):
-    """Whether a material that some shape uses takes a parameter from a texture: then the scene
-    needs uv at its hits (the TEXTURES feature, clrender/features.py)."""
-    return any(scene.materials[shape.material].textures for shape in scene.shapes)
+    """Whether a material that some shape uses takes a parameter from a texture, or has lobes
+    that depend on the tangent (an anisotropic principled material): then the scene needs uv and
+    dp/du at its hits (the TEXTURES feature, clrender/features.py)."""
+    used = (scene.materials[shape.material] for shape in scene.shapes)
+    return any(material.textures or principled.needs_tangents(material) for material in used)

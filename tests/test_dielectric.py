@@ -293,19 +293,19 @@ def test_smooth_dielectric_picks_reflection_with_fresnel_probability(context, qu
 Z_BINS, PHI_BINS, SUB = 24, 48, 6
 
 
-def sphere_bins_quadrature():
-    """Midpoints of SUB x SUB cells inside each (z, phi) bin of equal solid angle."""
-    z = -1 + 2 * (np.arange(Z_BINS * SUB) + 0.5) / (Z_BINS * SUB)
-    phi = 2 * np.pi * (np.arange(PHI_BINS * SUB) + 0.5) / (PHI_BINS * SUB)
+def sphere_bins_quadrature(sub=SUB):
+    """Midpoints of sub x sub cells inside each (z, phi) bin of equal solid angle."""
+    z = -1 + 2 * (np.arange(Z_BINS * sub) + 0.5) / (Z_BINS * sub)
+    phi = 2 * np.pi * (np.arange(PHI_BINS * sub) + 0.5) / (PHI_BINS * sub)
     zz, pp = np.meshgrid(z, phi, indexing="ij")
     r = np.sqrt(1 - zz ** 2)
     dirs = np.stack([r * np.cos(pp), r * np.sin(pp), zz], axis=-1).reshape(-1, 3)
-    cell_solid_angle = 4 * np.pi / (Z_BINS * SUB * PHI_BINS * SUB)
+    cell_solid_angle = 4 * np.pi / (Z_BINS * sub * PHI_BINS * sub)
     return dirs, cell_solid_angle
 
 
-def per_bin(values):
-    return values.reshape(Z_BINS, SUB, PHI_BINS, SUB).sum(axis=(1, 3))
+def per_bin(values, sub=SUB):
+    return values.reshape(Z_BINS, sub, PHI_BINS, sub).sum(axis=(1, 3))
 
 
 def bin_of(wi):

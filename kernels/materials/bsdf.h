@@ -14,6 +14,7 @@
 #include "materials/dielectric.h"
 #include "materials/conductor.h"
 #include "materials/energy.h"
+#include "materials/principled.h"
 
 #if DIELECTRIC
 // Entering or leaving is decided by the geometric normal and the ray (sp->front_face, i.e. the
@@ -69,6 +70,7 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
                  float3 wi) {
     if (is_one_sided_back(m, sp)) return (float3)(0.0f);
 #if DIELECTRIC
+    if (material_kind(m) == MATERIAL_PRINCIPLED) return eval_principled_material(m, sp, specular_normal(sp, wo), wo, wi);
     if (is_specular_material(m)) {
         // A delta lobe has no finite value for a direction chosen elsewhere (light sampling).
         if (material_is_delta(m)) return (float3)(0.0f);
@@ -86,6 +88,8 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
 INLINE float sample_bsdf_pdf(const Material* m, const SurfacePoint* sp, float3 wo, float3 wi) {
     if (is_one_sided_back(m, sp)) return 0.0f;
 #if DIELECTRIC
+    if (material_kind(m) == MATERIAL_PRINCIPLED)
+        return sample_principled_material_pdf(m, sp, specular_normal(sp, wo), wo, wi);
     if (is_specular_material(m)) {
         if (material_is_delta(m)) return 0.0f;
         float3 n = specular_normal(sp, wo);
@@ -131,9 +135,12 @@ INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const Surfa
                        Rng* rng) {
     if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC
-    if (is_specular_material(m)) {
+    bool principled = material_kind(m) == MATERIAL_PRINCIPLED;
+    if (principled || is_specular_material(m)) {
         float rnl = rng_float(rng);
-        return sample_specular_bsdf(scene, m, sp, wo, rnl, rng_float2(rng));
+        float2 rn = rng_float2(rng);
+        if (principled) return sample_principled_material(m, sp, specular_normal(sp, wo), wo, rnl, rn);
+        return sample_specular_bsdf(scene, m, sp, wo, rnl, rn);
     }
 #endif
     BsdfSample bs = bsdf_sample_none();
