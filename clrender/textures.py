@@ -85,14 +85,22 @@ def _wrap(index, size, mode):
     return np.clip(index, 0, size - 1)
 
 
+def _texture_st(texture, uv):
+    return np.asarray(uv, dtype=np.float64) @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]
+
+
+def _checkerboard_first(st):
+    """Whether st lies in a check of color0."""
+    upper = (st - np.floor(st)) > 0.5
+    return upper[..., 0] == upper[..., 1]
+
+
 def lookup(texture, uv):
     """Linear RGB of `texture` at surface uv (..., 2): the reference of textures/texture.h."""
-    uv = np.asarray(uv, dtype=np.float64)
-    st = uv @ texture.to_uv[:, :2].T + texture.to_uv[:, 2]
+    st = _texture_st(texture, uv)
     if texture.type == "checkerboard":
-        upper = (st - np.floor(st)) > 0.5
-        same = upper[..., 0] == upper[..., 1]
-        return np.where(same[..., None], np.asarray(texture.color0, float), np.asarray(texture.color1, float))
+        return np.where(_checkerboard_first(st)[..., None], np.asarray(texture.color0, float),
+                        np.asarray(texture.color1, float))
     values = _as_rgb(_linear(texture.pixels, texture.srgb)).astype(np.float64)
     height, width = values.shape[:2]
     x, y = st[..., 0] * width, st[..., 1] * height
@@ -110,11 +118,14 @@ def lookup(texture, uv):
 
 
 def lookup_number(texture, uv):
-    """The texture as a number at uv: a one-channel bitmap's value, else the luminance."""
+    """The texture as a number at uv, as Mitsuba 3.9's eval_1: a one-channel bitmap's value, an
+    RGB bitmap's luminance, a checkerboard the channel mean of the *other* check's colour (its
+    eval_1 swaps the colours against eval)."""
+    if texture.type == "checkerboard":
+        first = _checkerboard_first(_texture_st(texture, uv))
+        return np.where(first, np.mean(texture.color1), np.mean(texture.color0))
     rgb = lookup(texture, uv)
-    if texture.type == "bitmap" and texture.channels == 1:
-        return rgb[..., 0]
-    return rgb @ LUMINANCE
+    return rgb[..., 0] if texture.channels == 1 else rgb @ LUMINANCE
 
 
 def texture_arrays(textures):

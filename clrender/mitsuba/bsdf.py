@@ -8,15 +8,17 @@
 | `roughdielectric` | the same, `distribution` (must be ggx), `alpha` (0.1) or equal `alpha_u`/`alpha_v` | rough `dielectric`, `roughness` sqrt(alpha), single scattering |
 | `conductor` | `specular_reflectance` (1), `material` (none: a perfect mirror; CONDUCTOR_PRESETS) or `eta`/`k` | `conductor`, `tint` = specular_reflectance x reflectance at normal incidence (a warning for presets and eta/k) |
 | `roughconductor` | the same, `distribution` (ggx), `alpha` | rough `conductor`, single scattering |
+| `principled` | `base_color` (0.5), `roughness` (0.5), `anisotropic`, `metallic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `flatness` (0): numbers or textures; `eta` or `specular` (0.5), the three `*_sampling_rate` (1): numbers | `principled`, the same names |
 | `null` | | `interface` |
 | accepted | `sample_visible` (rough lobes) | |
 """
 import numpy as np
 
+from ..principled import SAMPLING_RATES, WEIGHTS
 from .texture import color_or_texture, is_textured, number_or_texture
 from .values import fmt, parse_float
 
-BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "twosided", "null")
+BSDFS = ("diffuse", "dielectric", "roughdielectric", "conductor", "roughconductor", "principled", "twosided", "null")
 
 # Mitsuba's named indices of refraction.
 IOR_PRESETS = {
@@ -89,11 +91,28 @@ def read_bsdf(plugin, reader, two_sided=False):
                     "tint": reflectance if is_textured(reflectance) else (np.asarray(reflectance) * f0).tolist()}
         if kind == "roughconductor":
             material.update(_roughness(plugin, reader))
+    elif kind == "principled":
+        material = _principled(plugin, reader)
     elif kind == "null":
         material = {"type": "interface"}
     else:
         raise plugin.error(f"unsupported BSDF '{kind}' (supported: {', '.join(BSDFS)})")
     plugin.finish()
+    return material
+
+
+def _principled(plugin, reader):
+    """Mitsuba's parameters, under the same names; those absent keep Mitsuba's defaults, which
+    are the format's (clrender/principled.py checks the values)."""
+    if plugin.has("eta") and plugin.has("specular"):
+        raise plugin.error("give either eta or specular (Mitsuba refuses both)")
+    material = {"type": "principled", "base_color": color_or_texture(plugin, "base_color", 0.5, reader)}
+    for name in ("roughness", *WEIGHTS):
+        if plugin.has(name):
+            material[name] = number_or_texture(plugin, name, None, reader)
+    for name in ("eta", "specular", *SAMPLING_RATES):
+        if plugin.has(name):
+            material[name] = plugin.number(name)
     return material
 
 

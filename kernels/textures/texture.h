@@ -72,9 +72,14 @@ float3 eval_bitmap(const Scene* scene, __global const Texture* t, float2 st) {
     return top * (1.0f - wy) + bottom * wy;
 }
 
-float3 eval_checkerboard(__global const Texture* t, float2 st) {
+// Whether st lies in a check of color0 (both fractions on the same side of 1/2).
+bool checkerboard_first(float2 st) {
     float2 f = st - floor(st);
-    return (f.x > 0.5f) == (f.y > 0.5f) ? t->color0.xyz : t->color1.xyz;
+    return (f.x > 0.5f) == (f.y > 0.5f);
+}
+
+float3 eval_checkerboard(__global const Texture* t, float2 st) {
+    return checkerboard_first(st) ? t->color0.xyz : t->color1.xyz;
 }
 
 // Linear RGB of texture `index` at uv.
@@ -84,12 +89,15 @@ float3 eval_texture(const Scene* scene, int index, float2 uv) {
     return t->info.x == TEXTURE_CHECKERBOARD ? eval_checkerboard(t, st) : eval_bitmap(scene, t, st);
 }
 
-// The texture as a number: a one-channel bitmap's value, else the luminance (Mitsuba's eval_1).
+// The texture as a number, as Mitsuba 3.9's eval_1 gives it: a one-channel bitmap's value, an RGB
+// bitmap's luminance; a checkerboard the mean of the colour of the *other* check (its eval_1
+// swaps color0 and color1 against eval, and a constant colour's eval_1 is its channel mean).
 float eval_texture_number(const Scene* scene, int index, float2 uv) {
-    float3 v = eval_texture(scene, index, uv);
     __global const Texture* t = scene->textures + index;
-    bool grey = t->info.x == TEXTURE_BITMAP && t->format.x == 1;
-    return grey ? v.x : dot(v, LUMINANCE_WEIGHTS);
+    if (t->info.x == TEXTURE_CHECKERBOARD)
+        return mean3(checkerboard_first(texture_st(t, uv)) ? t->color1.xyz : t->color0.xyz);
+    float3 v = eval_texture(scene, index, uv);
+    return t->format.x == 1 ? v.x : dot(v, LUMINANCE_WEIGHTS);
 }
 
 #endif
