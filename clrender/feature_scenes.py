@@ -18,12 +18,13 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
     sphere), a point and a directional light; each feature adds what it compiles in:
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
-    and rough glass, a rough mirror (energy tables) and a smooth one; TOON a toon sphere;
+    and rough glass, a rough mirror (energy tables), a smooth one and a principled sphere (every
+    lobe, transmission included); TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
     kinds of media; TEXTURES a checkerboard floor, an 8-bit sRGB bitmap on the box (mirrored
     repeats), a textured emitting sphere, and with DIELECTRIC a float bitmap driving the rough
-    mirror's roughness. The spheres are analytic (they share BVH leaves with the triangles), or
+    mirror's roughness and the principled sphere's anisotropy (its tangents need dp/du). The spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
     lights and materials (features.packets_cover): their scene keeps only the rectangle light,
     and DIELECTRIC adds the smooth glass only; it needs its features when the renderer asks for
@@ -61,8 +62,12 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         materials += [{"name": "glass", "type": "dielectric", "ior": 1.5},
                       {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4},
                       {"name": "rough_mirror", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.3},
-                      {"name": "mirror", "type": "conductor"}]
+                      {"name": "mirror", "type": "conductor"},
+                      {"name": "principled", "type": "principled", "base_color": [0.3, 0.6, 0.9], "roughness": 0.4,
+                       "metallic": 0.3, "spec_trans": 0.4, "spec_tint": 0.5, "sheen": 0.6, "sheen_tint": 0.5,
+                       "clearcoat": 0.5, "flatness": 0.3, "specular": 0.6}]
         sphere("glass", "glass", [0.9, -0.5, 0.3], 0.45)
+        sphere("principled", "principled", [0.55, -0.75, 1.25], 0.25)
         sphere("rough_glass", "rough_glass", [-0.2, -0.6, 0.9], 0.35)
         shapes.append({"name": "rough_mirror", "type": "box", "material": "rough_mirror",
                        "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
@@ -102,7 +107,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
 
 def _add_textures(textures, materials, shapes, sphere, dielectric):
     """A textured floor (checkerboard), box (sRGB bitmap, mirrored beyond [0, 1]) and emitting
-    sphere (grey float bitmap); with `dielectric`, the rough mirror's alpha from a bitmap."""
+    sphere (grey float bitmap); with `dielectric`, the rough mirror's alpha and the principled
+    sphere's anisotropy from a bitmap, its metallic from the checkerboard."""
     rng = np.random.default_rng(7)
     textures += [{"name": "checks", "type": "checkerboard", "to_uv": [[4, 0, 0], [0, 4, 0.5]]},
                  {"name": "painted", "type": "bitmap", "wrap": "mirror", "to_uv": [[3, 0, -1], [0, 2.5, -0.7]],
@@ -119,6 +125,8 @@ def _add_textures(textures, materials, shapes, sphere, dielectric):
         rough = next(m for m in materials if m["name"] == "rough_mirror")
         rough.pop("roughness")
         rough.update(alpha={"texture": "bumps"}, energy_compensation=False)
+        principled = next(m for m in materials if m["name"] == "principled")
+        principled.update(anisotropic={"texture": "bumps"}, metallic={"texture": "checks"})
 
 
 def _sky(width, height):

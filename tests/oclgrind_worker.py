@@ -127,7 +127,7 @@ def run_test_kernels(case, device):
         fill_albedo_tables(queue, program, arrays)
     albedo = upload(context, arrays.specular_albedo if arrays.specular_albedo.size else np.zeros(1, np.float32))
     names = [m.name for m in scene.materials]
-    kinds = ["white", "glass", "rough_glass", "rough_mirror", "mirror"] if features["DIELECTRIC"] else ["white"]
+    kinds = ["white", "glass", "rough_glass", "rough_mirror", "mirror", "principled"] if features["DIELECTRIC"] else ["white"]
     for name in kinds:
         material = upload(context, arrays.materials[names.index(name):names.index(name) + 1])
         for front in (0, 1):
