@@ -6,6 +6,9 @@ machine disturbs less than wall time).
 
     python tools/bench_build.py [scenes/cornell_box.json] [--runs 3] [--roots DIR ...]
 
+CPU seconds (of the build, and of the build and first launch, in the probe process) are reported
+beside the wall times: on a shared machine they hold better.
+
 `--roots`: checkouts of clrender to compare (default: this one), e.g. another branch's worktree
 or a commit unpacked with `git archive COMMIT | tar -x -C /tmp/old`; rounds interleave them, and
 the cold build of each root is also given as the median of its per-round ratios to the first's.
@@ -20,6 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from clrender.bench import interleaved, median, round_ratios, run_process  # noqa: E402
 PROBE = """
+import resource
 import sys
 sys.path.insert(0, {root!r})
 import pyopencl as cl
@@ -27,23 +31,26 @@ import clrender
 from clrender.bench import timed
 from clrender.device import build_program
 from clrender.features import scene_features
+def cpu():
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 scene = clrender.load_scene({scene!r})
 context = cl.Context([clrender.choose_device({device!r})])
 queue = cl.CommandQueue(context)
+start = cpu()
 build, _ = timed(lambda: build_program(context, scene_features(scene)))
+built = cpu()
 # The first launch: PoCL compiles the kernel for the device here.
 launch, _ = timed(lambda: clrender.Renderer(scene, context.devices[0]).render(spp=1, max_depth=1))
-print(build, build + launch)
+print(build, build + launch, built - start, cpu() - start)
 """
 
 
 def probe(root, scene, device, cache):
-    """(build s, build + first launch s, CPU s of the whole process) of `root`'s clrender."""
+    """Wall and CPU seconds of `root`'s build and build + first launch."""
     env = dict(os.environ, CLRENDER_CACHE_DIR=cache, POCL_CACHE_DIR=cache + "/pocl")
     code = PROBE.format(root=str(root), scene=str(scene), device=device)
-    run = run_process([sys.executable, "-c", code], env=env)
-    build, first_launch = map(float, run.stdout.split())
-    return build, first_launch, run.cpu_seconds
+    return tuple(map(float, run_process([sys.executable, "-c", code], env=env).stdout.split()))
 
 
 def main():
@@ -68,13 +75,14 @@ def main():
     for cache in (c for root_caches in caches.values() for c in root_caches):
         cache.cleanup()
     for (root, label), results in runs.items():
-        build, total, cpu = (median([r[k] for r in results]) for k in range(3))
-        print(f"{root} {label}: program build {build:.3f} s, build + first launch {total:.3f} s, "
-              f"process CPU {cpu:.2f} s (median of {args.runs})")
+        build, total, build_cpu, total_cpu = (median([r[k] for r in results]) for k in range(4))
+        print(f"{root} {label}: program build {build:.3f} s ({build_cpu:.3f} s CPU), build + first launch "
+              f"{total:.3f} s ({total_cpu:.3f} s CPU) (median of {args.runs})")
     first = runs[(args.roots[0], "cold")]
+    names = ("program build", "build + first launch", "program build CPU", "build + first launch CPU")
     for root in args.roots[1:]:
         cold = runs[(root, "cold")]
-        for k, name in ((0, "program build"), (1, "build + first launch"), (2, "process CPU")):
+        for k, name in enumerate(names):
             ratio = median(round_ratios([r[k] for r in cold], [r[k] for r in first]))
             print(f"{root} / {args.roots[0]}, cold {name}: {ratio:.3f} (median of per-round ratios)")
 
