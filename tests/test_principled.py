@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender import layout
+from clrender import features, layout, mitsuba
 from clrender.arrays import build_scene_arrays
 from clrender.principled import eta_from_specular
 from conftest import build_test_kernels, camera
@@ -54,6 +54,99 @@ def kernels(context):
 
 def material(params):
     return {"type": "principled", **params}
+
+
+# --------------------------------------------------------------------------------------------
+# Scene files: fields, defaults, validation, features
+# --------------------------------------------------------------------------------------------
+def scene_with(*materials, textures=()):
+    return {"camera": camera(), "textures": list(textures),
+            "materials": [dict(m, name=f"m{i}") for i, m in enumerate(materials)],
+            "shapes": [{"type": "sphere", "material": f"m{i}", "center": [i, 0, 0]} for i in range(len(materials))]}
+
+
+def test_fields_reach_the_material_record():
+    scene = clrender.load_scene_dict(scene_with(material({}), material(CASES["everything"]),
+                                                material({"specular": 0.3, "metallic": {"texture": "t"}}),
+                                                textures=[{"name": "t", "type": "checkerboard"}]))
+    records = build_scene_arrays(scene).materials
+    field = lambda name, i: layout.field(records, layout.MATERIAL_FIELDS, name)[i]  # noqa: E731
+    assert field("kind", 0) == layout.MATERIAL_KINDS["principled"] and field("albedo_tables", 0) == -1
+    # Mitsuba's defaults: base_color 0.5, roughness 0.5, specular 0.5 (eta 1.5), weights 0, rates 1.
+    np.testing.assert_allclose(field("color", 0), 0.5)
+    assert [field(f"principled_{name}", 0) for name in ("roughness", "eta", "specular_rate", "clearcoat_rate",
+                                                        "diffuse_rate")] == [0.5, 1.5, 1.0, 1.0, 1.0]
+    assert all(field(f"principled_{name}", 0) == 0 for name in layout.PRINCIPLED_WEIGHTS)
+    everything = CASES["everything"]
+    np.testing.assert_allclose(field("color", 1), everything["base_color"])
+    for name in ("roughness", "eta", *layout.PRINCIPLED_WEIGHTS):
+        assert field(f"principled_{name}", 1) == np.float32(everything[name]), name
+    assert field("principled_eta", 2) == np.float32(eta_from_specular(0.3))
+    # A textured weight: its lane w names the texture (as a number), the others hold constants.
+    member = layout.MATERIAL_FIELDS["principled_metallic"][0]
+    assert layout.member_lanes(records, member)[2, 3] == layout.texture_reference(0, True)
+    assert layout.member_lanes(records, layout.MATERIAL_FIELDS["principled_sheen"][0])[2, 3] == layout.TEXTURE_REF_NONE
+
+
+@pytest.mark.parametrize("fields,message", [
+    ({"metallic": 1.5}, "materials[0].metallic: must be <= 1"),
+    ({"roughness": -0.1}, "materials[0].roughness: must be >= 0"),
+    ({"base_color": [1.2, 0, 0]}, "materials[0].base_color: must be <= 1 per channel"),
+    ({"eta": 0}, "materials[0].eta: must be > 0"),
+    ({"eta": 1.4, "specular": 0.5}, "materials[0]: give either eta or specular"),
+    ({"specular": 12.5}, "materials[0].specular: must be < 12.5"),
+    ({"specular": -0.1}, "materials[0].specular: must be >= 0"),
+    ({"eta": 1.0, "spec_trans": 0.5}, "materials[0].eta: an index of 1 with spec_trans"),
+    ({"specular": 0.0, "spec_trans": {"texture": "t"}}, "materials[0].specular: an index of 1 with spec_trans"),
+    ({"clearcoat_sampling_rate": 0}, "materials[0].clearcoat_sampling_rate: must be > 0"),
+    ({"sheen": {"texture": "nope"}}, "materials[0].sheen.texture: unknown texture 'nope'"),
+    ({"ior": 1.5}, "materials[0].ior: unknown field"),
+])
+def test_invalid_fields_are_reported_with_their_place(fields, message):
+    with pytest.raises(clrender.SceneError) as error:
+        clrender.load_scene_dict(scene_with(material(fields), textures=[{"name": "t", "type": "checkerboard"}]))
+    assert str(error.value).startswith(message), str(error.value)
+
+
+def test_principled_needs_the_glossy_build_and_uv_only_when_anisotropic():
+    def needed(*materials, **extra):
+        scene = clrender.load_scene_dict(scene_with(*materials, **extra))
+        return features.scene_features(scene, packets=True)
+    isotropic = needed(material({"metallic": 0.5}))
+    assert isotropic["DIELECTRIC"] == 1 and isotropic["TEXTURES"] == 0 and isotropic["LANES"] == 1
+    assert needed(material({"anisotropic": 0.3}))["TEXTURES"] == 1
+    assert needed(material({"anisotropic": {"texture": "t"}}), textures=[{"name": "t", "type": "checkerboard"}])["TEXTURES"] == 1
+
+
+def test_mitsuba_xml_reads_every_parameter(tmp_path):
+    path = tmp_path / "scene.xml"
+    path.write_text("""<scene version="3.0.0">
+    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film></sensor>
+    <shape type="sphere">
+        <bsdf type="principled">
+            <rgb name="base_color" value="0.2, 0.8, 0.1"/>
+            <float name="roughness" value="0.15"/>
+            <texture name="anisotropic" type="checkerboard"><float name="color0" value="0.05"/></texture>
+            <float name="metallic" value="0.2"/> <float name="spec_trans" value="0.3"/>
+            <float name="spec_tint" value="0.4"/> <float name="sheen" value="0.5"/>
+            <float name="sheen_tint" value="0.6"/> <float name="clearcoat" value="0.7"/>
+            <float name="clearcoat_gloss" value="0.8"/> <float name="flatness" value="0.9"/>
+            <float name="specular" value="0.7"/>
+            <float name="main_specular_sampling_rate" value="2"/>
+            <float name="clearcoat_sampling_rate" value="3"/>
+            <float name="diffuse_reflectance_sampling_rate" value="4"/>
+        </bsdf>
+    </shape>
+</scene>""")
+    (m,) = mitsuba.read_scene(path).scene["materials"]
+    assert m == {"name": "bsdf_line4", "type": "principled", "base_color": [0.2, 0.8, 0.1], "roughness": 0.15,
+                 "anisotropic": {"texture": "checkerboard_line7"}, "metallic": 0.2, "spec_trans": 0.3,
+                 "spec_tint": 0.4, "sheen": 0.5, "sheen_tint": 0.6, "clearcoat": 0.7, "clearcoat_gloss": 0.8,
+                 "flatness": 0.9, "specular": 0.7, "main_specular_sampling_rate": 2.0, "clearcoat_sampling_rate": 3.0,
+                 "diffuse_reflectance_sampling_rate": 4.0}
+    path.write_text(path.read_text().replace('<float name="flatness" value="0.9"/>', '<float name="eta" value="1.3"/>'))
+    with pytest.raises(clrender.MitsubaXmlError, match=r"scene.xml:4 <bsdf type='principled'>: give either eta or specular"):
+        clrender.load_scene(path)
 
 
 def mitsuba_bsdf(params):
