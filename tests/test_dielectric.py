@@ -324,20 +324,18 @@ ROUGH_CASES = [
 ]
 
 
-@pytest.mark.parametrize("material,front_face,cos_o", ROUGH_CASES,
-                         ids=["glass-out", "glass-in", "glass-in-rough", "bubble", "conductor"])
-def test_rough_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, queue, kernels, material,
-                                                                       front_face, cos_o):
-    bsdf = Bsdf(context, queue, kernels, material)
-    wo = direction(cos_o, 0.3)
-    count = 200_000
-    wi, pdf, weight, _, delta = bsdf.sample(wo, count, front_face=front_face, seed=3)
+def check_sampling(bsdf, wo, front_face, seed, count=200_000, sub=SUB):
+    """The sampler of `bsdf` at wo against its pdf: chi-square per bin, the pdf's integral
+    against the fraction of samples produced, each weight = eval / pdf, and the mean weight
+    against the quadrature of the value (`sub` x `sub` points per bin). Returns wi, pdf, eta of
+    the samples and whether each was produced."""
+    wi, pdf, weight, eta, delta = bsdf.sample(wo, count, front_face=front_face, seed=seed)
     assert not np.any(delta)
     valid = pdf > 0
     # The density of the sampler, integrated per bin from sample_bsdf_pdf.
-    dirs, cell = sphere_bins_quadrature()
+    dirs, cell = sphere_bins_quadrature(sub)
     f_quad, pdf_quad = bsdf.eval(wo, dirs, front_face=front_face)
-    p_bin = per_bin(pdf_quad * cell).ravel()
+    p_bin = per_bin(pdf_quad * cell, sub).ravel()
     observed = np.bincount(bin_of(wi[valid]), minlength=p_bin.size)
     expected = p_bin * count
     big = expected > 20
@@ -358,6 +356,14 @@ def test_rough_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, q
         w = np.where(valid, weight[:, channel], 0.0)
         integral = np.sum(f_quad[:, channel]) * cell
         assert abs(integral - w.mean()) < 5 * w.std() / np.sqrt(count) + 5e-3 * integral
+    return wi, pdf, eta, valid
+
+
+@pytest.mark.parametrize("material,front_face,cos_o", ROUGH_CASES,
+                         ids=["glass-out", "glass-in", "glass-in-rough", "bubble", "conductor"])
+def test_rough_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, queue, kernels, material,
+                                                                       front_face, cos_o):
+    check_sampling(Bsdf(context, queue, kernels, material), direction(cos_o, 0.3), front_face, seed=3)
 
 
 @pytest.mark.parametrize("material", [
