@@ -14,6 +14,7 @@ from clrender.arrays import build_scene_arrays
 from clrender.principled import eta_from_specular
 from conftest import build_test_kernels, camera
 from test_dielectric import Bsdf, check_sampling, direction, uniform_sphere
+from test_dielectric import test_grazing_and_degenerate_directions_stay_finite as check_finite
 
 try:
     import mitsuba as mi
@@ -264,6 +265,12 @@ def test_sampling_follows_the_pdf_and_weights_are_eval_over_pdf(context, queue, 
     expected_eta = np.where(crossed, eta_in if front_face else 1 / eta_in, 1.0)
     np.testing.assert_allclose(eta[valid], expected_eta[valid], rtol=1e-6)
     assert np.any(crossed[valid]) == (params.get("spec_trans", 0) > 0)
+
+
+@pytest.mark.parametrize("name", ["everything", "glass", "bubble", "mirror-like", "anisotropic", "rates"])
+def test_grazing_and_degenerate_directions_stay_finite(context, queue, kernels, name):
+    # As for the dielectrics: cos(wo) down to 0 exactly, wi grazing or opposite, tilted normals.
+    check_finite(context, queue, kernels, material(CASES[name]))
 
 
 PRINCIPLED_SPHERES = """
