@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, limits, meshes, plastic, textures
+from . import layout, limits, meshes, plastic, principled, textures
 from . import wide_bvh
 from .bvh import build_bvh, intersect_brute_force
 from .errors import SceneError
@@ -422,6 +422,8 @@ def _material_array(materials, textures=(), length_scale=1.0):
             _set(record, "color", m.albedo)
         if m.toon is not None:
             _toon_fields(record, m.toon)
+        if m.principled is not None:
+            principled.write_fields(record, m.principled)
         for name, texture in m.textures.items():
             layout.set_texture_reference(record, name, texture)
     return out

@@ -21,14 +21,16 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
     glass reflecting tinted, rough Beckmann glass and a rough GGX mirror (energy tables), a
     smooth copper mirror (complex Fresnel), a thin dielectric pane, a smooth plastic and a rough
-    one (coat tables); TOON a toon sphere;
+    one (coat tables), a principled sphere (every lobe, transmission included); TOON a toon sphere;
     MEDIA a fog sphere (index-matched boundary) and, with DIELECTRIC, tinted glass holding a
     medium; GRID_MEDIA a procedural cloud in a box overlapping the fog, so paths cross both
     kinds of media; TEXTURES a checkerboard floor, an 8-bit sRGB bitmap on the box (mirrored
     repeats), a textured emitting sphere, a leaf-like panel masked by a bitmap, a bump-mapped and
     a normal-mapped sphere, a card with different front and back materials, and with DIELECTRIC
-    float bitmaps driving the rough mirror's roughness and the rough plastic's (rows of coat
-    tables), the sRGB bitmap its diffuse reflectance (the card's back then a rough mirror). The
+    float bitmaps driving the rough mirror's roughness, the rough plastic's (rows of coat
+    tables) and the principled sphere's anisotropy (its tangents need dp/du), the sRGB bitmap the
+    plastic's diffuse reflectance, the checkerboard the principled metallic (the card's back then
+    a rough mirror). The
     spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
     lights and materials (features.packets_cover): their scene keeps only the rectangle light,
@@ -74,8 +76,12 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
                       {"name": "pane", "type": "thin_dielectric", "ior": 1.5, "tint": [0.8, 0.9, 1.0]},
                       {"name": "plastic", "type": "plastic", "diffuse": [0.8, 0.3, 0.2]},
                       {"name": "rough_plastic", "type": "plastic", "alpha": 0.15, "distribution": "beckmann",
-                       "nonlinear": True, "diffuse": [0.2, 0.4, 0.7]}]
+                       "nonlinear": True, "diffuse": [0.2, 0.4, 0.7]},
+                      {"name": "principled", "type": "principled", "base_color": [0.3, 0.6, 0.9], "roughness": 0.4,
+                       "metallic": 0.3, "spec_trans": 0.4, "spec_tint": 0.5, "sheen": 0.6, "sheen_tint": 0.5,
+                       "clearcoat": 0.5, "flatness": 0.3, "specular": 0.6}]
         sphere("glass", "glass", [0.9, -0.5, 0.3], 0.45)
+        sphere("principled", "principled", [-0.45, -0.75, 1.6], 0.25)
         sphere("rough_glass", "rough_glass", [-0.2, -0.6, 0.9], 0.35)
         shapes.append({"name": "rough_mirror", "type": "box", "material": "rough_mirror",
                        "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
@@ -120,7 +126,7 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
 def _add_textures(textures, materials, shapes, sphere, dielectric):
     """A textured floor (checkerboard), box (sRGB bitmap, mirrored beyond [0, 1]) and emitting
     sphere (grey float bitmap); with `dielectric`, the rough mirror's and the rough plastic's alpha
-    from bitmaps, the plastic's diffuse reflectance from the sRGB one."""
+    from bitmaps, the plastic's diffuse reflectance from the sRGB one, the principled sphere's anisotropy and metallic."""
     rng = np.random.default_rng(7)
     textures += [{"name": "checks", "type": "checkerboard", "to_uv": [[4, 0, 0], [0, 4, 0.5]]},
                  {"name": "painted", "type": "bitmap", "wrap": "mirror", "to_uv": [[3, 0, -1], [0, 2.5, -0.7]],
@@ -141,6 +147,8 @@ def _add_textures(textures, materials, shapes, sphere, dielectric):
         textures.append({"name": "gloss", "type": "bitmap", "image": rng.uniform(0.1, 0.15, (2, 3, 1)).astype(np.float32)})
         rough_plastic = next(m for m in materials if m["name"] == "rough_plastic")
         rough_plastic.update(alpha={"texture": "gloss"}, diffuse={"texture": "painted"})
+        principled = next(m for m in materials if m["name"] == "principled")
+        principled.update(anisotropic={"texture": "bumps"}, metallic={"texture": "checks"})
 
 
 def _add_surface_wrappers(textures, materials, shapes, sphere, rng, dielectric):

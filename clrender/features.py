@@ -42,7 +42,7 @@ FEATURE_VALUES = {
 # What the packet integrator (LANES 8) leaves out: every other feature.
 PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
 
-SPECULAR_MATERIALS = ("dielectric", "conductor", "thin_dielectric", "plastic")
+SPECULAR_MATERIALS = ("dielectric", "conductor", "thin_dielectric", "plastic", "principled")
 
 
 def volume_method(scene, override=None):

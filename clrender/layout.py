@@ -52,6 +52,10 @@ TRIANGLE_INFO = _struct(("info", I4))
 MATERIAL_SLOTS = 13
 MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4", (MATERIAL_SLOTS, 4))))
 
+# The texturable weights of a principled material, in slots 3, 4, ... (lane x).
+PRINCIPLED_WEIGHTS = ("anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "clearcoat",
+                      "clearcoat_gloss", "flatness")
+
 # name -> (struct member, first lane, lanes); a member ("slot", k) is parameter slot k. Fields of
 # different kinds may share lanes (a material has one kind).
 #   kind, one_sided: MATERIAL_KINDS; 1 = black seen from behind its front face (Mitsuba's BSDFs
@@ -84,6 +88,9 @@ MATERIAL = _struct(("kind", I4), ("maps", I4), ("emission", F4), ("slot", ("<f4"
 #   masked: 1 when this material or its back material may let light through (opacity below 1 or
 #     from a texture): shadow rays that hit it look at its opacity (kernels/materials/mask.h).
 #   opacity (textured): the fraction of light the surface stops (1: opaque; Mitsuba's mask).
+#   principled_* (Mitsuba's `principled`, kernels/materials/principled.h; color is its base_color):
+#     roughness and the weights anisotropic ... flatness (textured, lane x of slots 1, 3-11), eta
+#     (interior / exterior index) and Mitsuba's three lobe-sampling rates (never textured).
 #   toon_*: read by MATERIAL_TOON only (kernels/materials/toon.h): shadow colour (tints the
 #     shadow factor: a blocked point keeps shadow_factor x shadow_colour of its colour) and
 #     factor, band count and softness, highlight size, softness and colour, rim width, colour and
@@ -123,9 +130,16 @@ MATERIAL_FIELDS = {
     "toon_rim_color": (("slot", 8), 0, 3),
     "toon_rim_threshold": (("slot", 7), 1, 1),
     "toon_ambient": (("slot", 9), 0, 3),
+    "principled_roughness": (("slot", 1), 0, 1),
+    "principled_diffuse_rate": (("slot", 1), 1, 1),
+    "principled_eta": (("slot", 2), 0, 1),
+    "principled_specular_rate": (("slot", 2), 1, 1),
+    "principled_clearcoat_rate": (("slot", 2), 2, 1),
+    **{f"principled_{name}": (("slot", slot), 0, 1) for slot, name in enumerate(PRINCIPLED_WEIGHTS, start=3)},
 }
 # The fields a texture may drive; each owns lane w of its member for the texture reference.
-TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity", "reflection_tint")
+TEXTURABLE_FIELDS = ("emission", "color", "alpha", "opacity", "reflection_tint", "principled_roughness",
+                     *(f"principled_{name}" for name in PRINCIPLED_WEIGHTS))
 
 # A texture (kernels/textures/texture.h). info: x kind (TEXTURE_KINDS), y first byte of its
 # texels in Scene.texels, z width, w height. format: x channels (1, 3 or 4), y encoding
@@ -228,7 +242,7 @@ STRUCTS = {
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
 # values exist in one place only.
 MATERIAL_KINDS = {"diffuse": 0, "dielectric": 1, "conductor": 2, "toon": 3, "interface": 4, "thin_dielectric": 5,
-                  "plastic": 6}
+                  "plastic": 6, "principled": 7}
 # Rough lobes: the distribution of microfacet normals, and the masking-shadowing term
 # (height-correlated G2, or Mitsuba's separable G1(wo) G1(wi)).
 MICROFACET_DISTRIBUTIONS = {"ggx": 0, "beckmann": 1}

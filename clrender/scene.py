@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from . import grids, limits, meshes, textures
+from .principled import Principled, read_principled
 from .errors import ArgumentError, FileError, SceneError
 from .conductor_presets import CONDUCTOR_PRESETS
 from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
@@ -19,7 +20,7 @@ from .aovs import parse_aovs
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "thin_dielectric",
-                  "plastic")
+                  "plastic", "principled")
 SHAPE_TYPES = ("mesh", "sphere", "rectangle", "box", "disk")
 LIGHT_TYPES = ("environment", "point", "spot", "directional")
 MEDIUM_TYPES = ("homogeneous", "grid")
@@ -128,6 +129,7 @@ class Material:
     # specular_reflectance, ior / exterior_ior, roughness and distribution its coat's (masking:
     # separable, Mitsuba's)
     nonlinear: bool = False     # internal scattering per channel (Mitsuba's `nonlinear`)
+    principled: Principled = None   # set for type "principled" only (albedo: its base_color)
     # Mitsuba's conventions (docs/mitsuba-xml.md): a diffuse or conductor material that is not
     # two-sided is black seen from behind its front face; energy_compensation off leaves a rough
     # lobe single-scattering, as Mitsuba's roughdielectric and roughconductor are.
@@ -614,6 +616,9 @@ def _read_material(node, texture_names=(), material_names=()):
     elif kind == "toon":
         material = Material(name, kind, albedo=texturable.color("color", "color", [0.8, 0.8, 0.8], high=1),
                             toon=_read_toon(node))
+    elif kind == "principled":
+        material = Material(name, kind, albedo=texturable.color("base_color", "color", [0.5] * 3, high=1),
+                            principled=read_principled(node, texturable), energy_compensation=False)
     elif kind == "emissive":
         material = Material(name, kind, albedo=np.zeros(3),
                             emission=texturable.color("radiance", "emission", allow_scalar=True))
@@ -638,7 +643,7 @@ def _read_material(node, texture_names=(), material_names=()):
         material = _read_plastic(node, name, texturable)
     else:  # an index-matched boundary: only separates media
         material = Material(name, kind, albedo=np.zeros(3))
-    if kind in ("thin_dielectric", "plastic"):   # emitting, as an area emitter on any BSDF in Mitsuba
+    if kind in ("thin_dielectric", "plastic", "principled"):   # emitting, as an area emitter on any BSDF in Mitsuba
         material.emission = texturable.color("emission", "emission", [0, 0, 0], allow_scalar=False)
     if kind != "interface":
         _read_surface_wrappers(node, texturable, material, texture_names, material_names)

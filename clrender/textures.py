@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import layout
+from . import layout, principled
 
 KINDS = tuple(layout.TEXTURE_KINDS)
 FILTERS = tuple(layout.TEXTURE_FILTERS)
@@ -117,13 +117,18 @@ def _texel_values(texture):
     return _as_rgb(_linear(texture.pixels, texture.srgb)).astype(np.float64)
 
 
+def _checkerboard_first(st):
+    """Whether st lies in a check of color0."""
+    upper = (st - np.floor(st)) > 0.5
+    return upper[..., 0] == upper[..., 1]
+
+
 def lookup(texture, uv):
     """Linear RGB of `texture` at surface uv (..., 2): the reference of textures/texture.h."""
     st = _st(texture, uv)
     if texture.type == "checkerboard":
-        upper = (st - np.floor(st)) > 0.5
-        same = upper[..., 0] == upper[..., 1]
-        return np.where(same[..., None], np.asarray(texture.color0, float), np.asarray(texture.color1, float))
+        return np.where(_checkerboard_first(st)[..., None], np.asarray(texture.color0, float),
+                        np.asarray(texture.color1, float))
     values = _texel_values(texture)
     height, width = values.shape[:2]
     if texture.filter == "nearest":
@@ -142,7 +147,12 @@ def _as_number(texture, rgb):
 
 
 def lookup_number(texture, uv):
-    """The texture as a number at uv: a one-channel bitmap's value, else the luminance."""
+    """The texture as a number at uv, as Mitsuba 3.9's eval_1: a one-channel bitmap's value, an
+    RGB bitmap's luminance, a checkerboard the channel mean of the *other* check's colour (its
+    eval_1 swaps the colours against eval)."""
+    if texture.type == "checkerboard":
+        first = _checkerboard_first(_st(texture, uv))
+        return np.where(first, np.mean(texture.color1), np.mean(texture.color0))
     return _as_number(texture, lookup(texture, uv))
 
 
@@ -214,12 +224,13 @@ def srgb8_header():
 
 def scene_uses_textures(scene):
     """Whether a material that some shape shows takes a parameter from a texture, lets light
-    through, bends its shading normal or has a back material: the surface detail the TEXTURES
-    feature compiles (clrender/features.py), with uv at the scene's hits."""
+    through, bends its shading normal, has a back material, or has lobes that depend on the
+    tangent (an anisotropic principled material): the surface detail the TEXTURES feature
+    compiles (clrender/features.py), with uv and dp/du at the scene's hits."""
     return any(has_surface_detail(m) for m in scene.used_materials())
 
 
 def has_surface_detail(material):
     """Textured parameters, an opacity below 1, a bump or normal map, or a back material."""
     return bool(material.textures or material.opacity < 1 or material.bump_map >= 0
-                or material.normal_map >= 0 or material.back >= 0)
+                or material.normal_map >= 0 or material.back >= 0 or principled.needs_tangents(material))

@@ -12,7 +12,8 @@
 //   albedo = filter * colour of the vertex, where filter is the path throughput up to the vertex
 //   without the eta^2 radiance scaling of refraction, clamped to [0, 1] (the tints of the glass and
 //   mirrors passed, the transmittance of media crossed), and the colour is
-//     diffuse: its albedo; toon: its base colour; rough dielectric: its tint (1 for clear glass);
+//     diffuse: its albedo; toon, principled: its base colour; rough dielectric: its tint (1 for
+//     clear glass);
 //     rough conductor: its reflectance (the colour at normal incidence);
 //     the front face of an emitter: its emission, scaled down to a maximum component of 1 when
 //       brighter (its hue; OIDN wants albedos in [0, 1]);

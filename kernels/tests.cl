@@ -204,6 +204,12 @@ SurfacePoint test_surface_point(int front_face, float3 ns) {
     sp.material = 0;
     sp.object = 0;
     sp.emitter = -1;
+#if TEXTURES
+    // uv along x: the tangent of anisotropic lobes (Mitsuba's s) is x projected onto ns's plane.
+    sp.uv = (float2)(0.0f);
+    sp.dpdu = (float3)(1.0f, 0.0f, 0.0f);
+    sp.dpdv = (float3)(0.0f, 1.0f, 0.0f);
+#endif
     return sp;
 }
 

@@ -148,7 +148,7 @@ def run_test_kernels(case, device):
     names = [m.name for m in scene.materials]
     kinds = ["white"]
     if features["DIELECTRIC"]:
-        kinds += ["glass", "rough_glass", "rough_mirror", "mirror", "pane", "plastic", "rough_plastic"]
+        kinds += ["glass", "rough_glass", "rough_mirror", "mirror", "pane", "plastic", "rough_plastic", "principled"]
     for name in kinds:
         material = upload(context, arrays.materials[names.index(name):names.index(name) + 1])
         for front in (0, 1):

@@ -293,19 +293,19 @@ def test_smooth_dielectric_picks_reflection_with_fresnel_probability(context, qu
 Z_BINS, PHI_BINS, SUB = 24, 48, 6
 
 
-def sphere_bins_quadrature():
-    """Midpoints of SUB x SUB cells inside each (z, phi) bin of equal solid angle."""
-    z = -1 + 2 * (np.arange(Z_BINS * SUB) + 0.5) / (Z_BINS * SUB)
-    phi = 2 * np.pi * (np.arange(PHI_BINS * SUB) + 0.5) / (PHI_BINS * SUB)
+def sphere_bins_quadrature(sub=SUB):
+    """Midpoints of sub x sub cells inside each (z, phi) bin of equal solid angle."""
+    z = -1 + 2 * (np.arange(Z_BINS * sub) + 0.5) / (Z_BINS * sub)
+    phi = 2 * np.pi * (np.arange(PHI_BINS * sub) + 0.5) / (PHI_BINS * sub)
     zz, pp = np.meshgrid(z, phi, indexing="ij")
     r = np.sqrt(1 - zz ** 2)
     dirs = np.stack([r * np.cos(pp), r * np.sin(pp), zz], axis=-1).reshape(-1, 3)
-    cell_solid_angle = 4 * np.pi / (Z_BINS * SUB * PHI_BINS * SUB)
+    cell_solid_angle = 4 * np.pi / (Z_BINS * sub * PHI_BINS * sub)
     return dirs, cell_solid_angle
 
 
-def per_bin(values):
-    return values.reshape(Z_BINS, SUB, PHI_BINS, SUB).sum(axis=(1, 3))
+def per_bin(values, sub=SUB):
+    return values.reshape(Z_BINS, sub, PHI_BINS, sub).sum(axis=(1, 3))
 
 
 def bin_of(wi):
@@ -315,17 +315,17 @@ def bin_of(wi):
     return zi * PHI_BINS + pi
 
 
-def assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_face=True):
+def assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_face=True, sub=SUB):
     """Samples wi (pdf, weight) of `bsdf` at wo, `valid` those with a density (not delta): their
     histogram against sample_bsdf_pdf integrated per bin (chi-square); the density integrates to
     the fraction of valid samples (some are rejected under the macro surface; binomial standard
     error, plus 0.2% for the quadrature); each weight is f * |cos| / pdf of its direction (the
-    same functions NEE and MIS use). Returns f * |cos| at the quadrature's directions and their
-    cell's solid angle."""
+    same functions NEE and MIS use). Returns f * |cos| at the quadrature's directions (`sub` x
+    `sub` per bin) and their cell's solid angle."""
     count = len(wi)
-    dirs, cell = sphere_bins_quadrature()
+    dirs, cell = sphere_bins_quadrature(sub)
     f_quad, pdf_quad = bsdf.eval(wo, dirs, front_face=front_face)
-    p_bin = per_bin(pdf_quad * cell).ravel()
+    p_bin = per_bin(pdf_quad * cell, sub).ravel()
     observed = np.bincount(bin_of(wi[valid]), minlength=p_bin.size)
     expected = p_bin * count
     big = expected > 20
@@ -338,6 +338,23 @@ def assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_fa
     np.testing.assert_allclose(pdf_s, pdf[valid][:2000], rtol=2e-4)
     np.testing.assert_allclose(weight[valid][:2000], f_s / pdf_s[:, None], rtol=2e-4)
     return f_quad, cell
+
+
+def check_sampling(bsdf, wo, front_face, seed, count=200_000, sub=SUB):
+    """The sampler of `bsdf` at wo against its pdf (assert_samples_follow_the_density, `sub` x
+    `sub` quadrature points per bin), and the mean weight against the quadrature of the value.
+    Returns wi, pdf, eta of the samples and whether each was produced."""
+    wi, pdf, weight, eta, delta = bsdf.sample(wo, count, front_face=front_face, seed=seed)
+    assert not np.any(delta)
+    valid = pdf > 0
+    f_quad, cell = assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_face, sub)
+    # And so the integral of f * |cos| (quadrature) equals the mean weight (Monte Carlo): 5 SE
+    # of the Monte Carlo mean, plus 0.5% for the quadrature of the value.
+    for channel in range(3):
+        w = np.where(valid, weight[:, channel], 0.0)
+        integral = np.sum(f_quad[:, channel]) * cell
+        assert abs(integral - w.mean()) < 5 * w.std() / np.sqrt(count) + 5e-3 * integral
+    return wi, pdf, eta, valid
 
 
 ROUGH_CASES = [
@@ -366,19 +383,7 @@ ROUGH_CASES = [
                               "tinted-reflection"])
 def test_rough_sampling_follows_its_pdf_and_weights_are_eval_over_pdf(context, queue, kernels, material,
                                                                        front_face, cos_o):
-    bsdf = Bsdf(context, queue, kernels, material)
-    wo = direction(cos_o, 0.3)
-    count = 200_000
-    wi, pdf, weight, _, delta = bsdf.sample(wo, count, front_face=front_face, seed=3)
-    assert not np.any(delta)
-    valid = pdf > 0
-    f_quad, cell = assert_samples_follow_the_density(bsdf, wo, wi, pdf, weight, valid, front_face)
-    # And so the integral of f * |cos| (quadrature) equals the mean weight (Monte Carlo): 5 SE
-    # of the Monte Carlo mean, plus 0.5% for the quadrature of the value.
-    for channel in range(3):
-        w = np.where(valid, weight[:, channel], 0.0)
-        integral = np.sum(f_quad[:, channel]) * cell
-        assert abs(integral - w.mean()) < 5 * w.std() / np.sqrt(count) + 5e-3 * integral
+    check_sampling(Bsdf(context, queue, kernels, material), direction(cos_o, 0.3), front_face, seed=3)
 
 
 @pytest.mark.parametrize("material", [

@@ -164,6 +164,16 @@ def test_checkerboard_lookup_matches_the_reference(context, queue, program, to_u
     np.testing.assert_allclose(number[keep], textures.lookup_number(texture, uv)[keep], rtol=1e-5)
 
 
+def test_checkerboard_numbers_are_mitsubas_eval_1():
+    # Mitsuba 3.9's checkerboard eval_1 (a texture driving a number: roughness, metallic...)
+    # swaps the colours against eval and takes a constant colour's channel mean: values read
+    # from Mitsuba (scalar_rgb) at the centres of the four checks of the unit square.
+    texture = textures.Texture("c", "checkerboard", color0=np.array([0.9, 0.5, 0.1]), color1=np.array([0.05, 0.2, 0.7]))
+    uv = np.array([[0.25, 0.25], [0.75, 0.25], [0.3, 0.8], [0.9, 0.9]])
+    np.testing.assert_allclose(textures.lookup(texture, uv)[:, 0], [0.9, 0.05, 0.05, 0.9])
+    np.testing.assert_allclose(textures.lookup_number(texture, uv), [0.3166667, 0.5, 0.5, 0.3166667], rtol=1e-6)
+
+
 def test_resolved_material_takes_colours_and_numbers_from_its_textures(context, queue, program):
     rng = np.random.default_rng(2)
     colour = textures.Texture("c", "bitmap", pixels=random_image(rng, 4, 4, 3, np.uint8), srgb=True)

@@ -15,6 +15,7 @@
 | `roughconductor` | the same, `distribution` (beckmann), `alpha` | rough `conductor`, `masking` separable, single scattering |
 | `plastic` | `int_ior` (polypropylene), `ext_ior` (air), `diffuse_reflectance` (0.5), `specular_reflectance` (1), `nonlinear` (false) | `plastic` (`ior`, `exterior_ior`, `diffuse`, `specular`, `nonlinear`), one-sided |
 | `roughplastic` | the same, `distribution` (beckmann; or ggx), `alpha` (0.1; a number: Mitsuba takes no texture) or equal `alpha_u`/`alpha_v` | rough `plastic`, `roughness` sqrt(alpha) |
+| `principled` | `base_color` (0.5), `roughness` (0.5), `anisotropic`, `metallic`, `spec_trans`, `spec_tint`, `sheen`, `sheen_tint`, `clearcoat`, `clearcoat_gloss`, `flatness` (0): numbers or textures; `eta` or `specular` (0.5), the three `*_sampling_rate` (1): numbers | `principled`, the same names |
 | `null` | | `interface` |
 | accepted | `sample_visible` (rough lobes) | |
 
@@ -28,10 +29,12 @@ import numpy as np
 from ..conductor_presets import CONDUCTOR_PRESETS
 from ..layout import MICROFACET_DISTRIBUTIONS
 from .texture import _is_texture, color_or_texture, is_textured, number_or_texture, read_texture
+from ..principled import SAMPLING_RATES, WEIGHTS
 from .values import parse_float
 
 BSDFS = ("diffuse", "dielectric", "roughdielectric", "thindielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic", "twosided", "null", "mask", "bumpmap", "normalmap")
+         "roughplastic", "twosided", "null", "mask", "bumpmap", "normalmap",
+         "principled")
 
 # Mitsuba's named indices of refraction.
 IOR_PRESETS = {
@@ -66,6 +69,8 @@ def read_bsdf(plugin, reader, two_sided=False):
             material.update(_roughness(plugin, reader))
     elif kind in ("plastic", "roughplastic"):
         material = _plastic(plugin, reader, two_sided)
+    elif kind == "principled":
+        material = _principled(plugin, reader)
     elif kind == "null":
         material = {"type": "interface"}
     else:
@@ -104,6 +109,8 @@ def _twosided(plugin, reader, two_sided):
     nested = _nested_bsdfs(plugin, (1, 2))
     sides = [read_bsdf(element, reader, two_sided=True) for element in nested]
     for element, side in zip(nested, sides):
+        if side["type"] == "principled":
+            raise element.error("a 'principled' inside twosided is not supported")
         if side["type"] in ("dielectric", "thin_dielectric", "interface") or "opacity" in side:
             raise element.error(f"a '{element.type}' inside twosided is not supported: it transmits light "
                                 "(Mitsuba's twosided rejects it)")
@@ -156,6 +163,21 @@ def _accept_true(plugin, *names):
 
 
 WRAPPERS = {"twosided": _twosided, "mask": _mask, "bumpmap": _bumpmap, "normalmap": _normalmap}
+
+
+def _principled(plugin, reader):
+    """Mitsuba's parameters, under the same names; those absent keep Mitsuba's defaults, which
+    are the format's (clrender/principled.py checks the values)."""
+    if plugin.has("eta") and plugin.has("specular"):
+        raise plugin.error("give either eta or specular (Mitsuba refuses both)")
+    material = {"type": "principled", "base_color": color_or_texture(plugin, "base_color", 0.5, reader)}
+    for name in ("roughness", *WEIGHTS):
+        if plugin.has(name):
+            material[name] = number_or_texture(plugin, name, None, reader)
+    for name in ("eta", "specular", *SAMPLING_RATES):
+        if plugin.has(name):
+            material[name] = plugin.number(name)
+    return material
 
 
 def _ior(plugin, name, default):

@@ -16,6 +16,7 @@
 #include "materials/thin_dielectric.h"
 #include "materials/energy.h"
 #include "materials/plastic.h"
+#include "materials/principled.h"
 
 #if DIELECTRIC
 // Entering or leaving is decided by the geometric normal and the ray (sp->front_face, i.e. the
@@ -96,6 +97,7 @@ INLINE float3 eval_bsdf(const Scene* scene, const Material* m, const SurfacePoin
         Plastic p = plastic_at(scene, m);
         return eval_plastic(&p, n, wo, wi);
     }
+    if (material_kind(m) == MATERIAL_PRINCIPLED) return eval_principled_material(m, sp, specular_normal(sp, wo), wo, wi);
     if (is_specular_material(m)) {
         // A delta lobe has no finite value for a direction chosen elsewhere (light sampling).
         if (material_is_delta(m)) return (float3)(0.0f);
@@ -117,6 +119,8 @@ INLINE float sample_bsdf_pdf(const Scene* scene, const Material* m, const Surfac
         Plastic p = plastic_at(scene, m);
         return sample_plastic_pdf(&p, n, wo, wi);
     }
+    if (material_kind(m) == MATERIAL_PRINCIPLED)
+        return sample_principled_material_pdf(m, sp, specular_normal(sp, wo), wo, wi);
     if (is_specular_material(m)) {
         if (material_is_delta(m)) return 0.0f;
         float3 n = specular_normal(sp, wo);
@@ -174,9 +178,11 @@ INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const Surfa
                        Rng* rng) {
     if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC
-    if (is_specular_material(m) || material_kind(m) == MATERIAL_PLASTIC) {
+    bool principled = material_kind(m) == MATERIAL_PRINCIPLED;
+    if (principled || is_specular_material(m) || material_kind(m) == MATERIAL_PLASTIC) {
         float rnl = rng_float(rng);
         float2 rn = rng_float2(rng);
+        if (principled) return sample_principled_material(m, sp, specular_normal(sp, wo), wo, rnl, rn);
         if (material_kind(m) == MATERIAL_PLASTIC) return sample_plastic_bsdf(scene, m, sp, wo, rnl, rn);
         return sample_specular_bsdf(scene, m, sp, wo, rnl, rn);
     }

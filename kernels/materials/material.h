@@ -42,6 +42,21 @@ float3 material_toon_rim_color(const Material* m) { return m->slot[8].xyz; }
 float material_toon_rim_threshold(const Material* m) { return m->slot[7].y; }
 float3 material_toon_ambient(const Material* m) { return m->slot[9].xyz; }
 
+float material_principled_roughness(const Material* m) { return m->slot[1].x; }
+float material_principled_diffuse_rate(const Material* m) { return m->slot[1].y; }
+float material_principled_eta(const Material* m) { return m->slot[2].x; }
+float material_principled_specular_rate(const Material* m) { return m->slot[2].y; }
+float material_principled_clearcoat_rate(const Material* m) { return m->slot[2].z; }
+float material_principled_anisotropic(const Material* m) { return m->slot[3].x; }
+float material_principled_metallic(const Material* m) { return m->slot[4].x; }
+float material_principled_spec_trans(const Material* m) { return m->slot[5].x; }
+float material_principled_spec_tint(const Material* m) { return m->slot[6].x; }
+float material_principled_sheen(const Material* m) { return m->slot[7].x; }
+float material_principled_sheen_tint(const Material* m) { return m->slot[8].x; }
+float material_principled_clearcoat(const Material* m) { return m->slot[9].x; }
+float material_principled_clearcoat_gloss(const Material* m) { return m->slot[10].x; }
+float material_principled_flatness(const Material* m) { return m->slot[11].x; }
+
 // The same fields of materials[index], for each lane's index (lanes.h).
 lane_int material_kind_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD_INT(materials, index, .kind.x);

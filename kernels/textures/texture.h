@@ -5,6 +5,7 @@
 #ifndef CLRENDER_TEXTURE_H
 #define CLRENDER_TEXTURE_H
 #include "types.h"
+#include "math.h"
 #include "scene.h"
 #include "textures/srgb8.h"
 #if TEXTURES
@@ -87,9 +88,14 @@ float3 eval_bitmap(const Scene* scene, __global const Texture* t, float2 st) {
     return top * (1.0f - q.w.y) + bottom * q.w.y;
 }
 
-float3 eval_checkerboard(__global const Texture* t, float2 st) {
+// Whether st lies in a check of color0 (both fractions on the same side of 1/2).
+bool checkerboard_first(float2 st) {
     float2 f = st - floor(st);
-    return (f.x > 0.5f) == (f.y > 0.5f) ? t->color0.xyz : t->color1.xyz;
+    return (f.x > 0.5f) == (f.y > 0.5f);
+}
+
+float3 eval_checkerboard(__global const Texture* t, float2 st) {
+    return checkerboard_first(st) ? t->color0.xyz : t->color1.xyz;
 }
 
 // Linear RGB of texture `index` at uv.
@@ -99,14 +105,20 @@ float3 eval_texture(const Scene* scene, int index, float2 uv) {
     return t->info.x == TEXTURE_CHECKERBOARD ? eval_checkerboard(t, st) : eval_bitmap(scene, t, st);
 }
 
-// A texture's RGB value as a number: a one-channel bitmap's value, else the luminance (Mitsuba's eval_1).
+// A texture's RGB value as a number: a one-channel bitmap's value, else the luminance.
 float texture_number(__global const Texture* t, float3 v) {
     bool grey = t->info.x == TEXTURE_BITMAP && t->format.x == 1;
     return grey ? v.x : dot(v, LUMINANCE_WEIGHTS);
 }
 
+// The texture as a number, as Mitsuba 3.9's eval_1 gives it: a bitmap's texture_number; a
+// checkerboard the mean of the colour of the *other* check (its eval_1 swaps color0 and color1
+// against eval, and a constant colour's eval_1 is its channel mean).
 float eval_texture_number(const Scene* scene, int index, float2 uv) {
-    return texture_number(scene->textures + index, eval_texture(scene, index, uv));
+    __global const Texture* t = scene->textures + index;
+    if (t->info.x == TEXTURE_CHECKERBOARD)
+        return mean3(checkerboard_first(texture_st(t, uv)) ? t->color1.xyz : t->color0.xyz);
+    return texture_number(t, eval_texture(scene, index, uv));
 }
 
 // The gradient of eval_texture_number with respect to the surface's uv, as Mitsuba's
