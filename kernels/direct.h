@@ -22,6 +22,7 @@ bool direct_integrator(const Scene* scene) {
 float3 direct_bsdf_sample(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                           int n_light, int n_bsdf, Rng* rng) {
     BsdfSample bs = sample_bsdf(scene, m, sp, wo, rng);
+    bs.weight *= shading_map_factor(m, sp, bs.wi);
     if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) return (float3)(0.0f);
     // The power heuristic is scale-invariant: the pdf times n_b / n_l weighs the counts; without
     // light samples the BSDF sample has the whole weight, as a delta one.
@@ -36,25 +37,43 @@ float3 direct_bsdf_sample(const Scene* scene, const Material* m, const SurfacePo
     return bs.weight * emitted_radiance(scene, &lm, &light, sp->p, bs.wi, pdf_w, alone);
 }
 
-// The radiance of one camera sample, as Mitsuba's direct integrator estimates it.
+// The radiance of one camera sample, as Mitsuba's direct integrator estimates it. A camera ray
+// that passes a mask (the probability 1 - opacity of Mitsuba's null component) sees only what
+// emits behind it, as Mitsuba's direct integrator sees through a mask's null lobe.
 float3 trace_direct(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     int n_light = scene->params->sampling.y, n_bsdf = scene->params->sampling.z;
     bool hide_environment = (scene->params->environment.w & HIDE_ENVIRONMENT) != 0;
+    float3 radiance = (float3)(0.0f);
+    bool through_mask = false;
     Hit hit;
     SurfacePoint sp;
+    Material m;
     for (int crossing = 0;; ++crossing) {
         if (!intersect_scene(scene, ray.origin, ray.direction, INFINITY, &hit)) {
-            aov_record_escape(aov, scene, ray.direction, (float3)(1.0f), 1.0f, !hide_environment);
-            return hide_environment ? (float3)(0.0f) : escaped_radiance(scene, ray.direction, 0.0f, true);
+            bool visible = !hide_environment || through_mask;
+            aov_record_escape(aov, scene, ray.direction, (float3)(1.0f), 1.0f, visible);
+            return visible ? radiance + escaped_radiance(scene, ray.direction, 0.0f, true) : radiance;
         }
+        if (crossing == MAX_NULL_CROSSINGS) return radiance;
         sp = surface_point(scene, &hit, ray.direction);
-        if (!hidden_from_camera(scene, &sp)) break;
-        if (crossing == MAX_NULL_CROSSINGS) return (float3)(0.0f);
-        ray.origin = spawn_ray_origin(&sp, ray.direction);
+        if (hidden_from_camera(scene, &sp) && !through_mask) {
+            ray.origin = spawn_ray_origin(&sp, ray.direction);
+            continue;
+        }
+        m = surface_material(scene, &sp);
+        radiance += emitted_radiance(scene, &m, &sp, ray.origin, ray.direction, 0.0f, true);
+        if (through_mask) return radiance;
+#if TEXTURES
+        if (passes_through_mask(&m, rng)) {
+            through_mask = true;
+            ray.origin = spawn_ray_origin(&sp, ray.direction);
+            continue;
+        }
+        bend_shading_normal(scene, &m, &sp, -ray.direction);
+#endif
+        break;
     }
-    Material m = surface_material(scene, &sp);
     if (!material_is_delta(&m)) aov_record_surface(aov, &m, &sp, (float3)(1.0f), 1.0f);
-    float3 radiance = emitted_radiance(scene, &m, &sp, ray.origin, ray.direction, 0.0f, true);
     float3 wo = -ray.direction;
     if (!material_is_delta(&m) && n_light > 0) {
         float3 lit = (float3)(0.0f);

@@ -451,7 +451,7 @@ KERNEL void shading_map_values(__global const Material* material, __global const
     bend_shading_normal(&scene, &m, &sp, wo[i].xyz);
     float factor = shading_map_factor(&m, &sp, wi[i].xyz);
     float3 value = eval_bsdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz) * factor;
-    out_f[i] = (float4)(value, factor > 0.0f ? sample_bsdf_pdf(&m, &sp, wo[i].xyz, wi[i].xyz) : 0.0f);
+    out_f[i] = (float4)(value, factor > 0.0f ? sample_bsdf_pdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz) : 0.0f);
     out_n[i] = (float4)(sp.ns, 0.0f);
 }
 

@@ -14,7 +14,7 @@ int material_normal_map(const Material* m) { return m->maps.x; }
 int material_bump_map(const Material* m) { return m->maps.y; }
 int material_distribution(const Material* m) { return m->maps.z; }
 int material_masking(const Material* m) { return m->maps.w; }
-int material_masked(const Material* m) { return m->slot[12].z != 0.0f; }
+int material_masked(const Material* m) { return (int)m->slot[12].z; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
 float3 material_color(const Material* m) { return m->slot[0].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
