@@ -1,8 +1,7 @@
 """Real Mitsuba 3 scenes written by others (../shared/real-scenes beside the checkout, SOURCES.md
 there; skipped where they are absent, as in CI): what clrender refused though Mitsuba reads it
 (issue 23) now loads as Mitsuba loads it. The XML-only scenes load with stand-ins for their
-absent assets (tests/stand_ins.py); what still stops them is named, strict xfail, so each case
-turns green when its blockers are gone. About 20 s on 2 cores (the staircase's 775 meshes, the
+absent assets (tests/stand_ins.py). About 20 s on 2 cores (the staircase's 775 meshes, the
 Lego's 439).
 """
 import re
@@ -120,31 +119,8 @@ def test_staircase_loads_with_its_roughplastics():
     assert sum("color" in m.textures for m in plastics) == 4
 
 
-# ==============================================================================
-
-
 # XML-only scenes with stand-ins: `clrender info` accepts each, or stops where Mitsuba would
 # ============================================================================================
-class Blocked(Exception):
-    """clrender stopped at a feature that work in progress adds (BLOCKERS)."""
-
-
-# What still stops a real scene, by the error clrender gives for it.
-BLOCKERS = {
-    "plastic": r"'plastic'",
-    "roughplastic": r"'roughplastic'",
-    "beckmann": r"distribution 'beckmann'",
-    "mask": r"unsupported BSDF 'mask'",
-    "thindielectric": r"'thindielectric'",
-    "spot": r"unsupported emitter 'spot'",
-    "textured conductor": r"a textured specular_reflectance with a conductor material or eta/k",
-}
-
-
-def blocked(*names):
-    return pytest.mark.xfail(raises=Blocked, strict=True, reason="needs " + ", ".join(names))
-
-
 def info(capsys, path, parameters):
     """(exit code, error line) of `clrender info path -D name=value ...`."""
     code = main(["info", str(path)] + [arg for name, value in parameters.items() for arg in ("-D", f"{name}={value}")])
@@ -152,38 +128,31 @@ def info(capsys, path, parameters):
     return code, errors[0] if errors else ""
 
 
-def assert_accepted(code, error, blockers):
-    """Exit 0, or Blocked where the error is one of `blockers` (anything else fails)."""
-    if code != 0 and any(re.search(BLOCKERS[name], error) for name in blockers):
-        raise Blocked(error)
+def assert_accepted(code, error):
     assert code == 0, error
 
 
-# scene: (-D parameters, blockers). The research scenes default to their own integrator plugin:
+# scene: its -D parameters. The research scenes default to their own integrator plugin:
 # Mitsuba, too, loads them only with -D integrator=path (SOURCES.md).
 XML_ONLY = {
-    "bitterli-bedroom/scene.xml": ({}, ("roughplastic", "beckmann", "mask")),
-    "bitterli-dining-room/scene_v3_lowerfov.xml": ({}, ("roughplastic", "beckmann")),
-    "bitterli-teapot/scene_v3.xml": ({"integrator": "path"}, ("plastic",)),
-    "bitterli-veach-ajar/scene_v3.xml": ({}, ("textured conductor", "beckmann")),
-    "nppm-classroom/scene_v3.xml": ({}, ("roughplastic", "textured conductor", "spot")),   # ptracer
-    "nppm-water-caustic-glossy/scene.xml": ({}, ("beckmann",)),   # ptracer, hide_emitters
-    "tutorials-lego/scene.xml": ({}, ()),
+    "bitterli-bedroom/scene.xml": {},
+    "bitterli-dining-room/scene_v3_lowerfov.xml": {},
+    "bitterli-teapot/scene_v3.xml": {"integrator": "path"},
+    "bitterli-veach-ajar/scene_v3.xml": {},
+    "nppm-classroom/scene_v3.xml": {},   # ptracer
+    "nppm-water-caustic-glossy/scene.xml": {},   # ptracer, hide_emitters
+    "tutorials-lego/scene.xml": {},
 }
 # Their integrator is a research plugin around Mitsuba's `aov` (and `path`): it stops Mitsuba
-# and clrender alike, whatever -D says; without it, what else stops them.
-RESEARCH_WRAPPED = {
-    "bitterli-bathroom2/scene.xml": ("plastic", "roughplastic"),
-    "bitterli-kitchen/scene.xml": ("roughplastic", "plastic", "mask", "thindielectric"),
-}
+# and clrender alike, whatever -D says.
+RESEARCH_WRAPPED = ["bitterli-bathroom2/scene.xml", "bitterli-kitchen/scene.xml"]
 
 
-@pytest.mark.parametrize("scene", [pytest.param(name, marks=blocked(*blockers) if blockers else ())
-                                   for name, (_, blockers) in XML_ONLY.items()])
+@pytest.mark.parametrize("scene", list(XML_ONLY))
 def test_xml_only_scene_is_accepted_with_stand_ins(tmp_path, capsys, scene):
-    parameters, blockers = XML_ONLY[scene]
+    parameters = XML_ONLY[scene]
     copy = copy_with_stand_ins(real_scene(f"xml-only/{scene}"), tmp_path, parameters)
-    assert_accepted(*info(capsys, copy, parameters), blockers)
+    assert_accepted(*info(capsys, copy, parameters))
 
 
 @pytest.mark.parametrize("scene", list(RESEARCH_WRAPPED))
@@ -196,8 +165,7 @@ def test_a_research_integrator_stops_the_scene_as_it_stops_mitsuba(tmp_path, cap
                         r"plugin of that name", error), error
 
 
-@pytest.mark.parametrize("scene", [pytest.param(name, marks=blocked(*blockers))
-                                   for name, blockers in RESEARCH_WRAPPED.items()])
+@pytest.mark.parametrize("scene", RESEARCH_WRAPPED)
 def test_a_research_scene_without_its_integrator_is_accepted(tmp_path, capsys, scene):
     # The statistical_integrator element replaced by the aov integrator it wraps.
     copy = copy_with_stand_ins(real_scene(f"xml-only/{scene}"), tmp_path, {})
@@ -205,7 +173,7 @@ def test_a_research_scene_without_its_integrator_is_accepted(tmp_path, capsys, s
                           r'\s*</integrator>)\s*</integrator>', r"\1", copy.read_text(), flags=re.S)
     assert count == 1
     copy.write_text(text)
-    assert_accepted(*info(capsys, copy, {"integrator": "path"}), RESEARCH_WRAPPED[scene])
+    assert_accepted(*info(capsys, copy, {"integrator": "path"}))
 
 
 def bsdf_block(path, opening):
@@ -247,7 +215,8 @@ def test_the_staircases_bump_map_wraps_a_bsdf_its_shapes_reference_by_its_inner_
         warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)
         (aluminium,) = clrender.load_scene(tmp_path / "bump.xml").materials
     assert aluminium.type == "conductor" and aluminium.two_sided and aluminium.bump_map == -1
-=======
+
+
 def test_textured_principled_sphere_renders_as_in_mitsuba(tmp_path, device):
     # Mitsuba's test scene of a principled BSDF whose anisotropic, metallic, clearcoat and sheen
     # come from checkerboards (a 32k-triangle OBJ sphere with uv; an environment map, an area and
