@@ -45,6 +45,8 @@ import os
 import sys
 from pathlib import Path
 
+import real_scenes
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENES_DIR = ROOT / "scenes"
 DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
@@ -308,18 +310,17 @@ def child_environment():
 # ---------------------------------------------------------------------------------------------
 # References and the convergence check
 # ---------------------------------------------------------------------------------------------
-def reference_batches(renderer, folder, spp, batches, variant, key):
+def reference_batches(renderer, folder, spp, batches, variant, key, command=child_command):
     """(batches, H, W, 3) images of independent seeds, cached in the scene's folder under `key`
     (a hash of what the renderer renders). Kernel changes are not in the key: --fresh renders
-    them again."""
+    them again. `command`: the child's command line, as child_command's."""
     import numpy as np
 
     from clrender.bench import run_process
 
     path = folder / f"reference-{renderer}-{key}-{spp}spp-{batches}.npy"
     if not path.is_file():
-        command = child_command(renderer, folder, spp, 1000, path, variant, batches)
-        timing = run_process(command, env=child_environment())
+        timing = run_process(command(renderer, folder, spp, 1000, path, variant, batches), env=child_environment())
         print(f"  reference {renderer}: {batches} x {spp} spp in {timing.wall_seconds:.0f} s", flush=True)
     return np.load(path)
 
@@ -366,7 +367,14 @@ def main():
     parser.add_argument("--timing", choices=("process", "render", "traversal"), default="process",
                         help="time whole fresh processes, renders after a warm-up (GPUs), or ray traversal alone")
     parser.add_argument("--rays", type=int, default=1 << 21, help="rays per launch with --timing traversal")
+    parser.add_argument("--real-scenes", nargs="+", type=Path, metavar="PATH",
+                        help="Mitsuba XML scenes, or folders of them (../shared/real-scenes), instead of --scenes")
+    parser.add_argument("--size", type=int, default=128, help="--real-scenes: the film's longer side")
+    parser.add_argument("--cold", action="store_true",
+                        help="--real-scenes: also one process per renderer and scene with empty kernel caches")
     parser.add_argument("--child-sampler", help=argparse.SUPPRESS)
+    parser.add_argument("--child-real", nargs=7, help=argparse.SUPPRESS,
+                        metavar=("RENDERER", "XML", "PARAMETERS", "SPP", "SEED", "BATCHES", "OUT"))
     parser.add_argument("--child-warmup", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--child", nargs=6, metavar=("RENDERER", "FOLDER", "SPP", "SEED", "BATCHES", "OUT"),
                         help=argparse.SUPPRESS)
@@ -379,6 +387,12 @@ def main():
             child_traversal_clrender(Path(folder), rays, args.runs, out)
         else:
             child_traversal_mitsuba(Path(folder), rays, args.runs, out, args.variant)
+        return
+    if args.child_real:
+        renderer, xml, params, spp, seed, batches, out = args.child_real
+        child = (real_scenes.child_clrender if renderer == "clrender" else real_scenes.child_mitsuba)
+        child(Path(xml), json.loads(params), int(spp), int(seed), int(batches), out,
+              args.child_sampler if renderer == "clrender" else args.variant)
         return
     if args.child:
         renderer, folder, spp, seed, batches, out = args.child
@@ -409,6 +423,9 @@ def run(args):
     folders, references, checks = {}, {}, {}
     if args.timing == "traversal":
         run_traversal(args, env, command)
+        return
+    if args.real_scenes:
+        run_real(args, env, command)
         return
     for name in args.scenes:
         folders[name], keys = prepare(name, benchmark_scene(name, args.spp), args.cache)
@@ -471,6 +488,166 @@ def run(args):
           f"± the ratio's relative standard error from the spread of the runs' MSEs; clrender sampler {args.sampler}")
     print(markdown_table(header, rows))
     print(f"\n`{command}`")
+
+
+# ---------------------------------------------------------------------------------------------
+# Real scenes (--real-scenes): Mitsuba XML as shipped, phases timed in the processes
+# ---------------------------------------------------------------------------------------------
+def real_child_command(renderer, xml, params, spp, seed, out, variant, batches=1, sampler="independent"):
+    """A process rendering a real scene (real_scenes.child_clrender or child_mitsuba); `sampler`:
+    clrender's (Mitsuba's is the mirrored XML's)."""
+    return [sys.executable, str(Path(__file__).resolve()), "--child-real", renderer, str(xml), json.dumps(params),
+            str(spp), str(seed), str(batches), str(out), "--variant", variant, "--child-sampler", sampler]
+
+
+def prepare_real(xml, size, mitsuba_samplers, cache):
+    """(name, params, {sampler: mirrored XML}, key): the scene mirrored once per Mitsuba sampler
+    (real_scenes.mirror) in the cache; `key` hashes the edited files and parameters, and keys the
+    references of both renderers."""
+    import warnings
+
+    import clrender
+
+    name, params = real_scenes.scene_name(xml), real_scenes.parameters(xml)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        resolution = clrender.load_scene(xml, params).camera.resolution
+    width, height = real_scenes.film_size(resolution, size)
+    folder = Path(cache) / f"real-{name}-{width}x{height}"
+    mirrors = {sampler: real_scenes.mirror(xml, folder / sampler, (width, height), sampler)
+               for sampler in {"independent", *mitsuba_samplers}}
+    digest = hashlib.sha256(json.dumps(params, sort_keys=True).encode())
+    for edited in sorted((folder / "independent").rglob("*.xml")):
+        digest.update(edited.read_bytes() if not edited.is_symlink() else str(edited.resolve()).encode())
+    return name, params, mirrors, f"{width}x{height}", digest.hexdigest()[:12]
+
+
+def run_real(args, env, command):
+    """--real-scenes: the efficiency table (whole process, CPU, render alone) and the start-up
+    table (median phases; cold with --cold)."""
+    import tempfile
+
+    import numpy as np
+
+    from clrender.bench import interleaved, markdown_table, median
+
+    scenes, references, checks = {}, {}, {}
+    for xml in real_scenes.scene_files(args.real_scenes):
+        name, params, mirrors, size, key = prepare_real(xml, args.size, args.mitsuba_samplers, args.cache)
+        scenes[name] = (params, mirrors, size)
+        print(f"{name} ({size}, -D {params or 'none'}): {mirrors['independent']}", flush=True)
+
+        def reference_command(renderer, _folder, spp, seed, out, variant, batches, _m=mirrors, _p=params):
+            return real_child_command(renderer, _m["independent"], _p, spp, seed, out, variant, batches)
+        batches = {}
+        for renderer in RENDERERS:
+            batches[renderer] = reference_batches(renderer, _real_folder(mirrors), args.spp, args.reference_batches,
+                                                  args.variant, key, reference_command)
+        checks[name] = agreement(batches["clrender"], batches["mitsuba"])
+        both = np.concatenate([batches["clrender"], batches["mitsuba"]])
+        references[name] = (both.mean(axis=0), float(np.mean(both.var(axis=0, ddof=1) / len(both))))
+        c = checks[name]
+        print(f"  convergence: difference / noise = {c['pixels']:.2f} per pixel, {c['blocks']:.2f} per 8x8 block; "
+              f"image means differ by {100 * c['mean']:+.2f} %", flush=True)
+    if args.check_only:
+        return
+    runners = [("clrender", args.sampler)] + [("mitsuba", m) for m in args.mitsuba_samplers]
+    with tempfile.TemporaryDirectory() as scratch:
+        seeds = iter(range(1, 10 ** 6, 2))   # odd: each process also renders seed + 1
+        measures = {(name, runner): _measure_real(*runner, *scenes[name][:2], args.spp, seeds, scratch, args.variant,
+                                                  env, references[name])
+                    for name in scenes for runner in runners}
+        results = interleaved(measures, rounds=args.runs, warmup=1,
+                              after_round=lambda number, _: print(f"round {number} done", flush=True))
+        cold = ({key: measure(cold=True) for key, measure in measures.items()} if args.cold else {})
+    rows, startup = [], []
+    for name in scenes:
+        stats = {runner: _real_stats(results[(name, runner)]) for runner in runners}
+        ours = stats[runners[0]]
+        row = [f"{name} ({scenes[name][2]})", f"{ours['wall']:.3g}", f"{ours['render']:.3g}", f"{ours['mse']:.3g}"]
+        for runner in runners[1:]:
+            theirs = stats[runner]
+            error = np.hypot(ours["error"], theirs["error"])
+            ratio = {k: (theirs["mse"] * theirs[k]) / (ours["mse"] * ours[k]) for k in ("wall", "cpu", "render")}
+            row += [f"{theirs['wall']:.3g}", f"{theirs['render']:.3g}", f"{theirs['mse']:.3g}",
+                    f"{ratio['wall']:.2f} ± {100 * error:.0f} %", f"{ratio['cpu']:.2f}", f"{ratio['render']:.2f}"]
+        rows.append(row + [f"{checks[name]['blocks']:.2f}", f"{100 * checks[name]['mean']:+.1f} %"])
+        startup.append([name] + _startup_cells(stats[runners[0]], stats[runners[1]],
+                                               cold.get((name, runners[0])), cold.get((name, runners[1]))))
+    header = ["scene (size)", "clrender s", "render s", "MSE"]
+    for _, sampler in runners[1:]:
+        header += [f"Mitsuba {sampler} s", "render s", "MSE", f"ratio vs {sampler}", "(CPU s)", "(render)"]
+    header += ["agreement", "means"]
+    print(f"\n{args.spp} spp, the scenes' own max depth and integrator; median of {args.runs} fresh processes each, "
+          f"interleaved; s: whole process, render s: a second render in the same process (rendering alone); MSE "
+          f"against the mean of both {args.reference_batches} x {args.spp}-spp references, less their noise; "
+          f"ratio > 1: clrender more efficient (± from the runs' MSEs); clrender sampler {args.sampler}")
+    print(markdown_table(header, rows))
+    print("\nStart-up, median seconds (warm caches" + (", and cold: empty kernel caches, one process" if cold else "")
+          + "); kernel: clrender's program build plus PoCL's first-launch compile, Mitsuba's JIT (first render less "
+          "the second)")
+    print(markdown_table(_STARTUP_HEADER + (_COLD_HEADER if cold else []), startup))
+    print(f"\n`{command}`")
+
+
+_STARTUP_HEADER = ["scene", "clrender load", "arrays + BVH", "kernel", "upload etc.", "Mitsuba load", "Mitsuba JIT"]
+_COLD_HEADER = ["clrender kernel cold", "Mitsuba JIT cold"]
+
+
+def _real_folder(mirrors):
+    """The scene's folder in the cache (references live there): the mirrors' parent."""
+    independent = mirrors["independent"]
+    return next(p for p in independent.parents if p.name.startswith("real-"))
+
+
+def _real_stats(runs):
+    """Medians of a scene's runs (wall, CPU, render alone, phases) and the mean MSE."""
+    import numpy as np
+
+    from clrender.bench import median
+
+    phases = {k: median([r["phases"].get(k, 0.0) for r in runs]) for k in runs[0]["phases"]}
+    mses = [r["mse"] for r in runs]
+    return {"wall": median([r["wall"] for r in runs]), "cpu": median([r["cpu"] for r in runs]),
+            "render": phases["again"], "mse": float(np.mean(mses)), "error": relative_standard_error(mses),
+            "phases": phases}
+
+
+def _startup_cells(ours, theirs, ours_cold, theirs_cold):
+    p, q = ours["phases"], theirs["phases"]
+    kernel = p["kernel build"] + p["render"] - p["again"]
+    cells = [p["load"], p["arrays + BVH"], kernel, p["set-up"] - p["arrays + BVH"] - p["kernel build"],
+             q["load"], q["render"] - q["again"]]
+    if ours_cold is not None:
+        pc, qc = ours_cold["phases"], theirs_cold["phases"]
+        cells += [pc["kernel build"] + pc["render"] - pc["again"], qc["render"] - qc["again"]]
+    return [f"{c:.2f}" for c in cells]
+
+
+def _measure_real(renderer, sampler, params, mirrors, spp, seeds, scratch, variant, env, reference):
+    """A function running one timed process of a real scene: {wall, cpu, mse, phases}, the wall
+    and CPU seconds less the second render's (real_scenes._render_all). With cold=True, the
+    process runs with empty kernel caches (its own HOME, XDG cache, clrender and PoCL caches)."""
+    import tempfile
+
+    import numpy as np
+
+    from clrender.bench import run_process
+
+    xml = mirrors["independent" if renderer == "clrender" else sampler]
+
+    def measure(cold=False):
+        seed = next(seeds)
+        out = Path(scratch) / f"{renderer}-{seed}.npy"
+        argv = real_child_command(renderer, xml, params, spp, seed, out, variant,
+                                  sampler=sampler if renderer == "clrender" else "independent")
+        with tempfile.TemporaryDirectory(dir=scratch) as empty:
+            cold_env = {"HOME": empty, "XDG_CACHE_HOME": empty, "CLRENDER_CACHE_DIR": empty, "POCL_CACHE_DIR": empty}
+            timing = run_process(argv, env={**env, **cold_env} if cold else env)
+        phases = json.loads(out.with_suffix(".phases.json").read_text())
+        return {"wall": timing.wall_seconds - phases["again"], "cpu": timing.cpu_seconds - phases["again cpu"],
+                "mse": _mse(np.load(out)[0], reference), "phases": phases}
+    return measure
 
 
 def run_traversal(args, env, command):
