@@ -197,6 +197,29 @@ def child_mitsuba(folder, spp, seed, batches, out, variant, sampler, warmup):
                     seed, batches, out, warmup)
 
 
+def _clrender_scene(source):
+    """A benchmark's folder (its scene.json), or a real scene: (XML path, -D parameters)."""
+    import warnings
+
+    import clrender
+
+    if isinstance(source, tuple):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return clrender.load_scene(*source)
+    return clrender.load_scene(source / "scene.json")
+
+
+def _mitsuba_scene(source, mi):
+    """The same for Mitsuba (load_file, or the exported benchmark)."""
+    if isinstance(source, tuple):
+        return mi.load_file(str(source[0]), **source[1])
+    spec = importlib.util.spec_from_file_location("mitsuba_export", ROOT / "clrender" / "mitsuba_export.py")
+    export = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(export)
+    return mi.load_dict(export.to_mitsuba_dict(json.loads((source / "mitsuba.json").read_text()), mi))
+
+
 def child_traversal_clrender(folder, rays_path, runs, out):
     """Hit distances of the rays in rays_path ((N, 2, 3): origins, directions) by clrender's
     traversal kernel (the tests' trace_rays), and the CPU seconds of each timed launch."""
@@ -209,7 +232,7 @@ def child_traversal_clrender(folder, rays_path, runs, out):
     from clrender.features import FEATURE_VALUES
 
     rays = np.load(rays_path)
-    arrays = build_scene_arrays(clrender.load_scene(folder / "scene.json"))
+    arrays = build_scene_arrays(_clrender_scene(folder))
     origins = np.zeros((len(rays), 4), np.float32)
     directions = np.zeros((len(rays), 4), np.float32)
     origins[:, :3] = rays[:, 0] * arrays.length_scale
@@ -238,10 +261,7 @@ def child_traversal_mitsuba(folder, rays_path, runs, out, variant):
     import numpy as np
 
     mi.set_variant(variant)
-    spec = importlib.util.spec_from_file_location("mitsuba_export", ROOT / "clrender" / "mitsuba_export.py")
-    export = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(export)
-    scene = mi.load_dict(export.to_mitsuba_dict(json.loads((folder / "mitsuba.json").read_text()), mi))
+    scene = _mitsuba_scene(folder, mi)
     rays = np.load(rays_path).astype(np.float32)
     ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(rays[:, 0].T)), mi.Vector3f(np.ascontiguousarray(rays[:, 1].T)))
     dr.eval(ray)
@@ -370,9 +390,12 @@ def main():
     parser.add_argument("--real-scenes", nargs="+", type=Path, metavar="PATH",
                         help="Mitsuba XML scenes, or folders of them (../shared/real-scenes), instead of --scenes")
     parser.add_argument("--size", type=int, default=128, help="--real-scenes: the film's longer side")
+    parser.add_argument("--baseline", type=Path, metavar="CHECKOUT",
+                        help="--real-scenes: also time the clrender of another checkout (before a change), interleaved")
     parser.add_argument("--cold", action="store_true",
                         help="--real-scenes: also one process per renderer and scene with empty kernel caches")
     parser.add_argument("--child-sampler", help=argparse.SUPPRESS)
+    parser.add_argument("--child-params", default="{}", help=argparse.SUPPRESS)
     parser.add_argument("--child-real", nargs=7, help=argparse.SUPPRESS,
                         metavar=("RENDERER", "XML", "PARAMETERS", "SPP", "SEED", "BATCHES", "OUT"))
     parser.add_argument("--child-warmup", action="store_true", help=argparse.SUPPRESS)
@@ -383,10 +406,11 @@ def main():
     args = parser.parse_args()
     if args.child_traversal:
         renderer, folder, rays, out = args.child_traversal
+        folder = (Path(folder), json.loads(args.child_params)) if folder.endswith(".xml") else Path(folder)
         if renderer == "clrender":
-            child_traversal_clrender(Path(folder), rays, args.runs, out)
+            child_traversal_clrender(folder, rays, args.runs, out)
         else:
-            child_traversal_mitsuba(Path(folder), rays, args.runs, out, args.variant)
+            child_traversal_mitsuba(folder, rays, args.runs, out, args.variant)
         return
     if args.child_real:
         renderer, xml, params, spp, seed, batches, out = args.child_real
@@ -529,7 +553,7 @@ def run_real(args, env, command):
 
     import numpy as np
 
-    from clrender.bench import interleaved, markdown_table, median
+    from clrender.bench import interleaved, markdown_table
 
     scenes, references, checks = {}, {}, {}
     for xml in real_scenes.scene_files(args.real_scenes):
@@ -551,43 +575,57 @@ def run_real(args, env, command):
               f"image means differ by {100 * c['mean']:+.2f} %", flush=True)
     if args.check_only:
         return
-    runners = [("clrender", args.sampler)] + [("mitsuba", m) for m in args.mitsuba_samplers]
+    ours = [("clrender", args.sampler)] + ([("baseline", args.sampler)] if args.baseline else [])
+    theirs = [("mitsuba", m) for m in args.mitsuba_samplers]
+    runners = ours + theirs
+    baseline_env = {**env, "PYTHONPATH": os.pathsep.join(filter(None, [str(args.baseline), os.environ.get("PYTHONPATH")]))}
     with tempfile.TemporaryDirectory() as scratch:
         seeds = iter(range(1, 10 ** 6, 2))   # odd: each process also renders seed + 1
         measures = {(name, runner): _measure_real(*runner, *scenes[name][:2], args.spp, seeds, scratch, args.variant,
-                                                  env, references[name])
+                                                  baseline_env if runner[0] == "baseline" else env, references[name])
                     for name in scenes for runner in runners}
         results = interleaved(measures, rounds=args.runs, warmup=1,
                               after_round=lambda number, _: print(f"round {number} done", flush=True))
-        cold = ({key: measure(cold=True) for key, measure in measures.items()} if args.cold else {})
-    rows, startup = [], []
-    for name in scenes:
-        stats = {runner: _real_stats(results[(name, runner)]) for runner in runners}
-        ours = stats[runners[0]]
-        row = [f"{name} ({scenes[name][2]})", f"{ours['wall']:.3g}", f"{ours['render']:.3g}", f"{ours['mse']:.3g}"]
-        for runner in runners[1:]:
-            theirs = stats[runner]
-            error = np.hypot(ours["error"], theirs["error"])
-            ratio = {k: (theirs["mse"] * theirs[k]) / (ours["mse"] * ours[k]) for k in ("wall", "cpu", "render")}
-            row += [f"{theirs['wall']:.3g}", f"{theirs['render']:.3g}", f"{theirs['mse']:.3g}",
-                    f"{ratio['wall']:.2f} ± {100 * error:.0f} %", f"{ratio['cpu']:.2f}", f"{ratio['render']:.2f}"]
-        rows.append(row + [f"{checks[name]['blocks']:.2f}", f"{100 * checks[name]['mean']:+.1f} %"])
-        startup.append([name] + _startup_cells(stats[runners[0]], stats[runners[1]],
-                                               cold.get((name, runners[0])), cold.get((name, runners[1]))))
-    header = ["scene (size)", "clrender s", "render s", "MSE"]
-    for _, sampler in runners[1:]:
-        header += [f"Mitsuba {sampler} s", "render s", "MSE", f"ratio vs {sampler}", "(CPU s)", "(render)"]
-    header += ["agreement", "means"]
+        cold = ({key: measure(cold=True) for key, measure in measures.items() if key[1][0] != "baseline"}
+                if args.cold else {})
+    stats = {key: _real_stats(runs) for key, runs in results.items()}
     print(f"\n{args.spp} spp, the scenes' own max depth and integrator; median of {args.runs} fresh processes each, "
           f"interleaved; s: whole process, render s: a second render in the same process (rendering alone); MSE "
           f"against the mean of both {args.reference_batches} x {args.spp}-spp references, less their noise; "
           f"ratio > 1: clrender more efficient (± from the runs' MSEs); clrender sampler {args.sampler}")
-    print(markdown_table(header, rows))
+    for runner in ours:
+        print(f"\n{'clrender' if runner[0] == 'clrender' else f'clrender at {args.baseline}'}:")
+        print(_efficiency_table(scenes, stats, runner, theirs, checks))
+    startup = [[name] + _startup_cells(stats[(name, ours[0])], stats[(name, theirs[0])],
+                                       cold.get((name, ours[0])), cold.get((name, theirs[0]))) for name in scenes]
     print("\nStart-up, median seconds (warm caches" + (", and cold: empty kernel caches, one process" if cold else "")
           + "); kernel: clrender's program build plus PoCL's first-launch compile, Mitsuba's JIT (first render less "
           "the second)")
     print(markdown_table(_STARTUP_HEADER + (_COLD_HEADER if cold else []), startup))
     print(f"\n`{command}`")
+
+
+def _efficiency_table(scenes, stats, ours, theirs, checks):
+    """The Markdown table of one clrender runner's efficiency against each of Mitsuba's."""
+    import numpy as np
+
+    from clrender.bench import markdown_table
+
+    rows = []
+    for name in scenes:
+        a = stats[(name, ours)]
+        row = [f"{name} ({scenes[name][2]})", f"{a['wall']:.3g}", f"{a['render']:.3g}", f"{a['mse']:.3g}"]
+        for runner in theirs:
+            b = stats[(name, runner)]
+            ratio = {k: (b["mse"] * b[k]) / (a["mse"] * a[k]) for k in ("wall", "cpu", "render")}
+            row += [f"{b['wall']:.3g}", f"{b['render']:.3g}", f"{b['mse']:.3g}",
+                    f"{ratio['wall']:.2f} ± {100 * np.hypot(a['error'], b['error']):.0f} %", f"{ratio['cpu']:.2f}",
+                    f"{ratio['render']:.2f}"]
+        rows.append(row + [f"{checks[name]['blocks']:.2f}", f"{100 * checks[name]['mean']:+.1f} %"])
+    header = ["scene (size)", "clrender s", "render s", "MSE"]
+    for _, sampler in theirs:
+        header += [f"Mitsuba {sampler} s", "render s", "MSE", f"ratio vs {sampler}", "(CPU s)", "(render)"]
+    return markdown_table(header + ["agreement", "means"], rows)
 
 
 _STARTUP_HEADER = ["scene", "clrender load", "arrays + BVH", "kernel", "upload etc.", "Mitsuba load", "Mitsuba JIT"]
@@ -634,13 +672,14 @@ def _measure_real(renderer, sampler, params, mirrors, spp, seeds, scratch, varia
 
     from clrender.bench import run_process
 
-    xml = mirrors["independent" if renderer == "clrender" else sampler]
+    child = "mitsuba" if renderer == "mitsuba" else "clrender"   # baseline: clrender of another checkout
+    xml = mirrors["independent" if child == "clrender" else sampler]
 
     def measure(cold=False):
         seed = next(seeds)
         out = Path(scratch) / f"{renderer}-{seed}.npy"
-        argv = real_child_command(renderer, xml, params, spp, seed, out, variant,
-                                  sampler=sampler if renderer == "clrender" else "independent")
+        argv = real_child_command(child, xml, params, spp, seed, out, variant,
+                                  sampler=sampler if child == "clrender" else "independent")
         with tempfile.TemporaryDirectory(dir=scratch) as empty:
             cold_env = {"HOME": empty, "XDG_CACHE_HOME": empty, "CLRENDER_CACHE_DIR": empty, "POCL_CACHE_DIR": empty}
             timing = run_process(argv, env={**env, **cold_env} if cold else env)
@@ -656,26 +695,30 @@ def run_traversal(args, env, command):
 
     import numpy as np
 
-    import clrender
     from clrender.bench import markdown_table, median, run_process
 
     rows = []
+    if args.real_scenes:
+        sources = {real_scenes.scene_name(xml): (xml, real_scenes.parameters(xml))
+                   for xml in real_scenes.scene_files(args.real_scenes)}
+    else:
+        sources = {name: prepare(name, benchmark_scene(name, args.spp), args.cache)[0] for name in args.scenes}
     with tempfile.TemporaryDirectory() as scratch:
-        for name in args.scenes:
-            folder, _ = prepare(name, benchmark_scene(name, args.spp), args.cache)
+        for name, source in sources.items():
             rays_path = Path(scratch) / f"{name}-rays.npy"
-            np.save(rays_path, random_rays(clrender.load_scene(folder / "scene.json"), args.rays))
+            np.save(rays_path, random_rays(_clrender_scene(source), args.rays))
             results = {}
             for renderer in RENDERERS:
                 out = Path(scratch) / f"{name}-{renderer}.npy"
+                where, params = source if isinstance(source, tuple) else (source, {})
                 run_process([sys.executable, str(Path(__file__).resolve()), "--child-traversal", renderer,
-                             str(folder), str(rays_path), str(out), "--runs", str(args.runs),
-                             "--variant", args.variant], env=env)
+                             str(where), str(rays_path), str(out), "--runs", str(args.runs),
+                             "--variant", args.variant, "--child-params", json.dumps(params)], env=env)
                 seconds = json.loads(out.with_suffix(".seconds.json").read_text())
                 results[renderer] = (np.load(out), median(seconds) / args.rays * 1e9)
             (t_ours, ns_ours), (t_theirs, ns_theirs) = results["clrender"], results["mitsuba"]
             same = hits_agree(t_ours, t_theirs)
-            rows.append([BENCHMARKS[name][0], f"{ns_ours:.1f}", f"{ns_theirs:.1f}", f"{ns_theirs / ns_ours:.2f}",
+            rows.append([BENCHMARKS[name][0] if name in BENCHMARKS else name, f"{ns_ours:.1f}", f"{ns_theirs:.1f}", f"{ns_theirs / ns_ours:.2f}",
                          f"{100 * np.mean(~np.isfinite(t_ours)):.1f} %", f"{100 * same:.3f} %"])
             print(f"{name}: done", flush=True)
     print(f"\n{args.rays} rays per launch; CPU ns per ray (a closest hit and an any hit), median of {args.runs} "
