@@ -4,6 +4,7 @@ benchmark scenes, each renderer timed whole in fresh processes, interleaved, med
     python tools/peers.py [--scenes cornell_box glass_sphere ...] [--runs 3] [--spp 64]
                           [--reference-batches 8] [--cache DIR] [--variant llvm_ad_rgb]
                           [--sampler sobol|independent] [--mitsuba-samplers independent ldsampler ...]
+    python tools/peers.py --real-scenes ../shared/real-scenes [--size 128] [--cold] [--baseline CHECKOUT] ...
 
 For each scene (256 x 256, max depth 64, Russian roulette from depth 5):
   1. write it as our JSON scene and as a Mitsuba 3 scene (clrender/mitsuba_export.py);
@@ -33,6 +34,19 @@ by both renderers in one process each: a closest hit and an any-hit (shadow) que
 warm-up launch, then --runs launches (median CPU seconds per ray). The two must find the same
 hits (the fraction that agree is printed) before their times mean anything: clrender's BVH
 traversal (kernels/bvh.h) against Mitsuba's (Embree on the CPU).
+
+With --real-scenes PATH... (Mitsuba XML scenes as written by others, or a folder of them such as
+../shared/real-scenes: tools/real_scenes.py): each scene as shipped, in a mirrored copy whose film
+is resized (--size, the longer side; the aspect kept) and whose sampler is each of Mitsuba's
+--mitsuba-samplers (clrender reads the `independent` copy and uses --sampler); research
+integrators a scene names as its default become `-D integrator=path` (SOURCES.md). References,
+convergence check and interleaving as above. Each process also times its phases (load, arrays +
+BVH, kernel build, first render; Mitsuba: load_file, first render) and renders a second image of
+another seed, which is rendering alone: the table gives the ratio whole process (less that second
+render), by CPU seconds and by rendering alone, and a start-up table (warm caches; with --cold,
+one more process per renderer and scene with empty kernel caches). --baseline CHECKOUT adds the
+clrender of another checkout (the code before a change) to the same interleaved rounds, with its
+own table. --timing traversal works on the real scenes too.
 
 Mitsuba is an optional extra (`pip install -e '.[peers]'`). Its LLVM variants need an LLVM
 shared library: DRJIT_LIBLLVM_PATH defaults to Debian's libllvm19 when that file exists.
