@@ -587,27 +587,49 @@ def environment_mean_radiance(light):
     return row_solid_angle @ light.image.sum(axis=1, dtype=np.float64) / (4 * np.pi)
 
 
-def _environment_tables(image):
-    """Texels and the sampling CDFs of a lat-long image: luminance x sin(theta) per texel.
+# The environment's sampling grid has at most this many columns: cells of 2 x 2, 4 x 4, ...
+# texels of a finer map. The tables then stay in the caches (a 4096 x 2048 map's own would be
+# 32 MiB, and its texel rows 16 KiB to search), which paid 1.5-2x in the renders of maps that the
+# Mitsuba reader resampled to 4096 across (docs/performance.md, issue 24).
+ENV_SAMPLING_COLUMNS = 1024
 
-    Returns (texels, [marginal | conditional rows], mean radiance over the sphere). Computed a
-    band of rows at a time, in float64, stored in float32: a large map needs no full-size
-    float64 temporaries."""
+
+def environment_sampling_grid(width, height):
+    """(columns, rows) of the sampling grid of a width x height map: halved while wider than
+    ENV_SAMPLING_COLUMNS and both even."""
+    columns, rows = width, height
+    while columns > ENV_SAMPLING_COLUMNS and columns % 2 == 0 and rows % 2 == 0:
+        columns, rows = columns // 2, rows // 2
+    return columns, rows
+
+
+def _environment_tables(image):
+    """Texels and the sampling CDFs of a lat-long image: luminance x sin(theta) summed over each
+    cell of its sampling grid (environment_sampling_grid), uniform in (u, v) within a cell.
+
+    Returns (texels, [grid columns, grid rows, marginal | conditional rows], mean radiance over
+    the sphere). Computed a band of rows at a time, in float64, stored in float32: a large map
+    needs no full-size float64 temporaries."""
     height, width, _ = image.shape
+    columns, rows_count = environment_sampling_grid(width, height)
+    fx, fy = width // columns, height // rows_count
     sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
-    cdf = np.empty(height + 1 + height * (width + 1), np.float32)
-    rows = cdf[height + 1:].reshape(height, width + 1)
-    row_sums = np.empty(height)
-    band = max(1, (1 << 20) // width)
-    for first in range(0, height, band):
+    cdf = np.empty(2 + rows_count + 1 + rows_count * (columns + 1), np.float32)
+    cdf[:2] = columns, rows_count
+    rows = cdf[2 + rows_count + 1:].reshape(rows_count, columns + 1)
+    row_sums = np.empty(rows_count)
+    band = max(1, (1 << 20) // (width * fy))   # grid rows per band
+    for first in range(0, rows_count, band):
         part = slice(first, first + band)
-        weights = np.maximum(image[part] @ LUMINANCE, 0) * sin_theta[part, None]
+        texel_rows = slice(first * fy, (first + band) * fy)
+        weights = np.maximum(image[texel_rows] @ LUMINANCE, 0) * sin_theta[texel_rows, None]
+        weights = weights.reshape(-1, fy, columns, fx).sum(axis=(1, 3))
         row_sums[part] = weights.sum(axis=1)
         weights[~(row_sums[part] > 0)] = 1.0   # a black row: uniform (it is never chosen)
         rows[part, 0] = 0.0
         rows[part, 1:] = np.cumsum(weights, axis=1) / weights.sum(axis=1, keepdims=True)
         rows[part, -1] = 1.0
-    cdf[:height + 1] = _cdf(row_sums)
+    cdf[2:2 + rows_count + 1] = _cdf(row_sums)
     texels = np.zeros((height * width, 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
     mean = float(image.sum(axis=(1, 2), dtype=np.float64) @ sin_theta / (3 * sin_theta.sum() * width))

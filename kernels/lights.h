@@ -36,13 +36,19 @@ int environment_texel(const Scene* scene, float2 uv) {
     return j * w + max(i, 0);
 }
 
+// The sampling grid's columns and rows head its tables (clrender/arrays.py, _environment_tables):
+// cells of one or more texels.
+int2 environment_sampling_grid(const Scene* scene) {
+    return (int2)((int)scene->env_cdf[0], (int)scene->env_cdf[1]);
+}
+
 float environment_pdf_w(const Scene* scene, float3 dir) {
-    int w = scene->params->environment.y, h = scene->params->environment.z;
+    int2 grid = environment_sampling_grid(scene);
+    int w = grid.x, h = grid.y;
     float2 uv = direction_to_latlong(dir);
-    int texel = environment_texel(scene, uv);
-    int j = texel / w, i = texel - j * w;
-    __global const float* marginal = scene->env_cdf;
-    __global const float* conditional = scene->env_cdf + (h + 1) + j * (w + 1);
+    int i = clamp((int)(uv.x * (float)w), 0, w - 1), j = min((int)(uv.y * (float)h), h - 1);
+    __global const float* marginal = scene->env_cdf + 2;
+    __global const float* conditional = marginal + (h + 1) + j * (w + 1);
     float pdf_uv = (float)(w * h) * (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]);
     float sin_theta = sin(uv.y * PI_F);
     return sin_theta > 0.0f ? pdf_uv / (2.0f * PI_F * PI_F * sin_theta) : 0.0f;
@@ -52,14 +58,16 @@ float3 environment_radiance(const Scene* scene, float3 dir) {
     return scene->env_texels[environment_texel(scene, direction_to_latlong(dir))].xyz;
 }
 
-// Piecewise-constant inversion: a row from the marginal CDF, then a column in that row.
+// Piecewise-constant inversion over the sampling grid: a row from the marginal CDF, then a
+// column in that row.
 float3 sample_environment_direction(const Scene* scene, float2 u) {
-    int w = scene->params->environment.y, h = scene->params->environment.z;
-    __global const float* marginal = scene->env_cdf;
+    int2 grid = environment_sampling_grid(scene);
+    int w = grid.x, h = grid.y;
+    __global const float* marginal = scene->env_cdf + 2;
     float in_row, in_column;
     int j = sample_discrete_cdf_reuse(marginal, h, u.x, &in_row);
     float v = ((float)j + in_row) / (float)h;
-    __global const float* conditional = scene->env_cdf + (h + 1) + j * (w + 1);
+    __global const float* conditional = marginal + (h + 1) + j * (w + 1);
     int i = sample_discrete_cdf_reuse(conditional, w, u.y, &in_column);
     float uu = ((float)i + in_column) / (float)w;
     float theta = clamp(v, 0.0f, 1.0f) * PI_F;

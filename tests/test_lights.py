@@ -42,7 +42,19 @@ def upper_hemisphere_irradiance(image):
     return np.einsum("hwc,h->c", image[upper], weight[upper])
 
 
-def test_environment_image_lighting_matches_the_integral(device, tmp_path):
+# Sampling grids: the map's texels (its 32 columns), and cells of 4 x 4 texels (the grid of a
+# map wider than arrays.ENV_SAMPLING_COLUMNS, here set to 8).
+GRIDS = [None, 8]
+
+
+def sampling_grid(monkeypatch, columns):
+    if columns is not None:
+        monkeypatch.setattr(clrender.arrays, "ENV_SAMPLING_COLUMNS", columns)
+
+
+@pytest.mark.parametrize("columns", GRIDS)
+def test_environment_image_lighting_matches_the_integral(device, tmp_path, monkeypatch, columns):
+    sampling_grid(monkeypatch, columns)
     image = environment_image()
     clrender.save_image(image, tmp_path / "sky.exr")
     scene = clrender.load_scene_dict(floor_scene([{"type": "environment", "file": "sky.exr"}]),
@@ -54,9 +66,12 @@ def test_environment_image_lighting_matches_the_integral(device, tmp_path):
         assert z_bound(result.image[..., channel], expected[channel]) < 5.0
 
 
-def test_environment_sampling_follows_its_pdf(context, queue, tmp_path):
-    # Chi-square of sampled texels against the tabulated probabilities, and the returned
-    # solid-angle pdf against the table at every sample.
+@pytest.mark.parametrize("columns", GRIDS)
+def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypatch, columns):
+    # Chi-square of sampled texels against the tabulated probabilities (a cell's, uniform over
+    # its texels in (u, v)), the returned solid-angle pdf against the table at every sample, and
+    # the radiance the texel's.
+    sampling_grid(monkeypatch, columns)
     image = environment_image()
     clrender.save_image(image, tmp_path / "sky.exr")
     scene = clrender.load_scene_dict(floor_scene([{"type": "environment", "file": "sky.exr"}]),
@@ -82,17 +97,25 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path):
     v = np.arccos(np.clip(d[:, 1], -1, 1)) / np.pi * height
     texel = np.clip(v.astype(int), 0, height - 1) * width + np.clip(u.astype(int), 0, width - 1)
     sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
-    weights = (image @ np.array([0.2126, 0.7152, 0.0722]) * sin_theta[:, None]).ravel()
-    pmf = weights / weights.sum()
+    weights = image @ np.array([0.2126, 0.7152, 0.0722]) * sin_theta[:, None]
+    grid_columns, grid_rows = clrender.arrays.environment_sampling_grid(width, height)
+    assert (grid_columns, grid_rows) == ((width, height) if columns is None else (8, 4))
+    fy, fx = height // grid_rows, width // grid_columns
+    cells = weights.reshape(grid_rows, fy, grid_columns, fx).sum(axis=(1, 3))
+    pmf = np.repeat(np.repeat(cells, fy, axis=0), fx, axis=1).ravel() / (fx * fy) / weights.sum()
     observed = np.bincount(texel, minlength=height * width)
     expected = pmf * count
     big = expected > 20
     chi2 = np.sum((observed[big] - expected[big]) ** 2 / expected[big])
     dof = big.sum() - 1
     assert chi2 < dof + 5 * np.sqrt(2 * dof), (chi2, dof)  # chi-square mean dof, sd sqrt(2 dof)
-    # pdf_w * (2 pi^2 sin theta) is the (u, v) density, which equals pmf * texel count.
+    # pdf_w * (2 pi^2 sin theta) is the (u, v) density, which equals pmf * texel count. At a pole
+    # (sin theta rounded to 0: a cell's edge, which a coarse grid's top cell reaches at times) the
+    # solid-angle density is infinite and the kernel says 0: such a light sample counts nothing.
+    at_pole = out[:, 3] == 0
+    assert at_pole.mean() < 1e-4 and np.all(np.abs(d[at_pole, 1]) > 1 - 1e-6)
     pdf_uv = out[:, 3] * 2 * np.pi ** 2 * np.sqrt(np.maximum(0, 1 - d[:, 1] ** 2))
-    np.testing.assert_allclose(pdf_uv, pmf[texel] * height * width, rtol=2e-3)
+    np.testing.assert_allclose(pdf_uv[~at_pole], pmf[texel[~at_pole]] * height * width, rtol=2e-3)
     np.testing.assert_allclose(radiance[:, :3], image.reshape(-1, 3)[texel], rtol=1e-6)
 
 
@@ -106,14 +129,36 @@ def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():
     image[[0, 2500, 4999]] = 0.0
     texels, cdf, mean = _environment_tables(image)
     weights = (image @ LUMINANCE) * np.sin((np.arange(height) + 0.5) / height * np.pi)[:, None]
-    np.testing.assert_array_equal(cdf[:height + 1], _cdf(weights.sum(axis=1)))
-    rows = cdf[height + 1:].reshape(height, width + 1)
+    assert cdf[:2].tolist() == [width, height]   # the sampling grid: the texels (500 columns)
+    np.testing.assert_array_equal(cdf[2:height + 3], _cdf(weights.sum(axis=1)))
+    rows = cdf[height + 3:].reshape(height, width + 1)
     for row in (0, 1, 2097, 2500, 4998, 4999):
         np.testing.assert_array_equal(rows[row], _cdf(weights[row]))
     np.testing.assert_array_equal(texels[:, :3], image.reshape(-1, 3))
     assert mean == pytest.approx((image.mean(axis=2, dtype=float) * np.sin((np.arange(height) + 0.5) / height
                                                                           * np.pi)[:, None]).mean()
                                  / np.sin((np.arange(height) + 0.5) / height * np.pi).mean(), rel=1e-12)
+
+
+def test_a_wide_maps_sampling_grid_sums_cells_of_texels():
+    """A 4096 x 2048 map (the Mitsuba reader's resampling) is sampled on a 1024 x 512 grid of
+    4 x 4 texels, whose tables are the CDFs of the cells' sums; odd sizes keep their texels."""
+    from clrender.arrays import LUMINANCE, _cdf, _environment_tables, environment_sampling_grid
+
+    assert environment_sampling_grid(4096, 2048) == (1024, 512)
+    assert environment_sampling_grid(2048, 1024) == (1024, 512)
+    assert environment_sampling_grid(3000, 1501) == (3000, 1501)
+    assert environment_sampling_grid(1024, 512) == (1024, 512)
+    height, width = 2048, 4096
+    image = np.random.default_rng(7).uniform(0, 2, (height, width, 3)).astype(np.float32)
+    texels, cdf, mean = _environment_tables(image)
+    weights = (image @ LUMINANCE) * np.sin((np.arange(height) + 0.5) / height * np.pi)[:, None]
+    cells = weights.reshape(512, 4, 1024, 4).sum(axis=(1, 3))
+    assert cdf[:2].tolist() == [1024, 512] and len(cdf) == 2 + 513 + 512 * 1025
+    np.testing.assert_allclose(cdf[2:515], _cdf(cells.sum(axis=1)), atol=1e-7)
+    rows = cdf[515:].reshape(512, 1025)
+    for row in (0, 255, 511):
+        np.testing.assert_allclose(rows[row], _cdf(cells[row]), atol=1e-7)
 
 
 def test_directional_light_gives_exact_cosine_irradiance(device):
