@@ -6,7 +6,8 @@ import numpy as np
 
 from . import layout, limits, meshes, plastic, principled, textures
 from . import wide_bvh
-from .bvh import build_bvh, intersect_brute_force
+from .bvh import intersect_brute_force
+from .ploc import build_ploc_bvh
 from .errors import SceneError
 from .origins import at_source
 
@@ -96,7 +97,7 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
     centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
-    bvh = build_bvh(v0, v1, v2, spheres=(centres, radii))
+    bvh = build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
     order = bvh.prim_order
     triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
     unordered_info = np.concatenate([info, sphere_info])

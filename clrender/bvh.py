@@ -58,11 +58,7 @@ def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16, spheres=None) -> Bvh:
     """
     if max_leaf_size < 1 or bins < 2:
         raise ValueError("need max_leaf_size >= 1 and bins >= 2")
-    lo, hi = _triangle_bounds(v0, v1, v2)
-    n_triangles = lo.shape[1]
-    if spheres is not None and len(spheres[1]):
-        sphere_lo, sphere_hi = sphere_bounds(*spheres)
-        lo, hi = np.concatenate([lo, sphere_lo], axis=1), np.concatenate([hi, sphere_hi], axis=1)
+    lo, hi, n_triangles = primitive_bounds(v0, v1, v2, spheres)
     n = lo.shape[1]
     if n == 0:
         return Bvh(_empty_nodes(1), np.zeros(0, np.int32), 1)
@@ -332,6 +328,17 @@ def _exclusive_cumsum(x):
     out = np.zeros(len(x), np.int64)
     np.cumsum(x[:-1], out=out[1:])
     return out
+
+
+def primitive_bounds(v0, v1, v2, spheres=None):
+    """(lo, hi, number of triangles): the boxes (3, N) float32 of the triangles, then of the
+    spheres (centres, radii) if given, numbered as build_bvh numbers primitives."""
+    lo, hi = _triangle_bounds(v0, v1, v2)
+    n_triangles = lo.shape[1]
+    if spheres is not None and len(spheres[1]):
+        sphere_lo, sphere_hi = sphere_bounds(*spheres)
+        lo, hi = np.concatenate([lo, sphere_lo], axis=1), np.concatenate([hi, sphere_hi], axis=1)
+    return lo, hi, n_triangles
 
 
 def _triangle_bounds(v0, v1, v2):
