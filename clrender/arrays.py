@@ -93,8 +93,9 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info, uvs = _gather_triangles(scene, scale, with_uv)
     keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
-    _skip_shapes_without_area(scene, info, keep)
-    v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
+    if degenerate:
+        _skip_shapes_without_area(scene, info, keep)
+        v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
     centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
     bvh = build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
@@ -169,8 +170,9 @@ def build_scene_arrays(scene):
 def _has_float32_area(v0, v1, v2):
     """Whether each triangle keeps an area in the kernel's float32 arithmetic: its normal
     (cross product of float32 edges) has a normal-range, finite squared length."""
-    e1 = v1.astype(np.float32) - v0.astype(np.float32)
-    e2 = v2.astype(np.float32) - v0.astype(np.float32)
+    v0 = np.asarray(v0, np.float32)
+    e1 = np.asarray(v1, np.float32) - v0
+    e2 = np.asarray(v2, np.float32) - v0
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         n = np.cross(e1, e2)
         length2 = np.sum(n * n, axis=1, dtype=np.float32)
@@ -285,36 +287,36 @@ BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 
 def _gather_triangles(scene, scale=1.0, with_uv=False):
-    """Concatenate all meshes: corners (times `scale`), per-vertex normals, the TriangleInfo
-    columns (material, object, emitter = -1, packed media) and, `with_uv`, the corner uv per
-    triangle ((F, 3, 2); else (F, 0, 2))."""
-    v0, v1, v2, normals, info, uvs = [], [], [], [], [], []
-    for object_id, shape in enumerate(scene.shapes):
-        mesh = shape.mesh
-        if isinstance(mesh, meshes.Sphere):
-            continue
-        corners = mesh.vertices[mesh.faces] * scale
-        v0.append(corners[:, 0])
-        v1.append(corners[:, 1])
-        v2.append(corners[:, 2])
+    """Concatenate all meshes: float32 corners (times `scale`; the kernel's, as the BVH bounds
+    them), float32 per-corner normals (F, 3, 3), the TriangleInfo columns (material, object,
+    emitter = -1, packed media) and, `with_uv`, the float32 corner uv per triangle ((F, 3, 2);
+    else (F, 0, 2)). Written into arrays of the final size, mesh after mesh, so that a large
+    mesh passes through no float64 or concatenated copies."""
+    found = [(index, shape.mesh) for index, shape in enumerate(scene.shapes)
+             if not isinstance(shape.mesh, meshes.Sphere)]
+    total = sum(len(mesh.faces) for _, mesh in found)
+    v0, v1, v2 = (np.empty((total, 3), np.float32) for _ in range(3))
+    normals = np.empty((total, 3, 3), np.float32)
+    info = np.empty((total, 4), np.int32)
+    uvs = np.empty((total, 3 if with_uv else 0, 2), np.float32)
+    end = 0
+    for object_id, mesh in found:
+        at = slice(end, end + len(mesh.faces))
+        end = at.stop
+        scaled = (mesh.vertices * scale).astype(np.float32)
+        for k, corner in enumerate((v0, v1, v2)):
+            np.take(scaled, mesh.faces[:, k], axis=0, out=corner[at])
         if mesh.normals is not None:
-            normals.append(mesh.normals[mesh.faces])
+            normals[at] = mesh.normals[mesh.faces]
         else:
+            corners = mesh.vertices[mesh.faces] * scale
             flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            normals.append(np.repeat(flat[:, None, :], 3, axis=1))
-        media = layout.pack_media(shape.interior, shape.exterior)
-        info.append(np.tile([shape.material, object_id, -1, media], (len(mesh.faces), 1)))
-        if not with_uv:
-            uvs.append(np.zeros((len(mesh.faces), 0, 2)))
-        elif mesh.uvs is not None:
-            uvs.append(mesh.uvs[mesh.faces])
-        else:
-            uvs.append(np.broadcast_to(BARYCENTRIC_UV, (len(mesh.faces), 3, 2)))
-    if not v0:
-        empty = np.zeros((0, 3))
-        return empty, empty, empty, np.zeros((0, 3, 3)), np.zeros((0, 4), np.int32), np.zeros((0, 3 * with_uv, 2))
-    return (np.concatenate(v0), np.concatenate(v1), np.concatenate(v2),
-            np.concatenate(normals), np.concatenate(info).astype(np.int32), np.concatenate(uvs))
+            normals[at] = flat[:, None, :]
+        shape = scene.shapes[object_id]
+        info[at] = [shape.material, object_id, -1, layout.pack_media(shape.interior, shape.exterior)]
+        if with_uv:
+            uvs[at] = BARYCENTRIC_UV if mesh.uvs is None else mesh.uvs[mesh.faces]
+    return v0, v1, v2, normals, info, uvs
 
 
 def _area_emitters(scene, triangles, is_sphere, info):

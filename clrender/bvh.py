@@ -342,15 +342,21 @@ def primitive_bounds(v0, v1, v2, spheres=None):
 
 
 def _triangle_bounds(v0, v1, v2):
-    """Per-triangle boxes as (3, N) float32, rounded outwards so they contain the float64 input."""
-    v0, v1, v2 = (np.asarray(v, np.float64) for v in (v0, v1, v2))
+    """Per-triangle boxes as (3, N) float32 that contain the input corners exactly: of float32
+    corners their exact bounds, of others the float64 bounds rounded outwards."""
+    v0, v1, v2 = (np.asarray(v) for v in (v0, v1, v2))
+    exact = all(v.dtype == np.float32 for v in (v0, v1, v2))
+    if not exact:
+        v0, v1, v2 = (v.astype(np.float64) for v in (v0, v1, v2))
     if not (v0.ndim == 2 and v0.shape[1] == 3 and v0.shape == v1.shape == v2.shape):
         raise ValueError("v0, v1, v2 must be (N, 3) arrays of the same shape")
-    lo64 = np.minimum(np.minimum(v0, v1), v2).T
-    hi64 = np.maximum(np.maximum(v0, v1), v2).T
-    if not (np.isfinite(lo64).all() and np.isfinite(hi64).all()):
+    lo = np.minimum(np.minimum(v0, v1), v2).T
+    hi = np.maximum(np.maximum(v0, v1), v2).T
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
         raise ValueError("triangle vertices must be finite")
-    return _round_down(lo64), -_round_down(-hi64)
+    if exact:
+        return np.ascontiguousarray(lo), np.ascontiguousarray(hi)
+    return _round_down(lo), -_round_down(-hi)
 
 
 def sphere_bounds(centres, radii):

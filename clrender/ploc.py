@@ -24,7 +24,7 @@ from .bvh import (INTERSECTION_COST, MAX_DEPTH, TRAVERSAL_COST, _SLOTS, Bvh, _em
 
 # Neighbours searched on each side: Meister and Bittner's trees gain little beyond 8 to 16.
 RADIUS = 8
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)   # Fibonacci hashing: pair numbers to scattered bits
+_GOLDEN = np.uint32(0x9E3779B9)   # Fibonacci hashing: positions to scattered bits
 
 
 def build_ploc_bvh(v0, v1, v2, max_leaf_size=4, spheres=None, radius=RADIUS) -> Bvh:
@@ -105,20 +105,22 @@ def _cluster(lo, hi, node, radius):
 
 def _nearest_neighbours(lo, hi, radius):
     """Per cluster, the position of the one within `radius` places whose merged box has the
-    least surface area; equal areas ranked by a hash of the pair, the same seen from both ends."""
+    least surface area. Equal areas are ranked by a factor per pair just above 1 (the product of
+    a hashed factor per cluster: the same seen from both ends)."""
     m = lo.shape[1]
-    best = np.full(m, np.iinfo(np.uint64).max, np.uint64)
-    neighbour = np.zeros(m, np.int64)
-    pair = np.arange(m, dtype=np.uint64) * np.uint64(radius + 1)   # pair (i, i + k): pair[i] + k
+    position = np.arange(m, dtype=np.int32)
+    jitter = 1 + (position.view(np.uint32) * _GOLDEN >> np.uint32(20)).astype(np.float32) * np.float32(2**-23)
+    best = np.full(m, np.inf, np.float32)
+    neighbour = np.zeros(m, np.int32)
     for k in range(1, min(radius, m - 1) + 1):
-        area = _half_area(np.minimum(lo[:, :-k], lo[:, k:]), np.maximum(hi[:, :-k], hi[:, k:]))
-        # Areas are >= 0, so their float bits order as they do; the hash fills the low half.
-        key = (area.view(np.uint32).astype(np.uint64) << np.uint64(32)) | \
-              (((pair[:m - k] + np.uint64(k)) * _GOLDEN) >> np.uint64(32))
-        for cluster, other in ((slice(0, m - k), k), (slice(k, m), -k)):
-            closer = key < best[cluster]
-            np.copyto(best[cluster], key, where=closer)
-            np.copyto(neighbour[cluster], np.arange(m)[cluster] + other, where=closer)
+        distance = _half_area(np.minimum(lo[:, :-k], lo[:, k:]), np.maximum(hi[:, :-k], hi[:, k:]))
+        distance *= jitter[:-k]
+        distance *= jitter[k:]
+        # Pair (i, i + k): a candidate for i (the one k places right) and for i + k (k left).
+        for cluster, other in ((slice(0, m - k), position[k:]), (slice(k, m), position[:m - k])):
+            closer = distance < best[cluster]
+            np.copyto(best[cluster], distance, where=closer)
+            np.copyto(neighbour[cluster], other, where=closer)
     return neighbour
 
 
