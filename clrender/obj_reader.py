@@ -161,6 +161,8 @@ def _check_indices(text, sizes, bad, problem):
 def fans(corners, sizes):
     """The triangles (first, k, k + 1) of polygons given as their corners one after another and
     their sizes, in order: Mitsuba's triangulation of OBJ polygons."""
+    if np.all(sizes == 3):   # triangles already: the usual large mesh, read without index arrays
+        return corners.reshape(-1, 3)
     starts = np.cumsum(sizes) - sizes
     per_face = sizes - 2
     first = np.repeat(starts, per_face)
