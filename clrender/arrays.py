@@ -100,10 +100,14 @@ def build_scene_arrays(scene):
 
     bvh = build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
     order = bvh.prim_order
+    # The binary tree and the per-corner normals go as soon as they are used: on a large mesh
+    # each is hundreds of MB, and the peak memory is that of these steps.
+    nodes, bvh_depth = wide_bvh.collapse(bvh, order >= len(v0))
+    del bvh
     triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
+    del normals
     unordered_info = np.concatenate([info, sphere_info])
     info = unordered_info[order]
-    nodes, bvh_depth = wide_bvh.collapse(bvh, is_sphere)
 
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
@@ -307,7 +311,9 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
         for k, corner in enumerate((v0, v1, v2)):
             np.take(scaled, mesh.faces[:, k], axis=0, out=corner[at])
         if mesh.normals is not None:
-            normals[at] = mesh.normals[mesh.faces]
+            vertex_normals = mesh.normals.astype(np.float32)
+            for k in range(3):
+                normals[at, k] = vertex_normals[mesh.faces[:, k]]
         else:
             corners = mesh.vertices[mesh.faces] * scale
             flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
@@ -526,7 +532,7 @@ def _medium_at_camera(scene, position, v0, v1, v2, centres, radii, info):
     """The medium around the camera: the first surface along the view direction tells whether
     the camera is behind its front face (inside the interior medium) or in front of it.
     info: the TriangleInfo rows of the triangles, then of the spheres."""
-    if len(info) == 0:
+    if len(info) == 0 or not scene.media:   # without media every surface has -1 on both sides
         return scene.medium
     direction = scene.camera.look_at - position
     direction = direction / np.linalg.norm(direction)

@@ -19,11 +19,14 @@ builder instead, whose median splits bound the depth.
 """
 import numpy as np
 
+from . import layout
 from .bvh import (INTERSECTION_COST, MAX_DEPTH, TRAVERSAL_COST, _SLOTS, Bvh, _empty_nodes,
                   build_bvh, primitive_bounds)
 
 # Neighbours searched on each side: Meister and Bittner's trees gain little beyond 8 to 16.
 RADIUS = 8
+# Clusters per block of the neighbour search: its working set (a few hundred kB) fits a core's L2.
+BLOCK = 1 << 14
 _GOLDEN = np.uint32(0x9E3779B9)   # Fibonacci hashing: positions to scattered bits
 
 
@@ -36,8 +39,10 @@ def build_ploc_bvh(v0, v1, v2, max_leaf_size=4, spheres=None, radius=RADIUS) -> 
     if n < 2:
         return build_bvh(v0, v1, v2, max_leaf_size, spheres=spheres)
     order = _morton_order(lo, hi)
-    merges = _cluster(lo[:, order], hi[:, order], order, radius)
-    tree = _layout(merges, lo, hi, np.arange(n) >= n_triangles, max_leaf_size)
+    merges = _Merges(lo, hi)
+    del lo, hi   # copied into merges: a large mesh's boxes are held once
+    _cluster(merges, order.astype(np.int32), radius)
+    tree = _layout(merges, np.arange(n) >= n_triangles, max_leaf_size)
     if tree.depth > MAX_DEPTH:
         return build_bvh(v0, v1, v2, max_leaf_size, spheres=spheres)
     return tree
@@ -66,21 +71,24 @@ def _spread_bits(x):
 
 
 class _Merges:
-    """The internal nodes, numbered n, n + 1, ... in the order they were made (children always
-    before parents; the root last), and the passes that made them."""
+    """The tree's nodes: primitives 0 .. n - 1, then the internal nodes numbered n, n + 1, ... in
+    the order they were made (children always before parents; the root last), and the passes
+    that made them."""
 
-    def __init__(self, n):
-        self.left = np.empty(n - 1, np.int64)    # child node numbers (< n: a primitive)
-        self.right = np.empty(n - 1, np.int64)
-        self.lo = np.empty((3, n - 1), np.float32)
-        self.hi = np.empty((3, n - 1), np.float32)
-        self.passes = [0]                        # first node of each pass, then the end
+    def __init__(self, lo, hi):
+        n = lo.shape[1]
         self.n = n
+        self.lo = np.empty((3, 2 * n - 1), np.float32)   # box of every node
+        self.hi = np.empty((3, 2 * n - 1), np.float32)
+        self.lo[:, :n], self.hi[:, :n] = lo, hi
+        self.left = np.empty(n - 1, np.int32)    # children of internal node n + i
+        self.right = np.empty(n - 1, np.int32)
+        self.passes = [0]                        # first internal node (- n) of each pass, then the end
 
 
-def _cluster(lo, hi, node, radius):
-    """Merge clusters (boxes lo, hi (3, m) in curve order, node numbers `node`) until one is left."""
-    merges = _Merges(len(node))
+def _cluster(merges, node, radius):
+    """Merge clusters (node numbers `node`, primitives in curve order) until one is left."""
+    lo, hi = merges.lo[:, node], merges.hi[:, node]
     made = 0
     while len(node) > 1:
         neighbour = _nearest_neighbours(lo, hi, radius)
@@ -92,23 +100,38 @@ def _cluster(lo, hi, node, radius):
         count = first.size
         new = slice(made, made + count)
         merges.left[new], merges.right[new] = node[first], node[second]
-        merges.lo[:, new] = np.minimum(lo[:, first], lo[:, second])
-        merges.hi[:, new] = np.maximum(hi[:, first], hi[:, second])
-        lo[:, first], hi[:, first] = merges.lo[:, new], merges.hi[:, new]
+        lo[:, first] = np.minimum(lo[:, first], lo[:, second])
+        hi[:, first] = np.maximum(hi[:, first], hi[:, second])
+        merges.lo[:, merges.n + made:merges.n + made + count] = lo[:, first]
+        merges.hi[:, merges.n + made:merges.n + made + count] = hi[:, first]
         node[first] = merges.n + np.arange(made, made + count)
         made += count
         merges.passes.append(made)
         kept = ~mutual | keep_left
         lo, hi, node = lo[:, kept], hi[:, kept], node[kept]
-    return merges
 
 
-def _nearest_neighbours(lo, hi, radius):
+def _nearest_neighbours(lo, hi, radius, block=BLOCK):
     """Per cluster, the position of the one within `radius` places whose merged box has the
-    least surface area. Equal areas are ranked by a factor per pair just above 1 (the product of
-    a hashed factor per cluster: the same seen from both ends)."""
+    least surface area, found block by block (each block's arrays stay in the cache)."""
     m = lo.shape[1]
-    position = np.arange(m, dtype=np.int32)
+    neighbour = np.empty(m, np.int32)
+    for start in range(0, m, block):
+        stop = min(start + block, m)
+        window = slice(max(start - radius, 0), min(stop + radius, m))
+        found = _window_neighbours(np.ascontiguousarray(lo[:, window]), np.ascontiguousarray(hi[:, window]),
+                                   radius, window.start)
+        neighbour[start:stop] = found[start - window.start:stop - window.start]
+    return neighbour
+
+
+def _window_neighbours(lo, hi, radius, first):
+    """_nearest_neighbours within one window of clusters, the first at position `first`; right
+    only for those with all their candidates in the window. Equal areas are ranked by a factor
+    per pair just above 1 (the product of a hashed factor per cluster position: the same seen
+    from both ends)."""
+    m = lo.shape[1]
+    position = np.arange(first, first + m, dtype=np.int32)
     jitter = 1 + (position.view(np.uint32) * _GOLDEN >> np.uint32(20)).astype(np.float32) * np.float32(2**-23)
     best = np.full(m, np.inf, np.float32)
     neighbour = np.zeros(m, np.int32)
@@ -129,33 +152,36 @@ def _half_area(lo, hi):
     return d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
 
 
-def _layout(merges, lo, hi, is_sphere, max_leaf_size):
+def _layout(merges, is_sphere, max_leaf_size):
     """The Bvh of the merge tree: subtrees collapsed into leaves where the SAH says so, leaf
     primitives contiguous in prim_order (the tree's left-to-right order)."""
     n = merges.n
     root = 2 * n - 2
     left, right = merges.left, merges.right
-    count = np.ones(2 * n - 1, np.int64)
-    spheres = np.zeros(2 * n - 1, np.int64)
-    spheres[:n] = is_sphere
-    cost = np.zeros(2 * n - 1, np.float64)
-    cost[:n] = INTERSECTION_COST * _half_area(lo, hi)
-    area = _half_area(merges.lo, merges.hi).astype(np.float64)
+    count = np.ones(2 * n - 1, np.int32)
+    spheres = np.zeros(2 * n - 1 if is_sphere.any() else 0, np.int32)   # none: every node is pure
+    if len(spheres):
+        spheres[:n] = is_sphere
+    cost = np.empty(2 * n - 1, np.float32)
+    cost[:n] = INTERSECTION_COST * _half_area(merges.lo[:, :n], merges.hi[:, :n])
+    area = _half_area(merges.lo[:, n:], merges.hi[:, n:])
     leaf = np.zeros(2 * n - 1, bool)
     for first, last in zip(merges.passes[:-1], merges.passes[1:]):   # bottom-up
         at = slice(first, last)
         l, r, node = left[at], right[at], slice(n + first, n + last)
         count[node] = count[l] + count[r]
-        spheres[node] = spheres[l] + spheres[r]
-        pure = (spheres[node] == 0) | (spheres[node] == count[node])
+        pure = True
+        if len(spheres):
+            spheres[node] = spheres[l] + spheres[r]
+            pure = (spheres[node] == 0) | (spheres[node] == count[node])
         split_cost = TRAVERSAL_COST * area[at] + cost[l] + cost[r]
         leaf_cost = INTERSECTION_COST * count[node] * area[at]
         leaf[node] = pure & (count[node] <= max_leaf_size) & (leaf_cost <= split_cost)
         cost[node] = np.where(leaf[node], leaf_cost, split_cost)
 
     # Top-down: first slot in prim_order, depth, and whether a leaf above holds the node.
-    offset = np.zeros(2 * n - 1, np.int64)
-    depth = np.ones(2 * n - 1, np.int64)
+    offset = np.zeros(2 * n - 1, np.int32)
+    depth = np.ones(2 * n - 1, np.int32)
     inside = np.zeros(2 * n - 1, bool)
     for first, last in zip(merges.passes[-2::-1], merges.passes[:0:-1]):
         at = slice(first, last)
@@ -168,20 +194,18 @@ def _layout(merges, lo, hi, is_sphere, max_leaf_size):
     prim_order[offset[:n]] = np.arange(n, dtype=np.int32)
     if leaf[root]:
         nodes = _empty_nodes(1)
-        _write_slot(nodes, 0, 0, lo.min(axis=1), hi.max(axis=1), 0, n)
+        _write_slot(nodes, 0, 0, merges.lo[:, root], merges.hi[:, root], 0, n)
         return Bvh(nodes, prim_order, 1)
 
     interior = np.flatnonzero(~leaf[n:] & ~inside[n:])[::-1]   # internal node - n, root first
-    number = np.full(n - 1, -1, np.int64)
+    number = np.full(n - 1, -1, np.int32)
     number[interior] = np.arange(interior.size)
-    nodes = _empty_nodes(interior.size)
-    node_lo = np.concatenate([lo, merges.lo], axis=1)
-    node_hi = np.concatenate([hi, merges.hi], axis=1)
+    nodes = np.empty(interior.size, layout.BVH_NODE)   # every slot is written below
     for side, children in enumerate((left[interior], right[interior])):
         is_leaf = (children < n) | leaf[children]
         index = np.where(is_leaf, offset[children], number[np.maximum(children - n, 0)])
-        _write_slot(nodes, np.arange(interior.size), side, node_lo[:, children].T, node_hi[:, children].T,
-                    index, np.where(is_leaf, count[children], 0))
+        _write_slot(nodes, slice(None), side, merges.lo[:, children].T, merges.hi[:, children].T, index,
+                    np.where(is_leaf, count[children], 0))
     return Bvh(nodes, prim_order, int(depth[n + interior].max()))
 
 

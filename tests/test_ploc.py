@@ -35,7 +35,8 @@ def test_equal_distances_still_merge_many_per_pass():
     v0, v1, v2 = plane(40)
     lo, hi, _ = bvh_mod.primitive_bounds(v0, v1, v2)
     order = ploc._morton_order(lo, hi)
-    merges = ploc._cluster(lo[:, order], hi[:, order], order, ploc.RADIUS)
+    merges = ploc._Merges(lo, hi)
+    ploc._cluster(merges, order.astype(np.int32), ploc.RADIUS)
     assert len(merges.passes) - 1 < 60
 
 
