@@ -194,7 +194,7 @@ def _layout(merges, is_sphere, max_leaf_size):
     prim_order[offset[:n]] = np.arange(n, dtype=np.int32)
     if leaf[root]:
         nodes = _empty_nodes(1)
-        _write_slot(nodes, 0, 0, merges.lo[:, root], merges.hi[:, root], 0, n)
+        _write_slot(nodes, 0, merges, [root], [0], [n])
         return Bvh(nodes, prim_order, 1)
 
     interior = np.flatnonzero(~leaf[n:] & ~inside[n:])[::-1]   # internal node - n, root first
@@ -204,15 +204,17 @@ def _layout(merges, is_sphere, max_leaf_size):
     for side, children in enumerate((left[interior], right[interior])):
         is_leaf = (children < n) | leaf[children]
         index = np.where(is_leaf, offset[children], number[np.maximum(children - n, 0)])
-        _write_slot(nodes, slice(None), side, merges.lo[:, children].T, merges.hi[:, children].T, index,
-                    np.where(is_leaf, count[children], 0))
+        _write_slot(nodes, side, merges, children, index, np.where(is_leaf, count[children], 0))
     return Bvh(nodes, prim_order, int(depth[n + interior].max()))
 
 
-def _write_slot(nodes, at, side, box_lo, box_hi, index, count):
+def _write_slot(nodes, side, merges, children, index, count):
+    """Fill one slot (0 left, 1 right) of every node: the box of node `children` of the merge
+    tree, `index` and `count`. Axis by axis: each a gather from one contiguous row."""
     lo_name, hi_name = _SLOTS[side]
-    nodes[lo_name][at, :3] = box_lo
-    nodes[hi_name][at, :3] = box_hi
-    nodes[lo_name].view(np.int32)[at, 3] = index
-    nodes[hi_name].view(np.int32)[at, 3] = count
+    for axis in range(3):
+        nodes[lo_name][:, axis] = merges.lo[axis, children]
+        nodes[hi_name][:, axis] = merges.hi[axis, children]
+    nodes[lo_name].view(np.int32)[:, 3] = index
+    nodes[hi_name].view(np.int32)[:, 3] = count
 
