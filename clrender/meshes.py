@@ -116,22 +116,24 @@ def flip(mesh):
 
 
 def _normalized(v):
-    length = np.sqrt(_dot(v, v))[:, None]   # np.linalg.norm's sum, without its overhead
+    """Rows of (N, 3) scaled to unit length (zero rows stay zero)."""
+    return _unit_columns(v.T).T
+
+
+def _unit_columns(v):
+    """Columns of (3, N) scaled to unit length (zero columns stay zero)."""
+    length = np.sqrt(_dot(v, v))   # np.linalg.norm's sum, without its overhead
     return v / np.where(length > 0, length, 1.0)
 
 
 def _dot(a, b):
-    """Row-wise dot products of (N, 3) arrays."""
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+    """Dot products of the columns of (3, N) arrays."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def _cross(a, b):
-    """Row-wise cross products of (N, 3) arrays (np.cross's arithmetic, without its overhead)."""
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
+    """Cross products of the columns of (3, N) arrays (np.cross's arithmetic)."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
@@ -281,18 +283,22 @@ def vertex_normals(vertices, faces):
     the face's angle at that vertex (Thuerrner and Wuethrich 1998, as Mitsuba and trimesh compute
     them, but without scipy). Faces of zero area, or with an angle below 1e-8, do not contribute;
     a vertex whose faces cancel (or that has none) gets +x, as in Mitsuba."""
-    p0, p1, p2 = (vertices[faces[:, k]] for k in range(3))
-    face_normals = _normalized(_cross(p1 - p0, p2 - p0))
-    u = _normalized(p1 - p0)
-    v = _normalized(p2 - p0)
-    w = _normalized(p2 - p1)
-    angles = np.empty((len(faces), 3))
-    angles[:, 0] = np.arccos(np.clip(_dot(u, v), -1, 1))
-    angles[:, 1] = np.arccos(np.clip(-_dot(u, w), -1, 1))
-    angles[:, 2] = np.pi - angles[:, 0] - angles[:, 1]
-    angles[np.any(angles < 1e-8, axis=1)] = 0.0
-    angles[_dot(face_normals, face_normals) <= 0.5] = 0.0
-    summed = np.stack([sum(np.bincount(faces[:, k], angles[:, k] * face_normals[:, axis], len(vertices))
+    # Coordinates as rows (3, F): every operation below then reads contiguous memory.
+    columns = np.ascontiguousarray(vertices.T)
+    corners = np.ascontiguousarray(faces.T)
+    p0, p1, p2 = (columns[:, corner] for corner in corners)
+    face_normals = _unit_columns(_cross(p1 - p0, p2 - p0))
+    u = _unit_columns(p1 - p0)
+    v = _unit_columns(p2 - p0)
+    w = _unit_columns(p2 - p1)
+    del p0, p1, p2
+    angles = np.empty((3, len(faces)))
+    angles[0] = np.arccos(np.clip(_dot(u, v), -1, 1))
+    angles[1] = np.arccos(np.clip(-_dot(u, w), -1, 1))
+    angles[2] = np.pi - angles[0] - angles[1]
+    angles[:, np.any(angles < 1e-8, axis=0)] = 0.0
+    angles[:, _dot(face_normals, face_normals) <= 0.5] = 0.0
+    summed = np.stack([sum(np.bincount(corners[k], angles[k] * face_normals[axis], len(vertices))
                            for k in range(3)) for axis in range(3)], axis=1)
     summed[~np.any(summed != 0, axis=1)] = [1, 0, 0]   # no direction (faces cancel, or none): Mitsuba's choice
     return _normalized(summed)
