@@ -3,6 +3,7 @@ one render, clrender and Mitsuba 3 (llvm_ad_rgb) in fresh processes, interleaved
 
     python tools/bench_startup.py [--triangles 1e6 3e6 1e7] [--runs 3] [--spp 4] [--resolution 256]
                                   [--scenes FILE.xml ...] [--renderers clrender mitsuba]
+                                  [--baseline CHECKOUT]
 
 Meshes: a noisy sphere (a latitude-longitude grid with the requested triangle count, its radius
 displaced by waves and seeded noise), written as a binary PLY into a temporary folder with a
@@ -16,6 +17,8 @@ child), and the phases each process reports: clrender: import, scene load (parse
 scene arrays (gathering, BVH build, collapse), kernel build (cache warm after the warm-up run),
 upload and the rest of set-up, render; Mitsuba: import + variant, load_file (parse, meshes,
 Embree's BVH), render (JIT and kernel). Kernel caches of both are warm (one warm-up round).
+--baseline: another checkout of clrender (e.g. `git worktree add /tmp/before main`) measured in
+the same rounds as a third renderer, for before/after figures.
 """
 import argparse
 import json
@@ -85,9 +88,10 @@ PHASES = {"clrender": ("import", "load", "arrays", "kernel", "upload", "render")
           "mitsuba": ("import", "load", "render")}
 
 
-def run_probe(renderer, scene, parameters, spp):
-    """(wall seconds, peak RSS in MB, phases) of one fresh process rendering `scene`."""
-    code = PROBES[renderer].format(root=str(ROOT), scene=str(scene), parameters=parameters, spp=spp)
+def run_probe(renderer, scene, parameters, spp, root=ROOT):
+    """(wall seconds, peak RSS in MB, phases) of one fresh process rendering `scene` (clrender:
+    the checkout `root`)."""
+    code = PROBES[renderer].format(root=str(root), scene=str(scene), parameters=parameters, spp=spp)
     env = dict(os.environ)
     env.setdefault("DRJIT_LIBLLVM_PATH", DEBIAN_LLVM)
     begin = time.perf_counter()
@@ -182,27 +186,46 @@ def main():
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--renderers", nargs="+", default=list(PROBES), choices=list(PROBES))
+    parser.add_argument("--baseline", type=Path, help="another clrender checkout, measured as a third renderer")
     args = parser.parse_args()
+    contenders = {renderer: (renderer, ROOT) for renderer in args.renderers}   # name: (probe, checkout)
+    if args.baseline:
+        contenders["baseline"] = ("clrender", args.baseline.resolve())
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         scenes = [mesh_scene(folder, int(n), args.spp, args.resolution) for n in args.triangles]
         scenes += [file_scene(path, args.spp, args.resolution) for path in args.scenes]
         for label, scene, parameters in scenes:
-            runs = interleaved({renderer: (lambda renderer=renderer: run_probe(renderer, scene, parameters, args.spp))
-                                for renderer in args.renderers}, rounds=args.runs)
-            measured = {renderer: summary(results, renderer) for renderer, results in runs.items()}
-            for renderer, (wall, rss, phases) in measured.items():
-                detail = ", ".join(f"{name} {seconds:.2f}" for name, seconds in phases.items())
-                print(f"{label}: {renderer} {wall:.2f} s, {rss:.0f} MB ({detail})", flush=True)
-            if len(measured) == 2:
-                (wall_c, rss_c, _), (wall_m, rss_m, _) = measured["clrender"], measured["mitsuba"]
-                rows.append([label, f"{wall_c:.2f} s", f"{wall_m:.2f} s", f"{wall_c / wall_m:.2f}",
-                             f"{rss_c:.0f} MB", f"{rss_m:.0f} MB", f"{rss_c / rss_m:.2f}"])
+            runs = interleaved({name: (lambda probe=probe, root=root: run_probe(probe, scene, parameters, args.spp, root))
+                                for name, (probe, root) in contenders.items()}, rounds=args.runs)
+            measured = {name: summary(results, contenders[name][0]) for name, results in runs.items()}
+            for name, (wall, rss, phases) in measured.items():
+                detail = ", ".join(f"{phase} {seconds:.2f}" for phase, seconds in phases.items())
+                print(f"{label}: {name} {wall:.2f} s, {rss:.0f} MB ({detail})", flush=True)
+            if "clrender" in measured and "mitsuba" in measured:
+                rows.append(table_row(label, measured))
     if rows:
         print(f"\nMedians of {args.runs} interleaved runs, fresh processes, {args.resolution} x {args.resolution} "
               f"at {args.spp} spp:\n")
-        print(markdown_table(["scene", "clrender", "Mitsuba 3", "time ratio", "clrender peak RSS",
-                              "Mitsuba peak RSS", "memory ratio"], rows))
+        header = ["scene", "clrender", "Mitsuba 3", "time ratio", "clrender peak RSS", "Mitsuba peak RSS",
+                  "memory ratio"]
+        if args.baseline:
+            header += ["baseline", "baseline time ratio", "baseline peak RSS", "baseline memory ratio"]
+        print(markdown_table(header, rows))
+
+
+def table_row(label, measured):
+    """Seconds, peak RSS and their ratios to Mitsuba's, of clrender (and the baseline if run)."""
+    wall_m, rss_m, _ = measured["mitsuba"]
+    row = [label]
+    for name in ("clrender", "baseline"):
+        if name not in measured:
+            continue
+        wall, rss, _ = measured[name]
+        row += [f"{wall:.2f} s", f"{wall_m:.2f} s", f"{wall / wall_m:.2f}", f"{rss:.0f} MB", f"{rss_m:.0f} MB",
+                f"{rss / rss_m:.2f}"] if name == "clrender" else [
+                f"{wall:.2f} s", f"{wall / wall_m:.2f}", f"{rss:.0f} MB", f"{rss / rss_m:.2f}"]
+    return row
 
 
 if __name__ == "__main__":
