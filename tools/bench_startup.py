@@ -12,8 +12,8 @@ Mitsuba 3 XML scene (diffuse, a constant environment, 256 x 256 at 4 spp, path t
 staircase, 775 OBJ files), their film set with -D resx/resy/spp where the file declares those
 defaults.
 
-Per run: whole-process wall seconds (as the user waits), peak resident memory (ru_maxrss of the
-child), and the phases each process reports: clrender: import, scene load (parse + mesh files),
+Per run: whole-process wall seconds (as the user waits), peak resident memory (VmHWM, read by the
+process at its end), and the phases each process reports: clrender: import, scene load (parse + mesh files),
 scene arrays (gathering, BVH build, collapse), kernel build (cache warm after the warm-up run),
 upload and the rest of set-up, render; Mitsuba: import + variant, load_file (parse, meshes,
 Embree's BVH), render (JIT and kernel). Kernel caches of both are warm (one warm-up round).
@@ -23,7 +23,6 @@ the same rounds as a third renderer, for before/after figures.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -33,7 +32,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from clrender.bench import interleaved, markdown_table, median  # noqa: E402
+from clrender.bench import interleaved, markdown_table, median, run_process  # noqa: E402
 
 DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 
@@ -64,7 +63,7 @@ phases["upload"] = time.perf_counter() - begin - phases["arrays"] - phases["kern
 begin = time.perf_counter()
 renderer.render(spp={spp})
 phases["render"] = time.perf_counter() - begin
-print(json.dumps(phases))
+print(json.dumps(phases), {peak})
 """
 
 MITSUBA_PROBE = """
@@ -80,7 +79,7 @@ begin = time.perf_counter()
 image = mi.render(scene, spp={spp})
 image.numpy()
 phases["render"] = time.perf_counter() - begin
-print(json.dumps(phases))
+print(json.dumps(phases), {peak})
 """
 
 PROBES = {"clrender": CLRENDER_PROBE, "mitsuba": MITSUBA_PROBE}
@@ -88,24 +87,20 @@ PHASES = {"clrender": ("import", "load", "arrays", "kernel", "upload", "render")
           "mitsuba": ("import", "load", "render")}
 
 
+# The probe's peak resident memory: VmHWM of its own address space. (ru_maxrss would also count
+# the pages a forked child shares with this process before it starts Python.)
+PEAK = "[int(line.split()[1]) for line in open('/proc/self/status') if line.startswith('VmHWM')][0]"
+
+
 def run_probe(renderer, scene, parameters, spp, root=ROOT):
     """(wall seconds, peak RSS in MB, phases) of one fresh process rendering `scene` (clrender:
     the checkout `root`)."""
-    code = PROBES[renderer].format(root=str(root), scene=str(scene), parameters=parameters, spp=spp)
+    code = PROBES[renderer].format(root=str(root), scene=str(scene), parameters=parameters, spp=spp, peak=PEAK)
     env = dict(os.environ)
     env.setdefault("DRJIT_LIBLLVM_PATH", DEBIAN_LLVM)
-    begin = time.perf_counter()
-    process = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               env=env, text=True)
-    _, status, usage = os.wait4(process.pid, 0)
-    wall = time.perf_counter() - begin
-    stdout, stderr = process.stdout.read(), process.stderr.read()
-    process.stdout.close()
-    process.stderr.close()
-    process.returncode = os.waitstatus_to_exitcode(status)
-    if process.returncode != 0:
-        raise RuntimeError(f"{renderer} on {scene} failed ({process.returncode}):\n{stderr[-4000:]}")
-    return wall, usage.ru_maxrss / 1024, json.loads(stdout.strip().splitlines()[-1])
+    run = run_process([sys.executable, "-c", code], env=env)
+    phases, peak_kb = run.stdout.strip().splitlines()[-1].rsplit(" ", 1)
+    return run.wall_seconds, int(peak_kb) / 1024, json.loads(phases)
 
 
 def noisy_sphere(n_triangles, seed=0):
@@ -193,9 +188,10 @@ def main():
         contenders["baseline"] = ("clrender", args.baseline.resolve())
     rows = []
     with tempfile.TemporaryDirectory() as folder:
-        scenes = [mesh_scene(folder, int(n), args.spp, args.resolution) for n in args.triangles]
-        scenes += [file_scene(path, args.spp, args.resolution) for path in args.scenes]
-        for label, scene, parameters in scenes:
+        scenes = [lambda n=n: mesh_scene(folder, int(n), args.spp, args.resolution) for n in args.triangles]
+        scenes += [lambda path=path: file_scene(path, args.spp, args.resolution) for path in args.scenes]
+        for make_scene in scenes:   # each mesh written just before its runs
+            label, scene, parameters = make_scene()
             runs = interleaved({name: (lambda probe=probe, root=root: run_probe(probe, scene, parameters, args.spp, root))
                                 for name, (probe, root) in contenders.items()}, rounds=args.runs)
             measured = {name: summary(results, contenders[name][0]) for name, results in runs.items()}
