@@ -51,36 +51,42 @@ def load_quietly(path, **parameters):
 # ============================================================================================
 # Images
 # ============================================================================================
-def render_both(path, device, spp=SPP, **parameters):
-    """(clrender renders, Mitsuba renders), each (RENDERS, RES, RES, 3)."""
+def render_both(path, device, spp=SPP, renders=RENDERS, **parameters):
+    """(clrender renders, Mitsuba renders), each (renders, height, width, 3), with Mitsuba's
+    variant as set."""
     parameters = {"spp": str(spp), **{k: str(v) for k, v in parameters.items()}}
     theirs = mi.load_file(str(path), **parameters)
     # [..., :3]: a moment integrator adds its second moments as channels.
-    mitsuba = np.array([np.array(mi.render(theirs, spp=spp, seed=seed))[..., :3] for seed in range(RENDERS)])
+    mitsuba = np.array([np.array(mi.render(theirs, spp=spp, seed=seed))[..., :3] for seed in range(renders)])
     renderer = clrender.Renderer(load_quietly(path, **parameters), device)
-    ours = np.array([renderer.render(spp=spp, seed=1000 + seed).image for seed in range(RENDERS)])
+    ours = np.array([renderer.render(spp=spp, seed=1000 + seed).image for seed in range(renders)])
     return ours, mitsuba
 
 
 def block_z_scores(ours, mitsuba, block):
-    """z per block of block x block pixels and channel, from per-pixel means and variances of
-    the mean over the renders (pixels are independent, so block variances add up)."""
+    """z per block of pixels (block: an int for squares, or (rows, columns)) and channel, from
+    per-pixel means and variances of the mean over the renders (pixels are independent, so
+    block variances add up)."""
     count, height, width, _ = ours.shape
+    rows, columns = (block, block) if np.isscalar(block) else block
     difference = ours.mean(0) - mitsuba.mean(0)
     variance = (ours.var(0, ddof=1) + mitsuba.var(0, ddof=1)) / count
-    shape = (height // block, block, width // block, block, 3)
+    shape = (height // rows, rows, width // columns, columns, 3)
     d = difference.reshape(shape).mean(axis=(1, 3))
-    v = variance.reshape(shape).sum(axis=(1, 3)) / block ** 4
+    v = variance.reshape(shape).sum(axis=(1, 3)) / (rows * columns) ** 2
     steady = v == 0
     assert np.all(d[steady] == 0), "blocks without noise differ"
     return np.where(steady, 0.0, d / np.sqrt(np.where(steady, 1.0, v)))
 
 
-def assert_same_image(ours, mitsuba):
+def assert_same_image(ours, mitsuba, z_max=Z_MAX):
+    """Blocks of BLOCK x BLOCK pixels and the whole image agree: |z| < z_max, a number or a
+    function of the count of z values (blocks x channels)."""
     assert np.all(np.isfinite(ours))
-    for block in (BLOCK, ours.shape[1]):
+    for block in (BLOCK, ours.shape[1:3]):
         z = block_z_scores(ours, mitsuba, block)
-        assert np.abs(z).max() < Z_MAX, f"{block}x{block} blocks: max |z| {np.abs(z).max():.2f}\n{z.round(1)}"
+        limit = z_max(z.size) if callable(z_max) else z_max
+        assert np.abs(z).max() < limit, f"{block} blocks: max |z| {np.abs(z).max():.2f} (limit {limit:.2f})\n{z.round(1)}"
 
 
 @pytest.mark.parametrize("name", sorted(mitsuba_scenes.SCENES))
