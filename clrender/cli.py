@@ -294,12 +294,14 @@ def _view(args):
 
 
 def _check_scene_files(paths):
-    """Each scene file exists before a batch starts (its contents are read when it renders)."""
+    """Each scene file is a regular file before a batch starts (its contents are read when it
+    renders; a named pipe would block the read)."""
     from .errors import SceneError
+    from .files import describe, not_a_file
 
     for path in paths:
-        if not path.is_file():
-            raise SceneError("", f"scene file not found: {path}" if not path.exists() else f"{path} is not a file")
+        if not_a_file(path) is not None:
+            raise SceneError("", describe(path, "scene file"))
 
 
 def _output_paths(output, scene_paths, layers=()):
