@@ -9,6 +9,7 @@ pyopencl are imported first with signals held (see _signals_held).
 """
 import argparse
 import contextlib
+import os
 import signal
 import string
 import sys
@@ -37,15 +38,21 @@ def main(argv=None):
 
 @contextlib.contextmanager
 def _interrupt_on_termination():
-    """SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render as Ctrl-C
-    does (the launch in flight finishes, the partial image is saved) instead of killing it."""
+    """SIGINT, SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render
+    (the launch in flight finishes, the partial image is saved) instead of killing it. The first
+    one only: the later ones are ignored, so that two quick signals still save the partial image
+    (SIGKILL stops at once). A signal ignored when clrender started (SIGHUP under nohup, SIGINT
+    in a background job) stays ignored."""
     def interrupt(signum, frame):
+        for handled in previous:
+            signal.signal(handled, signal.SIG_IGN)
         raise Interrupted(signum)
 
     if threading.current_thread() is not threading.main_thread():   # only it receives signals
         yield
         return
-    previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGTERM, signal.SIGHUP)}
+    previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+                if signal.getsignal(signum) is not signal.SIG_IGN}
     try:
         yield
     finally:
@@ -133,6 +140,11 @@ def _parser():
     render.add_argument("--tiles", type=_setting("tiles"), help="with a cluster: image strips (default: 4 per worker thread)")
     render.add_argument("--chunk-seconds", type=_setting("chunk_seconds"), default=3.0,
                         help="with a cluster: kernel time per chunk of samples (default: 3)")
+    render.add_argument("--connect-timeout", type=_setting("connect_timeout"), metavar="SECONDS",
+                        help="with --scheduler: time to reach the scheduler, and for a first worker to join "
+                             "(default: 30)")
+    render.add_argument("--chunk-timeout", type=_setting("chunk_timeout"), metavar="SECONDS",
+                        help="with a cluster: the render fails when no chunk finishes for this long (default: 600)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
@@ -253,9 +265,12 @@ def _render(args):
             raise ArgumentError(f"--{flag.replace('_', '-')}", "only with --denoise")
     parameters = _parameters(args)
     layers = (aovs or ()) + (("noisy",) if args.keep_noisy else ())
-    outputs = _output_paths(args.output, args.scene, layers)
+    plan = _output_plan(args.scene)   # the run's files, for the scenes' own AOVs as they load
+    outputs = _output_paths(args.output, args.scene, layers, plan)
     _check_scene_files(args.scene)
-    cluster = "--workers" if args.workers else "--scheduler" if args.scheduler else None
+    if args.scheduler == "":
+        raise ArgumentError("--scheduler", "is empty; expected tcp://HOST:PORT")
+    cluster = "--workers" if args.workers else "--scheduler" if args.scheduler is not None else None
     if cluster:
         if args.time is not None:
             raise ArgumentError("--time", f"is not supported with {cluster}: chunks are sized in samples")
@@ -266,7 +281,7 @@ def _render(args):
             from .denoise import check_denoiser
 
             check_denoiser("--denoise")
-        return _render_distributed(args, outputs, parameters, aovs)
+        return _render_distributed(args, outputs, parameters, aovs, plan)
     if args.tiles is not None:
         raise ArgumentError("--tiles", "only with --workers or --scheduler")
     if args.denoise:
@@ -274,7 +289,7 @@ def _render(args):
 
         check_denoiser("--denoise")
     for scene_path, output in zip(args.scene, outputs):
-        status = _render_local(args, scene_path, output, aovs, parameters)
+        status = _render_local(args, scene_path, output, aovs, parameters, plan)
         if status:
             return status
     return 0
@@ -304,12 +319,13 @@ def _check_scene_files(paths):
             raise SceneError("", describe(path, "scene file"))
 
 
-def _output_paths(output, scene_paths, layers=()):
+def _output_paths(output, scene_paths, layers=(), plan=None):
     """The image path of each scene, each checked (image.check_output_path; with 8-bit formats,
     the files of the `layers` too): `output` itself for one scene; a folder (a path ending in /,
     or for several scenes an existing folder) holds STEM.exr; a pattern names {stem} (the scene
     file's name without its suffix) and/or {index} (its position, from 0; format specs allowed:
-    {index:04d}). One scene and an existing folder without the / is an error, not a guess."""
+    {index:04d}). One scene and an existing folder without the / is an error, not a guess. Each
+    file is planned in `plan` (_output_plan; the scenes' own AOVs are planned as they load)."""
     from .image import check_output_path
 
     is_folder = output.endswith(("/", "\\")) or (len(scene_paths) > 1 and Path(output).is_dir())
@@ -327,34 +343,60 @@ def _output_paths(output, scene_paths, layers=()):
                                         "with {stem} or {index} (out/{stem}.exr), got " + repr(output))
     else:
         paths = [Path(output)]
-    seen = {}
+    plan = _output_plan(scene_paths) if plan is None else plan
     for scene_path, path in zip(scene_paths, paths):
-        if path in seen:
-            raise ArgumentError("--output", f"{seen[path]} and {scene_path} would both write {path}; use {{index}}")
-        seen[path] = scene_path
-    for path in paths:
+        _plan_output(plan, path, f"the image of {scene_path}")
         check_output_path(path, "--output")
-        _check_layer_paths(path, layers)
+        _check_layer_paths(path, layers, plan, scene_path)
     return paths
 
 
-def _check_layer_paths(path, layers):
-    """With an 8-bit format, the files NAME.LAYER.png of the `layers` can be written."""
+def _output_plan(scene_paths):
+    """The files of a run so far (identity -> what it is), to plan its outputs in: the scene
+    files, which no output may replace."""
+    return {_file_identity(path): f"the scene file {path}" for path in scene_paths}
+
+
+def _plan_output(plan, path, what):
+    """Add the output `path` (`what` it is) to `plan`; ArgumentError if it is an input or another
+    output of the run: a run replaces only files the user named as its outputs, each once."""
+    key = _file_identity(path)
+    if key in plan:
+        clash = plan[key]
+        raise ArgumentError("--output", f"{what} ({path}) would replace {clash}" if clash.startswith("the scene file")
+                            else f"{clash} and {what} would both write {path}; name them apart (e.g. {{index}})")
+    plan[key] = what
+
+
+def _file_identity(path):
+    """What makes two paths the same file: device and inode for an existing file (hard and
+    symbolic links too), else the path with links resolved."""
+    try:
+        info = os.stat(path)
+        return info.st_dev, info.st_ino
+    except OSError:
+        return os.path.realpath(path)
+
+
+def _check_layer_paths(path, layers, plan, scene_path):
+    """With an 8-bit format, the files NAME.LAYER.png of the `layers` can be written and are
+    planned in `plan` (not an input, not another output)."""
     from .image import LDR_SUFFIXES, check_output_path, layer_path
 
     if path.suffix.lower() in LDR_SUFFIXES:
         for name in layers:
+            _plan_output(plan, layer_path(path, name), f"the {name} layer of {scene_path}")
             check_output_path(layer_path(path, name), "--output")
 
 
-def _render_local(args, scene_path, output, aovs, parameters):
+def _render_local(args, scene_path, output, aovs, parameters, plan):
     from .image import save_image
     from .render import Renderer, RenderInterrupted
 
     scene, _ = _load_scene(scene_path, parameters)
     if aovs is None:
         aovs = scene.render.aovs
-        _check_layer_paths(output, aovs)
+        _check_layer_paths(output, aovs, plan, scene_path)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering, sampler=args.sampler)
     for note in renderer.notes:
@@ -373,7 +415,7 @@ def _render_local(args, scene_path, output, aovs, parameters):
     return status
 
 
-def _render_distributed(args, outputs, parameters, aovs):
+def _render_distributed(args, outputs, parameters, aovs, plan):
     """Render the scenes on a Dask cluster; each image is written as soon as it is complete, and
     on Ctrl-C (SIGTERM, SIGHUP) the scenes in flight are written as far as they got."""
     from tqdm import tqdm
@@ -390,8 +432,8 @@ def _render_distributed(args, outputs, parameters, aovs):
     spp = None if batch else args.spp or scenes[0].render.spp
     if aovs is None:   # a batch renders the AOVs of --aov only: one request for every scene
         aovs = () if batch else scenes[0].render.aovs
-        _check_layer_paths(outputs[0], aovs)
-    with dask_client(args.workers, args.scheduler) as client:
+        _check_layer_paths(outputs[0], aovs, plan, args.scene[0])
+    with dask_client(args.workers, args.scheduler, args.connect_timeout) as client:
         where = f"{len(client.scheduler_info()['workers'])} Dask workers"
         bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
                    disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
@@ -405,7 +447,8 @@ def _render_distributed(args, outputs, parameters, aovs):
                               args.volume_method, args.step, args.raymarch_multiple_scattering,
                               args.tiles, args.chunk_seconds, progress=progress, aovs=aovs,
                               denoise=args.denoise, denoise_prefilter=args.denoise_prefilter,
-                              denoise_keep_emission=args.denoise_keep_emission, sampler=args.sampler)
+                              denoise_keep_emission=args.denoise_keep_emission, sampler=args.sampler,
+                              chunk_timeout=args.chunk_timeout)
         saving = []
         try:
             for index, result in results:

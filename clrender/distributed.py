@@ -20,6 +20,8 @@ design, the set-up of a cluster and the measured scaling.
 import logging
 import math
 import signal
+import socket
+import struct
 import threading
 import time
 import uuid
@@ -42,6 +44,10 @@ TILE_PIXELS = 256 * 1024   # most pixels in a tile: bounds what a task carries (
 TILES_PER_THREAD = 4       # so a worker has chunks queued while the client answers a finished one
 RETRIES = 2                # reruns of a chunk that raised, before the render fails
 SCENES_IN_FLIGHT = 2       # a batch starts the next scene while the last chunks of one finish
+CONNECT_TIMEOUT = 30.0     # seconds to reach the scheduler, and for a first worker to join it
+CHUNK_TIMEOUT = 600.0      # seconds without any chunk finishing before the render fails (a first
+                           # chunk builds the kernel: up to a minute on a slow CPU)
+MAX_HANDSHAKE_BYTES = 2**20   # a Dask scheduler's greeting is a few hundred bytes
 
 
 class DistributedRenderError(DeviceError):
@@ -55,7 +61,7 @@ class DistributedRenderError(DeviceError):
 def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
            step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
            samples_per_chunk=None, progress=None, aovs=None, denoise=False, denoise_prefilter=False,
-           denoise_keep_emission=False, sampler=None):
+           denoise_keep_emission=False, sampler=None, chunk_timeout=None):
     """Render `scene` on the Dask cluster of `client` (a distributed.Client) and return a
     RenderResult whose image is exactly (bit for bit) that of `clrender.render(scene, spp, ...)`
     on the workers' kind of device.
@@ -69,7 +75,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     is wall time, so samples_per_second is the cluster's rate. `aovs` (None: the scene's) and the
     denoising arguments are those of `Renderer.render`: the AOVs are accumulated with the colour, chunk by
     chunk, so they are bit-identical to a local render's too. `sampler` overrides the scene's
-    render.sampler, as in `Renderer`.
+    render.sampler, as in `Renderer`. `chunk_timeout`: seconds without any chunk finishing
+    after which the render fails (DistributedRenderError), e.g. on a cluster whose workers hang.
 
     Ctrl-C cancels the chunks in flight and raises RenderInterrupted whose result holds the image
     merged so far, each pixel normalised by its own sample count."""
@@ -84,7 +91,7 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
                           frame_progress if progress else None,
                           aovs=scene.render.aovs if aovs is None else aovs, denoise=denoise,
                           denoise_prefilter=denoise_prefilter, denoise_keep_emission=denoise_keep_emission,
-                          sampler=sampler)
+                          sampler=sampler, chunk_timeout=chunk_timeout)
     try:
         for _, result in results:
             return result
@@ -99,7 +106,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
                 step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
                 samples_per_chunk=None, progress=None, scenes_in_flight=SCENES_IN_FLIGHT, aovs=(),
-                denoise=False, denoise_prefilter=False, denoise_keep_emission=False, sampler=None):
+                denoise=False, denoise_prefilter=False, denoise_keep_emission=False, sampler=None,
+                chunk_timeout=None):
     """Render many scenes on the cluster and yield (index, RenderResult) as each completes.
 
     `scenes` may be any iterable (e.g. a generator loading files): it is consumed as scenes are
@@ -109,21 +117,23 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
     `aovs`: the same AOVs for every scene (not the scenes' own render.aovs). The other arguments
     are those of `render`. Ctrl-C cancels the chunks in flight and raises
     RenderInterrupted whose result is the list of (index, partial RenderResult) of the scenes in
-    flight; Ctrl-C's signal (SIGTERM, SIGHUP in the CLI) is its `signal`. The arguments are
+    flight with at least one chunk done (a scene started but not yet rendered is left out, as a
+    local batch leaves the scenes after the one interrupted); Ctrl-C's signal (SIGTERM, SIGHUP in the CLI) is its `signal`. The arguments are
     checked as by `Renderer.render` (limits.py) by this call, each scene as it starts: before
     anything is sent to the cluster (ArgumentError)."""
     limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, step=step, tiles=tiles,
                           chunk_seconds=chunk_seconds, samples_per_chunk=samples_per_chunk,
-                          scenes_in_flight=scenes_in_flight)
+                          scenes_in_flight=scenes_in_flight, chunk_timeout=chunk_timeout)
     require_dask()
+    chunk_timeout = CHUNK_TIMEOUT if chunk_timeout is None else chunk_timeout
     outputs = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
     options = (device, volume_method, step, raymarch_multiple_scattering, sampler, seed, max_depth)
     return _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
-                        progress, scenes_in_flight, outputs)
+                        progress, scenes_in_flight, outputs, chunk_timeout)
 
 
 def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
-                 progress, scenes_in_flight, outputs):
+                 progress, scenes_in_flight, outputs, chunk_timeout):
     """The generator of render_many, its arguments checked."""
     from distributed import as_completed
 
@@ -164,8 +174,11 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
                 submit(job, tile)
 
     try:
-        start_scenes()
-        for future, (state, device_name) in _chunk_results(finished):
+        with _cluster_errors(client):
+            start_scenes()
+        chunks = _chunk_results(finished, lambda: [future for *_, future in running.values()], chunk_timeout,
+                                client)
+        for future, (state, device_name) in chunks:
             job, tile, _ = running.pop(future.key)
             job.update(tile, state, device_name)
             if state.samples < job.spp:
@@ -175,13 +188,14 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
                 job.scene_future.release()
                 frames_done += 1
                 yield job.index, job.result()
-                start_scenes()
+                with _cluster_errors(client):
+                    start_scenes()
             if progress is not None:
                 progress(frames_done + sum(j.fraction() for j in jobs.values()), frames,
                          time.perf_counter() - start)
     except KeyboardInterrupt as interrupt:
         _cancel(client, running)
-        raise RenderInterrupted([(j.index, j.result()) for j in jobs.values()],
+        raise RenderInterrupted([(j.index, j.result()) for j in jobs.values() if j.fraction() > 0],
                                 getattr(interrupt, "signal", signal.SIGINT)) from None
     finally:
         _cancel(client, running)
@@ -190,18 +204,22 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
 
 
 @contextmanager
-def dask_client(workers=None, scheduler=None, timeout=60):
+def dask_client(workers=None, scheduler=None, timeout=None):
     """A distributed.Client of a new LocalCluster of `workers` processes with one thread each
     (one device context each), or of the cluster whose scheduler is at `scheduler`
-    (tcp://HOST:PORT), waiting up to `timeout` seconds for its first worker."""
-    dask_distributed = require_dask("scheduler" if scheduler else "workers")
-    if scheduler:
+    (tcp://HOST:PORT), reached within `timeout` seconds (None: CONNECT_TIMEOUT), and waiting as
+    long for its first worker. Every failure to connect is a DistributedRenderError naming the
+    address."""
+    timeout = CONNECT_TIMEOUT if timeout is None else limits.setting("connect_timeout", timeout)
+    dask_distributed = require_dask("scheduler" if scheduler is not None else "workers")
+    if scheduler is not None:
         with _connect(dask_distributed, scheduler, timeout) as client:
             try:
                 client.wait_for_workers(1, timeout=timeout)
-            except TimeoutError:
+            except (TimeoutError, OSError) as e:
                 raise DistributedRenderError(f"no worker joined the scheduler at {scheduler} within "
-                                             f"{timeout} s; start one with `dask worker {scheduler}`") from None
+                                             f"{timeout:g} s ({type(e).__name__}); start one with "
+                                             f"`dask worker {scheduler}`") from None
             yield client
         return
     _start_resource_tracker()
@@ -233,14 +251,55 @@ def _start_resource_tracker():
 
 
 def _connect(dask_distributed, scheduler, timeout):
-    """A distributed.Client of the scheduler at `scheduler`; a bad address is an ArgumentError,
-    one that cannot be reached a DistributedRenderError."""
+    """A distributed.Client of the scheduler at `scheduler`: a string that is not an address is
+    an ArgumentError; a scheme other than tcp://, an address that cannot be reached, or one that
+    does not greet as a Dask scheduler within `timeout` (a socket that never answers, a web
+    server) a DistributedRenderError naming it."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ArgumentError("scheduler", f"expected tcp://HOST:PORT, got {limits.show(scheduler)}")
+    try:
+        scheme, location = parse_address(scheduler)
+        host, port = parse_host_port(location)
+    except ValueError as e:   # not an address: 'missing port number'
+        raise ArgumentError("scheduler", f"{e}; expected tcp://HOST:PORT") from None
+    if scheme != "tcp":
+        raise DistributedRenderError(f"cannot connect to the Dask scheduler at {limits.show(scheduler)}: "
+                                     f"clrender connects over tcp:// only, not {limits.show(scheme + '://')}")
+    _check_greeting(scheduler, host, port, timeout)
     try:
         return dask_distributed.Client(scheduler, timeout=timeout)
-    except ValueError as e:   # not an address: 'missing port number', 'unknown address scheme'
-        raise ArgumentError("scheduler", f"{e}; expected tcp://HOST:PORT") from None
+    except Exception as e:   # OSError, TimeoutError, or what Dask makes of a peer it misreads
+        raise DistributedRenderError(f"cannot connect to the Dask scheduler at {scheduler}: "
+                                     f"{type(e).__name__}: {e}") from None
+
+
+def _check_greeting(scheduler, host, port, timeout):
+    """Raise DistributedRenderError unless HOST:PORT accepts a connection and sends what a Dask
+    scheduler sends first (its handshake: a frame of a few hundred bytes, length first) within
+    `timeout` seconds. Dask's own connect waits forever for a peer that accepts and says nothing,
+    and reads a web server's 'HTTP/1.1 400' as the length of a 3 EiB frame."""
+    def fail(problem):
+        return DistributedRenderError(f"cannot connect to the Dask scheduler at {scheduler}: {problem}")
+
+    try:
+        with socket.create_connection((host or "127.0.0.1", port), timeout=timeout) as connection:
+            greeting = b""
+            while len(greeting) < 8:
+                received = connection.recv(8 - len(greeting))
+                if not received:
+                    raise fail("it closed the connection without a Dask handshake")
+                greeting += received
+    except socket.timeout:
+        raise fail(f"no Dask handshake within {timeout:g} s (not a Dask scheduler, or a firewall?)") from None
+    except OverflowError:   # a port beyond 65535
+        raise ArgumentError("scheduler", f"port {port} is not a port number; expected tcp://HOST:PORT") from None
     except OSError as e:
-        raise DistributedRenderError(f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
+        raise fail(e.strerror or str(e)) from None
+    (length,) = struct.unpack("<Q", greeting)
+    if not 0 < length <= MAX_HANDSHAKE_BYTES:
+        raise fail(f"what it sends is not a Dask handshake (it starts {greeting!r}: a web server?)")
 
 
 def dask_setup(worker):
@@ -332,14 +391,44 @@ def require_dask(where="distributed"):
     return distributed
 
 
-def _chunk_results(finished):
-    """(future, result) of each chunk as it finishes; a chunk's failure as DistributedRenderError."""
+def _chunk_results(finished, running, timeout, client):
+    """(future, result) of each chunk as it finishes; a chunk's failure, or no chunk finishing
+    for `timeout` seconds (of those `running()` returns), as DistributedRenderError."""
+    from distributed import wait
+
     try:
-        yield from finished
+        while True:
+            if not finished.has_ready():
+                pending = running()
+                if pending:
+                    wait(pending, timeout=timeout, return_when="FIRST_COMPLETED")
+            yield next(finished)
+    except StopIteration:
+        return
     except ClrenderError:   # raised by the chunk itself on every try: already names the worker
         raise
-    except Exception as e:   # KilledWorker: every worker that ran the chunk died
-        raise DistributedRenderError(f"chunk failed: {type(e).__name__}: {e}") from None
+    except TimeoutError:
+        raise DistributedRenderError(f"no chunk finished within {timeout:g} s on the cluster of "
+                                     f"{_scheduler_address(client)}") from None
+    except Exception as e:   # KilledWorker: every worker that ran the chunk died; a lost scheduler
+        raise DistributedRenderError(f"chunk failed on the cluster of {_scheduler_address(client)}: "
+                                     f"{type(e).__name__}: {e}") from None
+
+
+@contextmanager
+def _cluster_errors(client):
+    """A failure of the cluster (a lost scheduler while scattering a scene) as DistributedRenderError."""
+    try:
+        yield
+    except ClrenderError:
+        raise
+    except (OSError, TimeoutError) as e:
+        raise DistributedRenderError(f"the cluster of {_scheduler_address(client)} failed: "
+                                     f"{type(e).__name__}: {e}") from None
+
+
+def _scheduler_address(client):
+    return getattr(client.scheduler, "address", None) or "an unknown scheduler"
 
 
 def _cancel(client, running):

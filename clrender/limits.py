@@ -57,6 +57,8 @@ SETTINGS = {
     "chunk_seconds": (False, 0.0, None, True),
     "samples_per_chunk": (True, 1, MAX_SPP, False),
     "scenes_in_flight": (True, 1, INT32_MAX, False),
+    "connect_timeout": (False, 0.0, None, True),
+    "chunk_timeout": (False, 0.0, None, True),
 }
 
 
