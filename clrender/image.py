@@ -173,8 +173,11 @@ def _write_exr(channels, path):
     import OpenEXR
 
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, channels) as exr:
-        exr.write(str(path))
+    try:
+        with OpenEXR.File(header, channels) as exr:
+            exr.write(str(path))
+    except RuntimeError as e:   # OpenEXR's for every failed write: a full disk, a file size limit
+        raise OSError(str(e)) from None
 
 
 def _atomic_write(path, write):
