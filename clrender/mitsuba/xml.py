@@ -142,7 +142,7 @@ def _substitute(element, parameters, files):
         names = _PARAMETER.findall(text)
         for name in names:
             if name not in parameters:
-                raise element.error(f"undefined parameter ${limits.show(name)} (give it a <default> "
+                raise element.error(f"undefined parameter ${name} (give it a <default> "
                                     "or pass it, e.g. -D name=value)")
         files.substituted += sum(len(parameters[name]) - len(name) - 1 for name in names)
         if files.substituted > limits.MAX_SUBSTITUTED_CHARS:
