@@ -167,7 +167,8 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
             width, height = scene.camera.resolution
             strips = tiles or max(TILES_PER_THREAD * max(1, sum(client.nthreads().values())),
                                   math.ceil(width * height / TILE_PIXELS))
-            job = _Job(index, scene, client.scatter(scene, broadcast=True, hash=False), count,
+            scattered = client.scatter(scene, broadcast=True, hash=False, timeout=chunk_timeout)   # waits for a worker
+            job = _Job(index, scene, scattered, count,
                        horizontal_strips(width, height, strips), *outputs)
             jobs[index] = job
             for tile in range(len(job.states)):
