@@ -265,6 +265,8 @@ def _connect(dask_distributed, scheduler, timeout):
         host, port = parse_host_port(location)
     except ValueError as e:   # not an address: 'missing port number'
         raise ArgumentError("scheduler", f"{e}; expected tcp://HOST:PORT") from None
+    if not 0 < port <= 65535:
+        raise ArgumentError("scheduler", f"port {port} is not a port number; expected tcp://HOST:PORT")
     if scheme != "tcp":
         raise DistributedRenderError(f"cannot connect to the Dask scheduler at {limits.show(scheduler)}: "
                                      f"clrender connects over tcp:// only, not {limits.show(scheme + '://')}")
@@ -294,8 +296,6 @@ def _check_greeting(scheduler, host, port, timeout):
                 greeting += received
     except socket.timeout:
         raise fail(f"no Dask handshake within {timeout:g} s (not a Dask scheduler, or a firewall?)") from None
-    except OverflowError:   # a port beyond 65535
-        raise ArgumentError("scheduler", f"port {port} is not a port number; expected tcp://HOST:PORT") from None
     except OSError as e:
         raise fail(e.strerror or str(e)) from None
     (length,) = struct.unpack("<Q", greeting)

@@ -124,11 +124,12 @@ class Files:
             candidates = [name]
         else:
             candidates = [element.file.parent / name] + [folder / name for folder in self.search]
-        for candidate in candidates:
-            if candidate.is_file():
+        problems = [not_a_file(candidate) for candidate in candidates]   # None: a regular file
+        for candidate, problem in zip(candidates, problems):
+            if problem is None:
                 return candidate.resolve()
-        for candidate in candidates:   # there, but a folder or a named pipe: say so
-            if not_a_file(candidate) != "not found":
+        for candidate, problem in zip(candidates, problems):   # there, but a folder or a named pipe: say so
+            if problem != "not found":
                 raise element.error(describe(candidate))
         raise element.error(f"file not found: {name} (looked in: "
                             f"{', '.join(str(c.parent) for c in candidates)})")
