@@ -280,27 +280,44 @@ def _connect(dask_distributed, scheduler, timeout):
 
 def _check_greeting(scheduler, host, port, timeout):
     """Raise DistributedRenderError unless HOST:PORT accepts a connection and sends what a Dask
-    scheduler sends first (its handshake: a frame of a few hundred bytes, length first) within
-    `timeout` seconds. Dask's own connect waits forever for a peer that accepts and says nothing,
-    and reads a web server's 'HTTP/1.1 400' as the length of a 3 EiB frame."""
+    scheduler sends first, its handshake (a frame, length first, holding a dict with its pickle
+    protocol), within `timeout` seconds in all. Dask's own connect waits forever for a peer that
+    accepts and says nothing or stops half-way, and reads a web server's 'HTTP/1.1 400' as the
+    length of a 3 EiB frame."""
+    import msgpack   # Dask's wire format
+    from distributed.protocol.utils import unpack_frames
+
     def fail(problem):
         return DistributedRenderError(f"cannot connect to the Dask scheduler at {scheduler}: {problem}")
 
+    deadline = time.monotonic() + timeout
     try:
         with socket.create_connection((host or "127.0.0.1", port), timeout=timeout) as connection:
-            greeting = b""
-            while len(greeting) < 8:
-                received = connection.recv(8 - len(greeting))
-                if not received:
-                    raise fail("it closed the connection without a Dask handshake")
-                greeting += received
+            def receive(count):
+                data = b""
+                while len(data) < count:
+                    connection.settimeout(max(deadline - time.monotonic(), 1e-3))
+                    received = connection.recv(min(count - len(data), 1 << 16))
+                    if not received:
+                        raise fail("it closed the connection during the Dask handshake")
+                    data += received
+                return data
+
+            (length,) = struct.unpack("<Q", receive(8))
+            if not 0 < length <= MAX_HANDSHAKE_BYTES:
+                raise fail("what it sends is not a Dask handshake (a web server?)")
+            frames, _ = unpack_frames(receive(length), partial=True)
+            greeting = msgpack.loads(frames[0], use_list=False, strict_map_key=False)
     except socket.timeout:
         raise fail(f"no Dask handshake within {timeout:g} s (not a Dask scheduler, or a firewall?)") from None
     except OSError as e:
         raise fail(e.strerror or str(e)) from None
-    (length,) = struct.unpack("<Q", greeting)
-    if not 0 < length <= MAX_HANDSHAKE_BYTES:
-        raise fail(f"what it sends is not a Dask handshake (it starts {greeting!r}: a web server?)")
+    except ClrenderError:
+        raise
+    except Exception:   # frames or msgpack that do not parse
+        raise fail("what it sends is not a Dask handshake") from None
+    if not (isinstance(greeting, dict) and "pickle-protocol" in greeting):
+        raise fail("what it sends is not a Dask handshake")
 
 
 def dask_setup(worker):
