@@ -44,9 +44,12 @@ def _interrupt_on_termination():
     (SIGKILL stops at once). A signal ignored when clrender started (SIGHUP under nohup, SIGINT
     in a background job) stays ignored."""
     def interrupt(signum, frame):
-        for handled in previous:
-            signal.signal(handled, signal.SIG_IGN)
+        for handled in previous:   # not SIG_IGN: a signal already pending would raise OSError
+            signal.signal(handled, ignore)
         raise Interrupted(signum)
+
+    def ignore(signum, frame):
+        pass
 
     if threading.current_thread() is not threading.main_thread():   # only it receives signals
         yield
