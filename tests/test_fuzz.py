@@ -73,7 +73,8 @@ class Renders:
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
+                depth = {} if scene.render.integrator == "direct" else {"max_depth": 3}   # direct has none
+                result = clrender.Renderer(scene, context=self.context).render(spp=1, **depth)
         except SceneError as e:   # found at upload: degenerate shapes, sizes, scaled values
             assert names_its_place(e), e
             event("SceneError at upload")
