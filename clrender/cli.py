@@ -9,7 +9,6 @@ pyopencl are imported first with signals held (see _signals_held).
 """
 import argparse
 import contextlib
-import os
 import signal
 import string
 import sys
@@ -357,28 +356,22 @@ def _output_paths(output, scene_paths, layers=(), plan=None):
 def _output_plan(scene_paths):
     """The files of a run so far (identity -> what it is), to plan its outputs in: the scene
     files, which no output may replace."""
-    return {_file_identity(path): f"the scene file {path}" for path in scene_paths}
+    from .files import file_identity
+
+    return {file_identity(path): f"the scene file {path}" for path in scene_paths}
 
 
 def _plan_output(plan, path, what):
     """Add the output `path` (`what` it is) to `plan`; ArgumentError if it is an input or another
     output of the run: a run replaces only files the user named as its outputs, each once."""
-    key = _file_identity(path)
+    from .files import file_identity
+
+    key = file_identity(path)
     if key in plan:
         clash = plan[key]
         raise ArgumentError("--output", f"{what} ({path}) would replace {clash}" if clash.startswith("the scene file")
                             else f"{clash} and {what} would both write {path}; name them apart (e.g. {{index}})")
     plan[key] = what
-
-
-def _file_identity(path):
-    """What makes two paths the same file: device and inode for an existing file (hard and
-    symbolic links too), else the path with links resolved."""
-    try:
-        info = os.stat(path)
-        return info.st_dev, info.st_ino
-    except OSError:
-        return os.path.realpath(path)
 
 
 def _check_layer_paths(path, layers, plan, scene_path):

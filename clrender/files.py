@@ -1,6 +1,7 @@
 """Input files as a reader meets them: what a path is when it is not a regular file (a folder, a
 named pipe that would block a read forever, a device), and reads bounded by a size checked before
-the first byte is read (limits.MAX_*_FILE_BYTES). Each reader turns the ValueError raised here
+the first byte is read (limits.MAX_*_FILE_BYTES); and which paths are one file (an output must
+not be an input). Each reader turns the ValueError raised here
 into its own error class, naming the file and, where it has one, the place that named it."""
 import os
 import stat
@@ -48,6 +49,16 @@ def read_bounded(path, what, limit):
     if len(data) > limit:
         raise ValueError(f"{what} {path} is more than the {limit} bytes clrender reads from a {what}")
     return data
+
+
+def file_identity(path):
+    """What makes two paths the same file: device and inode for an existing file (hard and
+    symbolic links too), else the path with links resolved."""
+    try:
+        info = os.stat(path)
+        return info.st_dev, info.st_ino
+    except OSError:
+        return os.path.realpath(path)
 
 
 def describe(path, what="file"):

@@ -136,6 +136,19 @@ def test_a_scenes_own_aovs_are_planned_against_the_batch_when_it_loads(tmp_path)
     assert (tmp_path / "a.albedo.png").read_bytes() == b"the user's image"
 
 
+def test_the_viewers_save_never_replaces_its_scene_file(tmp_path):
+    """A JSON scene named shot.png: the viewer's default save (STEM.exr, STEM.png beside the
+    scene) would write over it."""
+    pytest.importorskip("aiohttp")
+    from clrender.view.output import output_paths
+
+    scene = clrender.load_scene(write_scene(tmp_path, tiny_scene(), "shot.png"))
+    with pytest.raises(ArgumentError, match="shot.png would replace the scene file"):
+        output_paths(None, scene, "--output")
+    with pytest.raises(ArgumentError, match="would replace the scene file"):
+        output_paths(tmp_path / "shot", scene, "--output")
+
+
 def test_an_empty_scheduler_is_an_error_not_a_local_render(tmp_path, monkeypatch):
     monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("rendering started"))
     code, stderr = run_cli("render", write_scene(tmp_path, tiny_scene()), "-o", tmp_path / "o.png", "--scheduler", "")
