@@ -5,7 +5,7 @@ I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a rende
 saves its partial image first), 1 only for a bug in clrender (with its traceback).
 Several scenes render as a batch; --workers/--scheduler render on a Dask cluster (distributed.py).
 Imports are deferred so that a signal during start-up is handled like any other; numpy and
-pyopencl are imported first with signals held (see _signals_held).
+pyopencl are imported first with signals held (signals.py).
 """
 import argparse
 import contextlib
@@ -17,12 +17,13 @@ import warnings
 from pathlib import Path
 
 from .errors import ArgumentError, ClrenderError, Interrupted
+from .signals import signals_held
 
 
 def main(argv=None):
     try:
         with _plain_warnings(), _interrupt_on_termination():
-            with _signals_held():
+            with signals_held():
                 import numpy  # noqa: F401
                 import pyopencl  # noqa: F401
             args = _parser().parse_args(argv)
@@ -60,23 +61,6 @@ def _interrupt_on_termination():
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
-
-
-@contextlib.contextmanager
-def _signals_held():
-    """SIGINT, SIGTERM and SIGHUP wait until the block ends, then arrive as usual. For the imports
-    of C extensions: an interrupt inside one can come out as another error with a traceback (numpy
-    reports a Ctrl-C during its import as an ImportError). Threads started in the block (numpy's
-    OpenBLAS workers) keep the signals blocked, so they still reach the main thread."""
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @contextlib.contextmanager

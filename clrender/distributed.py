@@ -38,6 +38,7 @@ from .features import scene_features
 from .aovs import needs_sample_aovs
 from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result, output_request, sampler_code
 from .scene import as_scene
+from .signals import signals_deferred
 
 CHUNK_SECONDS = 3.0        # target kernel time of a chunk: seconds, so per-chunk overhead is small
 TILE_PIXELS = 256 * 1024   # most pixels in a tile: bounds what a task carries (16 bytes a pixel)
@@ -226,9 +227,10 @@ def dask_client(workers=None, scheduler=None, timeout=None):
     _start_resource_tracker()
     # Chunk failures reach the client as exceptions; the workers' own logs (e.g. a heartbeat cut
     # off when the cluster closes after Ctrl-C) would only be tracebacks on the terminal.
-    cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                            dashboard_address=":0", silence_logs=logging.CRITICAL,
-                                            preload=[__name__])
+    with signals_deferred():   # a cluster interrupted while its workers start cannot be closed
+        cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                dashboard_address=":0", silence_logs=logging.CRITICAL,
+                                                preload=[__name__])
     with cluster, dask_distributed.Client(cluster) as client:
         yield client
 

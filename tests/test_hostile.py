@@ -193,6 +193,30 @@ def test_two_quick_sigterms_still_save_the_partial_image(tmp_path):
     assert "Traceback" not in stderr and np.all(np.isfinite(clrender.load_image(out)))
 
 
+def children(pid):
+    try:
+        return [c for task in Path(f"/proc/{pid}/task").iterdir() for c in (task / "children").read_text().split()]
+    except OSError:   # it has exited
+        return []
+
+
+def test_a_signal_while_the_local_cluster_starts_exits_cleanly(tmp_path):
+    """SIGTERM once the worker processes are being started (the resource tracker is the first
+    child, a nanny the next): Dask's exit hook used to print a traceback closing the half-made
+    cluster. The cluster now starts whole, then the signal ends the run."""
+    pytest.importorskip("distributed")
+    out = tmp_path / "o.png"
+    process = subprocess.Popen([sys.executable, "-m", "clrender.cli", "render", "scenes/cornell_box.json", "-o",
+                                str(out), "--workers", "1", "--quiet"], cwd=REPO, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while len(children(process.pid)) < 2 and process.poll() is None and time.time() < deadline:
+        time.sleep(0.01)
+    process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 128 + signal.SIGTERM and "Traceback" not in stderr, stderr
+
+
 # ---------------------------------------------------------------------------------------------
 # Clusters that misbehave (a real cluster: tests/test_distributed.py)
 # ---------------------------------------------------------------------------------------------
