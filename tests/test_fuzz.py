@@ -793,12 +793,13 @@ def scheduler():
 SIGNALS = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
 
 
-@fuzz_settings(6)
-@given(mode=st.sampled_from(["local", "batch", "distributed batch"]),
+@fuzz_settings(8)
+@given(mode=st.sampled_from(["local", "batch", "distributed batch", "local cluster"]),
        delay=st.floats(0.0, 4.0), signals=st.lists(st.sampled_from(SIGNALS), min_size=1, max_size=2),
        gap=st.sampled_from([0.0, 0.01, 0.2]))
 def test_signals_at_any_point_leave_files_named_or_untouched(mode, delay, signals, gap, tmp_path_factory, scheduler):
-    """A render, a batch or a distributed batch, signalled once or twice after `delay` seconds:
+    """A render, a batch, a distributed batch or a batch on a local cluster of its own (--workers),
+    signalled once or twice after `delay` seconds:
     no traceback; it exits 0, 128 + the first signal, or (before Python's handlers are in place)
     of that signal (signals that arrive together: any of them); every file that existed before is untouched or a named output, nothing is
     half-written, and a partial image it reports saved loads."""
@@ -816,7 +817,8 @@ def test_signals_at_any_point_leave_files_named_or_untouched(mode, delay, signal
     (folder / "out" / "second.png").write_bytes(b"an older image")
     (folder / "notes.txt").write_text("not an output")
     before = file_state(folder)
-    cluster = ("--scheduler", scheduler, "--chunk-seconds", "0.2") if mode == "distributed batch" else ()
+    cluster = {"distributed batch": ("--scheduler", scheduler, "--chunk-seconds", "0.2"),
+               "local cluster": ("--workers", "1", "--chunk-seconds", "0.2")}.get(mode, ())
     process = subprocess.Popen([sys.executable, "-m", "clrender.cli", "render", *map(str, scenes), "-o",
                                 str(folder / "out" / "{stem}.png"), "--quiet", *cluster],
                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
