@@ -422,7 +422,12 @@ def _chunk_results(finished, running, timeout, client):
                 pending = running()
                 if pending:
                     wait(pending, timeout=timeout, return_when="FIRST_COMPLETED")
-            yield next(finished)
+            future, result = next(finished)
+            if future.status == "cancelled":   # by the cluster: its scene was lost with the workers holding it
+                _raise_a_failure(running())
+                raise DistributedRenderError(f"a chunk was cancelled by the cluster of "
+                                             f"{_scheduler_address(client)}: {result}")
+            yield future, result
     except StopIteration:
         return
     except ClrenderError:   # raised by the chunk itself on every try: already names the worker
@@ -433,6 +438,14 @@ def _chunk_results(finished, running, timeout, client):
     except Exception as e:   # KilledWorker: every worker that ran the chunk died; a lost scheduler
         raise DistributedRenderError(f"chunk failed on the cluster of {_scheduler_address(client)}: "
                                      f"{type(e).__name__}: {e}") from None
+
+
+def _raise_a_failure(futures):
+    """Raise the error of the first failed future, if any: the cause (a KilledWorker naming the
+    worker) of a cancellation that reached the client first."""
+    for future in futures:
+        if future.status == "error":
+            future.result()
 
 
 @contextmanager
