@@ -196,12 +196,20 @@ def _parameters(args):
     return parameters
 
 
-def _load_scene(path, parameters):
+def _load_scene(path, parameters, plan=None):
     """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
-    the translation notes that `info` shows (None for JSON)."""
+    the translation notes that `info` shows (None for JSON). With the run's output `plan`, an
+    output that is one of the files the scene reads (an include, a mesh, a texture) is an
+    ArgumentError."""
+    from .files import recording_inputs
     from .loader import read_scene_file
 
-    loaded = read_scene_file(path, parameters)
+    with recording_inputs() as inputs:
+        loaded = read_scene_file(path, parameters)
+    clashes = sorted(plan[key] for key in inputs & (plan or {}).keys() if plan[key][0] != SCENE_FILE)
+    if clashes:
+        what, output = clashes[0]
+        raise ArgumentError("--output", f"{what} ({output}) would replace a file {path} reads")
     for warning in loaded.warnings:
         print(f"clrender: warning: {warning}", file=sys.stderr)
     return loaded.scene, loaded.notes
@@ -337,12 +345,15 @@ def _output_paths(output, scene_paths, layers=(), plan=None):
     return paths
 
 
+SCENE_FILE = "the scene file"
+
+
 def _output_plan(scene_paths):
-    """The files of a run so far (identity -> what it is), to plan its outputs in: the scene
-    files, which no output may replace."""
+    """The files of a run so far (identity -> (what it is, its path)), to plan its outputs in:
+    the scene files, which no output may replace."""
     from .files import file_identity
 
-    return {file_identity(path): f"the scene file {path}" for path in scene_paths}
+    return {file_identity(path): (SCENE_FILE, path) for path in scene_paths}
 
 
 def _plan_output(plan, path, what):
@@ -352,10 +363,10 @@ def _plan_output(plan, path, what):
 
     key = file_identity(path)
     if key in plan:
-        clash = plan[key]
-        raise ArgumentError("--output", f"{what} ({path}) would replace {clash}" if clash.startswith("the scene file")
+        clash, clash_path = plan[key]
+        raise ArgumentError("--output", f"{what} ({path}) would replace the scene file {clash_path}" if clash == SCENE_FILE
                             else f"{clash} and {what} would both write {path}; name them apart (e.g. {{index}})")
-    plan[key] = what
+    plan[key] = (what, path)
 
 
 def _check_layer_paths(path, layers, plan, scene_path):
@@ -373,7 +384,7 @@ def _render_local(args, scene_path, output, aovs, parameters, plan):
     from .image import save_image
     from .render import Renderer, RenderInterrupted
 
-    scene, _ = _load_scene(scene_path, parameters)
+    scene, _ = _load_scene(scene_path, parameters, plan)
     if aovs is None:
         aovs = scene.render.aovs
         _check_layer_paths(output, aovs, plan, scene_path)
@@ -407,7 +418,7 @@ def _render_distributed(args, outputs, parameters, aovs, plan):
     batch = len(args.scene) > 1
     # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
     # them on, so a long sequence is never in memory at once.
-    scenes = (_load_scene(path, parameters)[0] for path in args.scene)
+    scenes = (_load_scene(path, parameters, plan)[0] for path in args.scene)
     scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
     if aovs is None:   # a batch renders the AOVs of --aov only: one request for every scene

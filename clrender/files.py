@@ -3,12 +3,29 @@ named pipe that would block a read forever, a device), and reads bounded by a si
 the first byte is read (limits.MAX_*_FILE_BYTES); and which paths are one file (an output must
 not be an input). Each reader turns the ValueError raised here
 into its own error class, naming the file and, where it has one, the place that named it."""
+import contextlib
+import contextvars
 import os
 import stat
 from pathlib import Path
 
 _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISSOCK, "a socket"),
           (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+
+
+_inputs = contextvars.ContextVar("inputs", default=None)   # the set recording_inputs() fills
+
+
+@contextlib.contextmanager
+def recording_inputs():
+    """`with recording_inputs() as inputs:` the file_identity of every regular file a reader
+    checks in the block (each reader checks its files through not_a_file) lands in `inputs`."""
+    inputs = set()
+    token = _inputs.set(inputs)
+    try:
+        yield inputs
+    finally:
+        _inputs.reset(token)
 
 
 def not_a_file(path):
@@ -21,6 +38,8 @@ def not_a_file(path):
     except OSError as e:   # a loop of links, a name too long, no permission to look
         return f"not readable ({e.strerror or e})"
     if stat.S_ISREG(mode):
+        if _inputs.get() is not None:
+            _inputs.get().add(file_identity(path))
         return None
     return next((kind for is_kind, kind in _KINDS if is_kind(mode)), "not a regular file")
 

@@ -136,6 +136,19 @@ def test_a_scenes_own_aovs_are_planned_against_the_batch_when_it_loads(tmp_path)
     assert (tmp_path / "a.albedo.png").read_bytes() == b"the user's image"
 
 
+def test_an_output_that_is_a_file_the_scene_reads_is_refused_before_rendering(tmp_path, monkeypatch):
+    """-o sky.png for a scene lit by the environment map sky.png: found when the scene loads."""
+    sky = tmp_path / "sky.png"
+    clrender.save_image(np.full((4, 8, 3), 0.5, np.float32), sky)
+    before = sky.read_bytes()
+    data = tiny_scene()
+    data.setdefault("lights", []).append({"type": "environment", "file": "sky.png"})
+    monkeypatch.setattr(clrender.Renderer, "__init__", lambda *a, **k: pytest.fail("rendering started"))
+    code, stderr = run_cli("render", write_scene(tmp_path, data), "-o", sky, "--quiet")
+    assert code == EXIT_ARGUMENTS and "would replace a file" in stderr and "sky.png" in stderr, stderr
+    assert sky.read_bytes() == before
+
+
 def test_the_viewers_save_never_replaces_its_scene_file(tmp_path):
     """A JSON scene named shot.png: the viewer's default save (STEM.exr, STEM.png beside the
     scene) would write over it."""
