@@ -21,31 +21,38 @@ from .signals import signals_held
 
 
 def main(argv=None):
-    try:
-        with _plain_warnings(), _interrupt_on_termination():
+    """The command line `argv` (None: the process's own, which then exits with the code
+    returned: once interrupted, it ignores later signals until then)."""
+    with _plain_warnings(), _interrupt_on_termination(exiting=argv is None):
+        try:
             with signals_held():
                 import numpy  # noqa: F401
                 import pyopencl  # noqa: F401
             args = _parser().parse_args(argv)
             return args.run(args)
-    except ClrenderError as e:
-        print(f"clrender: error: {e}", file=sys.stderr)
-        return e.exit_code
-    except KeyboardInterrupt as e:
-        print("clrender: interrupted", file=sys.stderr)
-        return 128 + getattr(e, "signal", signal.SIGINT)
+        except ClrenderError as e:
+            print(f"clrender: error: {e}", file=sys.stderr)
+            return e.exit_code
+        except KeyboardInterrupt as e:
+            print("clrender: interrupted", file=sys.stderr)
+            return 128 + getattr(e, "signal", signal.SIGINT)
 
 
 @contextlib.contextmanager
-def _interrupt_on_termination():
+def _interrupt_on_termination(exiting=False):
     """SIGINT, SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render
     (the launch in flight finishes, the partial image is saved) instead of killing it. The first
     one only: the later ones are ignored, so that two quick signals still save the partial image
-    (SIGKILL stops at once). A signal ignored when clrender started (SIGHUP under nohup, SIGINT
-    in a background job) stays ignored."""
+    (SIGKILL stops at once), and, when the process is `exiting` after the block, until it has
+    exited (a second SIGTERM would otherwise kill it with the default action as it exits). A
+    signal ignored when clrender started (SIGHUP under nohup, SIGINT in a background job) stays
+    ignored."""
+    interrupted = []
+
     def interrupt(signum, frame):
         for handled in previous:   # not SIG_IGN: a signal already pending would raise OSError
             signal.signal(handled, ignore)
+        interrupted.append(signum)
         raise Interrupted(signum)
 
     def ignore(signum, frame):
@@ -59,8 +66,8 @@ def _interrupt_on_termination():
     try:
         yield
     finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+        for signum, handler in previous.items():   # Python's exit resets Python handlers, not SIG_IGN
+            signal.signal(signum, signal.SIG_IGN if exiting and interrupted else handler)
 
 
 @contextlib.contextmanager

@@ -195,9 +195,12 @@ def test_sighup_ignored_at_start_stays_ignored(tmp_path):
     assert out.exists()
 
 
-def test_two_quick_sigterms_still_save_the_partial_image(tmp_path):
+def test_two_quick_sigterms_still_save_the_partial_image_and_exit_143(tmp_path):
+    """The second is ignored while the image is written, and as the process exits (Python's exit
+    puts back the default action of a signal with a Python handler: it used to die of it, -15)."""
     out = tmp_path / "o.exr"
     process = start_render(out)
+    time.sleep(0.5)   # rendering (the bar shows before the first launch)
     process.send_signal(signal.SIGTERM)
     time.sleep(0.01)
     process.send_signal(signal.SIGTERM)
