@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, limits, meshes, plastic, principled, textures
+from . import layout, light_selection, limits, meshes, plastic, principled, textures
 from . import wide_bvh
 from .bvh import intersect_brute_force
 from .ploc import build_ploc_bvh
@@ -111,8 +111,9 @@ def build_scene_arrays(scene):
 
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
-    emitters, powers = _area_emitters(scene, triangles, is_sphere, info)
+    emitters, powers, areas = _area_emitters(scene, triangles, is_sphere, info)
     first_light = len(emitters)
+    groups = list(info[emitters["kind"][:, 1], 1])   # the shapes of the area emitters
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
     light_emitters = []
     for index, light in enumerate(scene.lights):
@@ -142,6 +143,9 @@ def build_scene_arrays(scene):
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
+    # Each light a group of its own, after the shapes.
+    groups += list(len(scene.shapes) + np.arange(len(light_emitters)))
+    selection = light_selection.selection_weights(powers, areas + [1.0] * len(light_emitters), groups)
     materials = _material_array(scene.materials, scene.textures, scale)
     used = set(scene.used_material_indices())
     # Plastic's coat tables are its model, not a compensation.
@@ -161,7 +165,7 @@ def build_scene_arrays(scene):
         nodes=nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
-        emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
+        emitters=emitters, emitter_cdf=_cdf(selection),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         first_light=first_light, spheres=int(np.count_nonzero(is_sphere)),
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
@@ -327,8 +331,8 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
 
 def _area_emitters(scene, triangles, is_sphere, info):
     """One emitter per primitive slot whose material emits, triangles first, then spheres;
-    records its index in info[:, 2]. Returns the emitters and their powers (the selection
-    weights: pi x area x mean radiance, as one-sided Lambertian emitters). A textured emission
+    records its index in info[:, 2]. Returns the emitters, their powers (pi x area x mean
+    radiance, as one-sided Lambertian emitters) and areas (clrender/light_selection.py). A textured emission
     counts with its texture's mean, and the emitter names the texture and its slot."""
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3)
     mean_emission = emission.copy()
@@ -355,7 +359,7 @@ def _area_emitters(scene, triangles, is_sphere, info):
     emitters["p0"][~sphere, 3] = area[~sphere]
     emitters["e1"][~sphere, :3] = e1[~sphere]
     emitters["e2"][~sphere, :3] = e2[~sphere]
-    return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1))
+    return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1)), list(area)
 
 
 def spot_cone(light):

@@ -9,6 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
+from .files import check_regular_file
+
 
 @dataclass
 class Mesh:
@@ -214,6 +217,7 @@ def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None, shape_index=0
     Raises ValueError with a message meant for the user when the file is malformed or holds no
     triangles, a vertex that is not a finite float32 number, or a face naming a vertex that does
     not exist."""
+    check_regular_file(path, "mesh file", limits.MAX_MESH_FILE_BYTES)
     suffix = Path(path).suffix.lower()
     if suffix == ".obj":
         from .obj_reader import read_obj as read
