@@ -234,7 +234,9 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     e2.w -1 where that frame is mirrored (kernels/scene.h, surface_uv)."""
     n_triangles = len(v0)
     is_sphere = np.asarray(order) >= n_triangles
-    slots = np.flatnonzero(~is_sphere)
+    with_spheres = bool(is_sphere.any())
+    # Without spheres every slot is a triangle's: a slice writes the fields without index arrays.
+    slots = np.flatnonzero(~is_sphere) if with_spheres else slice(None)
     tri = np.asarray(order)[slots]
     triangles = np.zeros(len(order), layout.TRIANGLE)
     # Edges are differences of the float32 corners, not rounded float64 differences: then
@@ -248,11 +250,11 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     shading = np.zeros(len(order), layout.TRIANGLE_SHADING)
     for k, name in enumerate(("n0", "n1", "n2")):
         shading[name][slots, :3] = np.asarray(normals)[tri, k]
-    spheres = np.zeros(len(order), layout.SPHERE)
-    index = np.asarray(order)[is_sphere] - n_triangles
-    spheres["centre_radius"][is_sphere, :3] = np.asarray(centres).reshape(-1, 3)[index]
-    spheres["centre_radius"][is_sphere, 3] = np.asarray(radii)[index]
-    if is_sphere.any():
+    if with_spheres:
+        spheres = np.zeros(len(order), layout.SPHERE)
+        index = np.asarray(order)[is_sphere] - n_triangles
+        spheres["centre_radius"][is_sphere, :3] = np.asarray(centres).reshape(-1, 3)[index]
+        spheres["centre_radius"][is_sphere, 3] = np.asarray(radii)[index]
         size = layout.SPHERE.itemsize
         triangles.view(np.uint8).reshape(len(order), -1)[is_sphere, :size] = \
             spheres.view(np.uint8).reshape(len(order), size)[is_sphere]
