@@ -4,9 +4,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, limits, meshes, plastic, principled, textures
+from . import layout, light_selection, limits, meshes, plastic, principled, textures
 from . import wide_bvh
-from .bvh import build_bvh, intersect_brute_force
+from .bvh import intersect_brute_force
+from .ploc import build_ploc_bvh
 from .errors import SceneError
 from .origins import at_source
 
@@ -92,21 +93,27 @@ def build_scene_arrays(scene):
     v0, v1, v2, normals, info, uvs = _gather_triangles(scene, scale, with_uv)
     keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
-    _skip_shapes_without_area(scene, info, keep)
-    v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
+    if degenerate:
+        _skip_shapes_without_area(scene, info, keep)
+        v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
     centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
-    bvh = build_bvh(v0, v1, v2, spheres=(centres, radii))
+    bvh = build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
     order = bvh.prim_order
+    # The binary tree and the per-corner normals go as soon as they are used: on a large mesh
+    # each is hundreds of MB, and the peak memory is that of these steps.
+    nodes, bvh_depth = wide_bvh.collapse(bvh, order >= len(v0))
+    del bvh
     triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
+    del normals
     unordered_info = np.concatenate([info, sphere_info])
     info = unordered_info[order]
-    nodes, bvh_depth = wide_bvh.collapse(bvh, is_sphere)
 
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
-    emitters, powers = _area_emitters(scene, triangles, is_sphere, info)
+    emitters, powers, areas = _area_emitters(scene, triangles, is_sphere, info)
     first_light = len(emitters)
+    groups = list(info[emitters["kind"][:, 1], 1])   # the shapes of the area emitters
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
     light_emitters = []
     for index, light in enumerate(scene.lights):
@@ -136,6 +143,9 @@ def build_scene_arrays(scene):
             light_emitters.append(_emitter("directional", light.radiance, p0=-light.direction))
             powers.append(np.pi * sphere[3] ** 2 * float(light.radiance.mean()))
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
+    # Each light a group of its own, after the shapes.
+    groups += list(len(scene.shapes) + np.arange(len(light_emitters)))
+    selection = light_selection.selection_weights(powers, areas + [1.0] * len(light_emitters), groups)
     materials = _material_array(scene.materials, scene.textures, scale)
     used = set(scene.used_material_indices())
     # Plastic's coat tables are its model, not a compensation.
@@ -155,7 +165,7 @@ def build_scene_arrays(scene):
         nodes=nodes, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
-        emitters=emitters, emitter_cdf=_cdf(np.asarray(powers, dtype=float)),
+        emitters=emitters, emitter_cdf=_cdf(selection),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         first_light=first_light, spheres=int(np.count_nonzero(is_sphere)),
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
@@ -168,8 +178,9 @@ def build_scene_arrays(scene):
 def _has_float32_area(v0, v1, v2):
     """Whether each triangle keeps an area in the kernel's float32 arithmetic: its normal
     (cross product of float32 edges) has a normal-range, finite squared length."""
-    e1 = v1.astype(np.float32) - v0.astype(np.float32)
-    e2 = v2.astype(np.float32) - v0.astype(np.float32)
+    v0 = np.asarray(v0, np.float32)
+    e1 = np.asarray(v1, np.float32) - v0
+    e2 = np.asarray(v2, np.float32) - v0
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         n = np.cross(e1, e2)
         length2 = np.sum(n * n, axis=1, dtype=np.float32)
@@ -223,7 +234,9 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     e2.w -1 where that frame is mirrored (kernels/scene.h, surface_uv)."""
     n_triangles = len(v0)
     is_sphere = np.asarray(order) >= n_triangles
-    slots = np.flatnonzero(~is_sphere)
+    with_spheres = bool(is_sphere.any())
+    # Without spheres every slot is a triangle's: a slice writes the fields without index arrays.
+    slots = np.flatnonzero(~is_sphere) if with_spheres else slice(None)
     tri = np.asarray(order)[slots]
     triangles = np.zeros(len(order), layout.TRIANGLE)
     # Edges are differences of the float32 corners, not rounded float64 differences: then
@@ -237,11 +250,11 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     shading = np.zeros(len(order), layout.TRIANGLE_SHADING)
     for k, name in enumerate(("n0", "n1", "n2")):
         shading[name][slots, :3] = np.asarray(normals)[tri, k]
-    spheres = np.zeros(len(order), layout.SPHERE)
-    index = np.asarray(order)[is_sphere] - n_triangles
-    spheres["centre_radius"][is_sphere, :3] = np.asarray(centres).reshape(-1, 3)[index]
-    spheres["centre_radius"][is_sphere, 3] = np.asarray(radii)[index]
-    if is_sphere.any():
+    if with_spheres:
+        spheres = np.zeros(len(order), layout.SPHERE)
+        index = np.asarray(order)[is_sphere] - n_triangles
+        spheres["centre_radius"][is_sphere, :3] = np.asarray(centres).reshape(-1, 3)[index]
+        spheres["centre_radius"][is_sphere, 3] = np.asarray(radii)[index]
         size = layout.SPHERE.itemsize
         triangles.view(np.uint8).reshape(len(order), -1)[is_sphere, :size] = \
             spheres.view(np.uint8).reshape(len(order), size)[is_sphere]
@@ -284,42 +297,44 @@ BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 
 def _gather_triangles(scene, scale=1.0, with_uv=False):
-    """Concatenate all meshes: corners (times `scale`), per-vertex normals, the TriangleInfo
-    columns (material, object, emitter = -1, packed media) and, `with_uv`, the corner uv per
-    triangle ((F, 3, 2); else (F, 0, 2))."""
-    v0, v1, v2, normals, info, uvs = [], [], [], [], [], []
-    for object_id, shape in enumerate(scene.shapes):
-        mesh = shape.mesh
-        if isinstance(mesh, meshes.Sphere):
-            continue
-        corners = mesh.vertices[mesh.faces] * scale
-        v0.append(corners[:, 0])
-        v1.append(corners[:, 1])
-        v2.append(corners[:, 2])
+    """Concatenate all meshes: float32 corners (times `scale`; the kernel's, as the BVH bounds
+    them), float32 per-corner normals (F, 3, 3), the TriangleInfo columns (material, object,
+    emitter = -1, packed media) and, `with_uv`, the float32 corner uv per triangle ((F, 3, 2);
+    else (F, 0, 2)). Written into arrays of the final size, mesh after mesh, so that a large
+    mesh passes through no float64 or concatenated copies."""
+    found = [(index, shape.mesh) for index, shape in enumerate(scene.shapes)
+             if not isinstance(shape.mesh, meshes.Sphere)]
+    total = sum(len(mesh.faces) for _, mesh in found)
+    v0, v1, v2 = (np.empty((total, 3), np.float32) for _ in range(3))
+    normals = np.empty((total, 3, 3), np.float32)
+    info = np.empty((total, 4), np.int32)
+    uvs = np.empty((total, 3 if with_uv else 0, 2), np.float32)
+    end = 0
+    for object_id, mesh in found:
+        at = slice(end, end + len(mesh.faces))
+        end = at.stop
+        scaled = (mesh.vertices * scale).astype(np.float32)
+        for k, corner in enumerate((v0, v1, v2)):
+            np.take(scaled, mesh.faces[:, k], axis=0, out=corner[at])
         if mesh.normals is not None:
-            normals.append(mesh.normals[mesh.faces])
+            vertex_normals = mesh.normals.astype(np.float32)
+            for k in range(3):
+                normals[at, k] = vertex_normals[mesh.faces[:, k]]
         else:
+            corners = mesh.vertices[mesh.faces] * scale
             flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            normals.append(np.repeat(flat[:, None, :], 3, axis=1))
-        media = layout.pack_media(shape.interior, shape.exterior)
-        info.append(np.tile([shape.material, object_id, -1, media], (len(mesh.faces), 1)))
-        if not with_uv:
-            uvs.append(np.zeros((len(mesh.faces), 0, 2)))
-        elif mesh.uvs is not None:
-            uvs.append(mesh.uvs[mesh.faces])
-        else:
-            uvs.append(np.broadcast_to(BARYCENTRIC_UV, (len(mesh.faces), 3, 2)))
-    if not v0:
-        empty = np.zeros((0, 3))
-        return empty, empty, empty, np.zeros((0, 3, 3)), np.zeros((0, 4), np.int32), np.zeros((0, 3 * with_uv, 2))
-    return (np.concatenate(v0), np.concatenate(v1), np.concatenate(v2),
-            np.concatenate(normals), np.concatenate(info).astype(np.int32), np.concatenate(uvs))
+            normals[at] = flat[:, None, :]
+        shape = scene.shapes[object_id]
+        info[at] = [shape.material, object_id, -1, layout.pack_media(shape.interior, shape.exterior)]
+        if with_uv:
+            uvs[at] = BARYCENTRIC_UV if mesh.uvs is None else mesh.uvs[mesh.faces]
+    return v0, v1, v2, normals, info, uvs
 
 
 def _area_emitters(scene, triangles, is_sphere, info):
     """One emitter per primitive slot whose material emits, triangles first, then spheres;
-    records its index in info[:, 2]. Returns the emitters and their powers (the selection
-    weights: pi x area x mean radiance, as one-sided Lambertian emitters). A textured emission
+    records its index in info[:, 2]. Returns the emitters, their powers (pi x area x mean
+    radiance, as one-sided Lambertian emitters) and areas (clrender/light_selection.py). A textured emission
     counts with its texture's mean, and the emitter names the texture and its slot."""
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3)
     mean_emission = emission.copy()
@@ -346,7 +361,7 @@ def _area_emitters(scene, triangles, is_sphere, info):
     emitters["p0"][~sphere, 3] = area[~sphere]
     emitters["e1"][~sphere, :3] = e1[~sphere]
     emitters["e2"][~sphere, :3] = e2[~sphere]
-    return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1))
+    return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1)), list(area)
 
 
 def spot_cone(light):
@@ -523,7 +538,7 @@ def _medium_at_camera(scene, position, v0, v1, v2, centres, radii, info):
     """The medium around the camera: the first surface along the view direction tells whether
     the camera is behind its front face (inside the interior medium) or in front of it.
     info: the TriangleInfo rows of the triangles, then of the spheres."""
-    if len(info) == 0:
+    if len(info) == 0 or not scene.media:   # without media every surface has -1 on both sides
         return scene.medium
     direction = scene.camera.look_at - position
     direction = direction / np.linalg.norm(direction)

@@ -58,11 +58,7 @@ def build_bvh(v0, v1, v2, max_leaf_size=4, bins=16, spheres=None) -> Bvh:
     """
     if max_leaf_size < 1 or bins < 2:
         raise ValueError("need max_leaf_size >= 1 and bins >= 2")
-    lo, hi = _triangle_bounds(v0, v1, v2)
-    n_triangles = lo.shape[1]
-    if spheres is not None and len(spheres[1]):
-        sphere_lo, sphere_hi = sphere_bounds(*spheres)
-        lo, hi = np.concatenate([lo, sphere_lo], axis=1), np.concatenate([hi, sphere_hi], axis=1)
+    lo, hi, n_triangles = primitive_bounds(v0, v1, v2, spheres)
     n = lo.shape[1]
     if n == 0:
         return Bvh(_empty_nodes(1), np.zeros(0, np.int32), 1)
@@ -334,16 +330,33 @@ def _exclusive_cumsum(x):
     return out
 
 
+def primitive_bounds(v0, v1, v2, spheres=None):
+    """(lo, hi, number of triangles): the boxes (3, N) float32 of the triangles, then of the
+    spheres (centres, radii) if given, numbered as build_bvh numbers primitives."""
+    lo, hi = _triangle_bounds(v0, v1, v2)
+    n_triangles = lo.shape[1]
+    if spheres is not None and len(spheres[1]):
+        sphere_lo, sphere_hi = sphere_bounds(*spheres)
+        lo, hi = np.concatenate([lo, sphere_lo], axis=1), np.concatenate([hi, sphere_hi], axis=1)
+    return lo, hi, n_triangles
+
+
 def _triangle_bounds(v0, v1, v2):
-    """Per-triangle boxes as (3, N) float32, rounded outwards so they contain the float64 input."""
-    v0, v1, v2 = (np.asarray(v, np.float64) for v in (v0, v1, v2))
+    """Per-triangle boxes as (3, N) float32 that contain the input corners exactly: of float32
+    corners their exact bounds, of others the float64 bounds rounded outwards."""
+    v0, v1, v2 = (np.asarray(v) for v in (v0, v1, v2))
+    exact = all(v.dtype == np.float32 for v in (v0, v1, v2))
+    if not exact:
+        v0, v1, v2 = (v.astype(np.float64) for v in (v0, v1, v2))
     if not (v0.ndim == 2 and v0.shape[1] == 3 and v0.shape == v1.shape == v2.shape):
         raise ValueError("v0, v1, v2 must be (N, 3) arrays of the same shape")
-    lo64 = np.minimum(np.minimum(v0, v1), v2).T
-    hi64 = np.maximum(np.maximum(v0, v1), v2).T
-    if not (np.isfinite(lo64).all() and np.isfinite(hi64).all()):
+    lo = np.minimum(np.minimum(v0, v1), v2).T
+    hi = np.maximum(np.maximum(v0, v1), v2).T
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
         raise ValueError("triangle vertices must be finite")
-    return _round_down(lo64), -_round_down(-hi64)
+    if exact:
+        return np.ascontiguousarray(lo), np.ascontiguousarray(hi)
+    return _round_down(lo), -_round_down(-hi)
 
 
 def sphere_bounds(centres, radii):

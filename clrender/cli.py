@@ -5,7 +5,7 @@ I/O, 128 + signal when interrupted (SIGINT 130, SIGHUP 129, SIGTERM 143: a rende
 saves its partial image first), 1 only for a bug in clrender (with its traceback).
 Several scenes render as a batch; --workers/--scheduler render on a Dask cluster (distributed.py).
 Imports are deferred so that a signal during start-up is handled like any other; numpy and
-pyopencl are imported first with signals held (see _signals_held).
+pyopencl are imported first with signals held (signals.py).
 """
 import argparse
 import contextlib
@@ -17,57 +17,57 @@ import warnings
 from pathlib import Path
 
 from .errors import ArgumentError, ClrenderError, Interrupted
+from .signals import signals_held
 
 
 def main(argv=None):
-    try:
-        with _plain_warnings(), _interrupt_on_termination():
-            with _signals_held():
+    """The command line `argv` (None: the process's own, which then exits with the code
+    returned: once interrupted, it ignores later signals until then)."""
+    with _plain_warnings(), _interrupt_on_termination(exiting=argv is None):
+        try:
+            with signals_held():
                 import numpy  # noqa: F401
                 import pyopencl  # noqa: F401
             args = _parser().parse_args(argv)
             return args.run(args)
-    except ClrenderError as e:
-        print(f"clrender: error: {e}", file=sys.stderr)
-        return e.exit_code
-    except KeyboardInterrupt as e:
-        print("clrender: interrupted", file=sys.stderr)
-        return 128 + getattr(e, "signal", signal.SIGINT)
+        except ClrenderError as e:
+            print(f"clrender: error: {e}", file=sys.stderr)
+            return e.exit_code
+        except KeyboardInterrupt as e:
+            print("clrender: interrupted", file=sys.stderr)
+            return 128 + getattr(e, "signal", signal.SIGINT)
 
 
 @contextlib.contextmanager
-def _interrupt_on_termination():
-    """SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render as Ctrl-C
-    does (the launch in flight finishes, the partial image is saved) instead of killing it."""
+def _interrupt_on_termination(exiting=False):
+    """SIGINT, SIGTERM and SIGHUP raise Interrupted, a KeyboardInterrupt: they stop a render
+    (the launch in flight finishes, the partial image is saved) instead of killing it. The first
+    one only: the later ones are ignored, so that two quick signals still save the partial image
+    (SIGKILL stops at once), and, when the process is `exiting` after the block, until it has
+    exited (a second SIGTERM would otherwise kill it with the default action as it exits). A
+    signal ignored when clrender started (SIGHUP under nohup, SIGINT in a background job) stays
+    ignored."""
+    interrupted = []
+
     def interrupt(signum, frame):
+        for handled in previous:   # not SIG_IGN: a signal already pending would raise OSError
+            signal.signal(handled, ignore)
+        interrupted.append(signum)
         raise Interrupted(signum)
+
+    def ignore(signum, frame):
+        pass
 
     if threading.current_thread() is not threading.main_thread():   # only it receives signals
         yield
         return
-    previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGTERM, signal.SIGHUP)}
+    previous = {signum: signal.signal(signum, interrupt) for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+                if signal.getsignal(signum) is not signal.SIG_IGN}
     try:
         yield
     finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-
-
-@contextlib.contextmanager
-def _signals_held():
-    """SIGINT, SIGTERM and SIGHUP wait until the block ends, then arrive as usual. For the imports
-    of C extensions: an interrupt inside one can come out as another error with a traceback (numpy
-    reports a Ctrl-C during its import as an ImportError). Threads started in the block (numpy's
-    OpenBLAS workers) keep the signals blocked, so they still reach the main thread."""
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        for signum, handler in previous.items():   # Python's exit resets Python handlers, not SIG_IGN
+            signal.signal(signum, signal.SIG_IGN if exiting and interrupted else handler)
 
 
 @contextlib.contextmanager
@@ -133,6 +133,11 @@ def _parser():
     render.add_argument("--tiles", type=_setting("tiles"), help="with a cluster: image strips (default: 4 per worker thread)")
     render.add_argument("--chunk-seconds", type=_setting("chunk_seconds"), default=3.0,
                         help="with a cluster: kernel time per chunk of samples (default: 3)")
+    render.add_argument("--connect-timeout", type=_setting("connect_timeout"), metavar="SECONDS",
+                        help="with --scheduler: time to reach the scheduler, and for a first worker to join "
+                             "(default: 30)")
+    render.add_argument("--chunk-timeout", type=_setting("chunk_timeout"), metavar="SECONDS",
+                        help="with a cluster: the render fails when no chunk finishes for this long (default: 600)")
     render.set_defaults(run=_render)
 
     info = commands.add_parser("info", help="print scene statistics and the kernel features it needs")
@@ -198,12 +203,20 @@ def _parameters(args):
     return parameters
 
 
-def _load_scene(path, parameters):
+def _load_scene(path, parameters, plan=None):
     """The scene file, JSON or Mitsuba 3 XML (-D parameters; its warnings printed), and for XML
-    the translation notes that `info` shows (None for JSON)."""
+    the translation notes that `info` shows (None for JSON). With the run's output `plan`, an
+    output that is one of the files the scene reads (an include, a mesh, a texture) is an
+    ArgumentError."""
+    from .files import recording_inputs
     from .loader import read_scene_file
 
-    loaded = read_scene_file(path, parameters)
+    with recording_inputs() as inputs:
+        loaded = read_scene_file(path, parameters)
+    clashes = sorted(plan[key] for key in inputs & (plan or {}).keys() if plan[key][0] != SCENE_FILE)
+    if clashes:
+        what, output = clashes[0]
+        raise ArgumentError("--output", f"{what} ({output}) would replace a file {path} reads")
     for warning in loaded.warnings:
         print(f"clrender: warning: {warning}", file=sys.stderr)
     return loaded.scene, loaded.notes
@@ -253,9 +266,12 @@ def _render(args):
             raise ArgumentError(f"--{flag.replace('_', '-')}", "only with --denoise")
     parameters = _parameters(args)
     layers = (aovs or ()) + (("noisy",) if args.keep_noisy else ())
-    outputs = _output_paths(args.output, args.scene, layers)
+    plan = _output_plan(args.scene)   # the run's files, for the scenes' own AOVs as they load
+    outputs = _output_paths(args.output, args.scene, layers, plan)
     _check_scene_files(args.scene)
-    cluster = "--workers" if args.workers else "--scheduler" if args.scheduler else None
+    if args.scheduler == "":
+        raise ArgumentError("--scheduler", "is empty; expected tcp://HOST:PORT")
+    cluster = "--workers" if args.workers else "--scheduler" if args.scheduler is not None else None
     if cluster:
         if args.time is not None:
             raise ArgumentError("--time", f"is not supported with {cluster}: chunks are sized in samples")
@@ -266,7 +282,7 @@ def _render(args):
             from .denoise import check_denoiser
 
             check_denoiser("--denoise")
-        return _render_distributed(args, outputs, parameters, aovs)
+        return _render_distributed(args, outputs, parameters, aovs, plan)
     if args.tiles is not None:
         raise ArgumentError("--tiles", "only with --workers or --scheduler")
     if args.denoise:
@@ -274,7 +290,7 @@ def _render(args):
 
         check_denoiser("--denoise")
     for scene_path, output in zip(args.scene, outputs):
-        status = _render_local(args, scene_path, output, aovs, parameters)
+        status = _render_local(args, scene_path, output, aovs, parameters, plan)
         if status:
             return status
     return 0
@@ -294,20 +310,23 @@ def _view(args):
 
 
 def _check_scene_files(paths):
-    """Each scene file exists before a batch starts (its contents are read when it renders)."""
+    """Each scene file is a regular file before a batch starts (its contents are read when it
+    renders; a named pipe would block the read)."""
     from .errors import SceneError
+    from .files import describe, not_a_file
 
     for path in paths:
-        if not path.is_file():
-            raise SceneError("", f"scene file not found: {path}" if not path.exists() else f"{path} is not a file")
+        if not_a_file(path) is not None:
+            raise SceneError("", describe(path, "scene file"))
 
 
-def _output_paths(output, scene_paths, layers=()):
+def _output_paths(output, scene_paths, layers=(), plan=None):
     """The image path of each scene, each checked (image.check_output_path; with 8-bit formats,
     the files of the `layers` too): `output` itself for one scene; a folder (a path ending in /,
     or for several scenes an existing folder) holds STEM.exr; a pattern names {stem} (the scene
     file's name without its suffix) and/or {index} (its position, from 0; format specs allowed:
-    {index:04d}). One scene and an existing folder without the / is an error, not a guess."""
+    {index:04d}). One scene and an existing folder without the / is an error, not a guess. Each
+    file is planned in `plan` (_output_plan; the scenes' own AOVs are planned as they load)."""
     from .image import check_output_path
 
     is_folder = output.endswith(("/", "\\")) or (len(scene_paths) > 1 and Path(output).is_dir())
@@ -325,34 +344,57 @@ def _output_paths(output, scene_paths, layers=()):
                                         "with {stem} or {index} (out/{stem}.exr), got " + repr(output))
     else:
         paths = [Path(output)]
-    seen = {}
+    plan = _output_plan(scene_paths) if plan is None else plan
     for scene_path, path in zip(scene_paths, paths):
-        if path in seen:
-            raise ArgumentError("--output", f"{seen[path]} and {scene_path} would both write {path}; use {{index}}")
-        seen[path] = scene_path
-    for path in paths:
+        _plan_output(plan, path, f"the image of {scene_path}")
         check_output_path(path, "--output")
-        _check_layer_paths(path, layers)
+        _check_layer_paths(path, layers, plan, scene_path)
     return paths
 
 
-def _check_layer_paths(path, layers):
-    """With an 8-bit format, the files NAME.LAYER.png of the `layers` can be written."""
+SCENE_FILE = "the scene file"
+
+
+def _output_plan(scene_paths):
+    """The files of a run so far (identity -> (what it is, its path)), to plan its outputs in:
+    the scene files, which no output may replace."""
+    from .files import file_identity
+
+    return {file_identity(path): (SCENE_FILE, path) for path in scene_paths}
+
+
+def _plan_output(plan, path, what):
+    """Add the output `path` (`what` it is) to `plan`; ArgumentError if it is an input or another
+    output of the run: a run replaces only files the user named as its outputs, each once."""
+    from .files import file_identity
+
+    key = file_identity(path)
+    if key in plan:
+        clash, clash_path = plan[key]
+        raise ArgumentError("--output", f"{what} ({path}) would replace the scene file {clash_path}" if clash == SCENE_FILE
+                            else f"{clash} and {what} would both write {path}; name them apart (e.g. {{index}})")
+    plan[key] = (what, path)
+
+
+def _check_layer_paths(path, layers, plan, scene_path):
+    """With an 8-bit format, the files NAME.LAYER.png of the `layers` can be written and are
+    planned in `plan` (not an input, not another output)."""
     from .image import LDR_SUFFIXES, check_output_path, layer_path
 
     if path.suffix.lower() in LDR_SUFFIXES:
         for name in layers:
+            _plan_output(plan, layer_path(path, name), f"the {name} layer of {scene_path}")
             check_output_path(layer_path(path, name), "--output")
 
 
-def _render_local(args, scene_path, output, aovs, parameters):
+def _render_local(args, scene_path, output, aovs, parameters, plan):
     from .image import save_image
     from .render import Renderer, RenderInterrupted
 
-    scene, _ = _load_scene(scene_path, parameters)
+    scene, _ = _load_scene(scene_path, parameters, plan)
     if aovs is None:
         aovs = scene.render.aovs
-        _check_layer_paths(output, aovs)
+        _check_layer_paths(output, aovs, plan, scene_path)
     renderer = Renderer(scene, args.device, volume_method=args.volume_method, step=args.step,
                         raymarch_multiple_scattering=args.raymarch_multiple_scattering, sampler=args.sampler)
     for note in renderer.notes:
@@ -371,7 +413,7 @@ def _render_local(args, scene_path, output, aovs, parameters):
     return status
 
 
-def _render_distributed(args, outputs, parameters, aovs):
+def _render_distributed(args, outputs, parameters, aovs, plan):
     """Render the scenes on a Dask cluster; each image is written as soon as it is complete, and
     on Ctrl-C (SIGTERM, SIGHUP) the scenes in flight are written as far as they got."""
     from tqdm import tqdm
@@ -383,13 +425,13 @@ def _render_distributed(args, outputs, parameters, aovs):
     batch = len(args.scene) > 1
     # One scene: loaded now for its spp (the bar's unit). A batch: loaded as the cluster takes
     # them on, so a long sequence is never in memory at once.
-    scenes = (_load_scene(path, parameters)[0] for path in args.scene)
+    scenes = (_load_scene(path, parameters, plan)[0] for path in args.scene)
     scenes = scenes if batch else list(scenes)
     spp = None if batch else args.spp or scenes[0].render.spp
     if aovs is None:   # a batch renders the AOVs of --aov only: one request for every scene
         aovs = () if batch else scenes[0].render.aovs
-        _check_layer_paths(outputs[0], aovs)
-    with dask_client(args.workers, args.scheduler) as client:
+        _check_layer_paths(outputs[0], aovs, plan, args.scene[0])
+    with dask_client(args.workers, args.scheduler, args.connect_timeout) as client:
         where = f"{len(client.scheduler_info()['workers'])} Dask workers"
         bar = tqdm(total=len(args.scene) if batch else spp, unit="scene" if batch else "spp",
                    disable=args.quiet, file=sys.stderr, dynamic_ncols=True,
@@ -403,7 +445,8 @@ def _render_distributed(args, outputs, parameters, aovs):
                               args.volume_method, args.step, args.raymarch_multiple_scattering,
                               args.tiles, args.chunk_seconds, progress=progress, aovs=aovs,
                               denoise=args.denoise, denoise_prefilter=args.denoise_prefilter,
-                              denoise_keep_emission=args.denoise_keep_emission, sampler=args.sampler)
+                              denoise_keep_emission=args.denoise_keep_emission, sampler=args.sampler,
+                              chunk_timeout=args.chunk_timeout)
         saving = []
         try:
             for index, result in results:

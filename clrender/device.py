@@ -213,6 +213,17 @@ def _cached_binary(entry, identity):
     return binary, None
 
 
+@contextlib.contextmanager
+def _quiet_compiler():
+    """pyopencl warns whenever a driver's build log is not empty (NVIDIA's notes, remarks):
+    nothing a user of a scene can act on. PYOPENCL_COMPILER_OUTPUT=1 shows the logs, as in
+    pyopencl; a failed build raises with its log either way."""
+    with warnings.catch_warnings():
+        if not os.environ.get("PYOPENCL_COMPILER_OUTPUT"):
+            warnings.simplefilter("ignore", cl.CompilerWarning)
+        yield
+
+
 def _load_binary(context, key, options):
     path = _binary_path(key)
     try:
@@ -226,14 +237,16 @@ def _load_binary(context, key, options):
         return None
     try:
         program = cl.Program(context, context.devices, [binary])
-        return program.build(options=options)
+        with _quiet_compiler():
+            return program.build(options=options)
     except cl.Error:
         return None  # a binary the driver no longer accepts (e.g. after an update): rebuild
 
 
 def _build_from_source(context, source, options, key, entry):
     try:
-        program = cl.Program(context, source).build(options=options)
+        with _quiet_compiler():
+            program = cl.Program(context, source).build(options=options)
     except cl.RuntimeError as e:
         raise KernelBuildError(f"kernel build failed for {entry} with {options}:\n{e}") from None
     binary = program.get_info(cl.program_info.BINARIES)[0]

@@ -20,6 +20,8 @@ design, the set-up of a cluster and the measured scaling.
 import logging
 import math
 import signal
+import socket
+import struct
 import threading
 import time
 import uuid
@@ -36,12 +38,17 @@ from .features import scene_features
 from .aovs import needs_sample_aovs
 from .render import MAX_SPP, Accumulation, RenderInterrupted, image_result, output_request, sampler_code
 from .scene import as_scene
+from .signals import signals_deferred
 
 CHUNK_SECONDS = 3.0        # target kernel time of a chunk: seconds, so per-chunk overhead is small
 TILE_PIXELS = 256 * 1024   # most pixels in a tile: bounds what a task carries (16 bytes a pixel)
 TILES_PER_THREAD = 4       # so a worker has chunks queued while the client answers a finished one
 RETRIES = 2                # reruns of a chunk that raised, before the render fails
 SCENES_IN_FLIGHT = 2       # a batch starts the next scene while the last chunks of one finish
+CONNECT_TIMEOUT = 30.0     # seconds to reach the scheduler, and for a first worker to join it
+CHUNK_TIMEOUT = 600.0      # seconds without any chunk finishing before the render fails (a first
+                           # chunk builds the kernel: up to a minute on a slow CPU)
+MAX_HANDSHAKE_BYTES = 2**20   # a Dask scheduler's greeting is a few hundred bytes
 
 
 class DistributedRenderError(DeviceError):
@@ -55,7 +62,7 @@ class DistributedRenderError(DeviceError):
 def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
            step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
            samples_per_chunk=None, progress=None, aovs=None, denoise=False, denoise_prefilter=False,
-           denoise_keep_emission=False, sampler=None):
+           denoise_keep_emission=False, sampler=None, chunk_timeout=None):
     """Render `scene` on the Dask cluster of `client` (a distributed.Client) and return a
     RenderResult whose image is exactly (bit for bit) that of `clrender.render(scene, spp, ...)`
     on the workers' kind of device.
@@ -69,7 +76,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
     is wall time, so samples_per_second is the cluster's rate. `aovs` (None: the scene's) and the
     denoising arguments are those of `Renderer.render`: the AOVs are accumulated with the colour, chunk by
     chunk, so they are bit-identical to a local render's too. `sampler` overrides the scene's
-    render.sampler, as in `Renderer`.
+    render.sampler, as in `Renderer`. `chunk_timeout`: seconds without any chunk finishing
+    after which the render fails (DistributedRenderError), e.g. on a cluster whose workers hang.
 
     Ctrl-C cancels the chunks in flight and raises RenderInterrupted whose result holds the image
     merged so far, each pixel normalised by its own sample count."""
@@ -84,7 +92,7 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
                           frame_progress if progress else None,
                           aovs=scene.render.aovs if aovs is None else aovs, denoise=denoise,
                           denoise_prefilter=denoise_prefilter, denoise_keep_emission=denoise_keep_emission,
-                          sampler=sampler)
+                          sampler=sampler, chunk_timeout=chunk_timeout)
     try:
         for _, result in results:
             return result
@@ -99,7 +107,8 @@ def render(scene, client, spp=None, seed=None, max_depth=None, device=None, volu
 def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None, volume_method=None,
                 step=None, raymarch_multiple_scattering=None, tiles=None, chunk_seconds=CHUNK_SECONDS,
                 samples_per_chunk=None, progress=None, scenes_in_flight=SCENES_IN_FLIGHT, aovs=(),
-                denoise=False, denoise_prefilter=False, denoise_keep_emission=False, sampler=None):
+                denoise=False, denoise_prefilter=False, denoise_keep_emission=False, sampler=None,
+                chunk_timeout=None):
     """Render many scenes on the cluster and yield (index, RenderResult) as each completes.
 
     `scenes` may be any iterable (e.g. a generator loading files): it is consumed as scenes are
@@ -109,21 +118,23 @@ def render_many(scenes, client, spp=None, seed=None, max_depth=None, device=None
     `aovs`: the same AOVs for every scene (not the scenes' own render.aovs). The other arguments
     are those of `render`. Ctrl-C cancels the chunks in flight and raises
     RenderInterrupted whose result is the list of (index, partial RenderResult) of the scenes in
-    flight; Ctrl-C's signal (SIGTERM, SIGHUP in the CLI) is its `signal`. The arguments are
+    flight with at least one chunk done (a scene started but not yet rendered is left out, as a
+    local batch leaves the scenes after the one interrupted); Ctrl-C's signal (SIGTERM, SIGHUP in the CLI) is its `signal`. The arguments are
     checked as by `Renderer.render` (limits.py) by this call, each scene as it starts: before
     anything is sent to the cluster (ArgumentError)."""
     limits.check_settings(spp=spp, seed=seed, max_depth=max_depth, step=step, tiles=tiles,
                           chunk_seconds=chunk_seconds, samples_per_chunk=samples_per_chunk,
-                          scenes_in_flight=scenes_in_flight)
+                          scenes_in_flight=scenes_in_flight, chunk_timeout=chunk_timeout)
     require_dask()
+    chunk_timeout = CHUNK_TIMEOUT if chunk_timeout is None else chunk_timeout
     outputs = output_request(aovs, denoise, denoise_prefilter, denoise_keep_emission)
     options = (device, volume_method, step, raymarch_multiple_scattering, sampler, seed, max_depth)
     return _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
-                        progress, scenes_in_flight, outputs)
+                        progress, scenes_in_flight, outputs, chunk_timeout)
 
 
 def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_seconds, samples_per_chunk,
-                 progress, scenes_in_flight, outputs):
+                 progress, scenes_in_flight, outputs, chunk_timeout):
     """The generator of render_many, its arguments checked."""
     from distributed import as_completed
 
@@ -157,15 +168,19 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
             width, height = scene.camera.resolution
             strips = tiles or max(TILES_PER_THREAD * max(1, sum(client.nthreads().values())),
                                   math.ceil(width * height / TILE_PIXELS))
-            job = _Job(index, scene, client.scatter(scene, broadcast=True, hash=False), count,
+            scattered = client.scatter(scene, broadcast=True, hash=False, timeout=chunk_timeout)   # waits for a worker
+            job = _Job(index, scene, scattered, count,
                        horizontal_strips(width, height, strips), *outputs)
             jobs[index] = job
             for tile in range(len(job.states)):
                 submit(job, tile)
 
     try:
-        start_scenes()
-        for future, (state, device_name) in _chunk_results(finished):
+        with _cluster_errors(client):
+            start_scenes()
+        chunks = _chunk_results(finished, lambda: [future for *_, future in running.values()], chunk_timeout,
+                                client)
+        for future, (state, device_name) in chunks:
             job, tile, _ = running.pop(future.key)
             job.update(tile, state, device_name)
             if state.samples < job.spp:
@@ -175,13 +190,14 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
                 job.scene_future.release()
                 frames_done += 1
                 yield job.index, job.result()
-                start_scenes()
+                with _cluster_errors(client):
+                    start_scenes()
             if progress is not None:
                 progress(frames_done + sum(j.fraction() for j in jobs.values()), frames,
                          time.perf_counter() - start)
     except KeyboardInterrupt as interrupt:
         _cancel(client, running)
-        raise RenderInterrupted([(j.index, j.result()) for j in jobs.values()],
+        raise RenderInterrupted([(j.index, j.result()) for j in jobs.values() if j.fraction() > 0],
                                 getattr(interrupt, "signal", signal.SIGINT)) from None
     finally:
         _cancel(client, running)
@@ -190,26 +206,31 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
 
 
 @contextmanager
-def dask_client(workers=None, scheduler=None, timeout=60):
+def dask_client(workers=None, scheduler=None, timeout=None):
     """A distributed.Client of a new LocalCluster of `workers` processes with one thread each
     (one device context each), or of the cluster whose scheduler is at `scheduler`
-    (tcp://HOST:PORT), waiting up to `timeout` seconds for its first worker."""
-    dask_distributed = require_dask("scheduler" if scheduler else "workers")
-    if scheduler:
+    (tcp://HOST:PORT), reached within `timeout` seconds (None: CONNECT_TIMEOUT), and waiting as
+    long for its first worker. Every failure to connect is a DistributedRenderError naming the
+    address."""
+    timeout = CONNECT_TIMEOUT if timeout is None else limits.setting("connect_timeout", timeout)
+    dask_distributed = require_dask("scheduler" if scheduler is not None else "workers")
+    if scheduler is not None:
         with _connect(dask_distributed, scheduler, timeout) as client:
             try:
                 client.wait_for_workers(1, timeout=timeout)
-            except TimeoutError:
+            except (TimeoutError, OSError) as e:
                 raise DistributedRenderError(f"no worker joined the scheduler at {scheduler} within "
-                                             f"{timeout} s; start one with `dask worker {scheduler}`") from None
+                                             f"{timeout:g} s ({type(e).__name__}); start one with "
+                                             f"`dask worker {scheduler}`") from None
             yield client
         return
     _start_resource_tracker()
     # Chunk failures reach the client as exceptions; the workers' own logs (e.g. a heartbeat cut
     # off when the cluster closes after Ctrl-C) would only be tracebacks on the terminal.
-    cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                            dashboard_address=":0", silence_logs=logging.CRITICAL,
-                                            preload=[__name__])
+    with signals_deferred():   # a cluster interrupted while its workers start cannot be closed
+        cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                dashboard_address=":0", silence_logs=logging.CRITICAL,
+                                                preload=[__name__])
     with cluster, dask_distributed.Client(cluster) as client:
         yield client
 
@@ -233,14 +254,72 @@ def _start_resource_tracker():
 
 
 def _connect(dask_distributed, scheduler, timeout):
-    """A distributed.Client of the scheduler at `scheduler`; a bad address is an ArgumentError,
-    one that cannot be reached a DistributedRenderError."""
+    """A distributed.Client of the scheduler at `scheduler`: a string that is not an address is
+    an ArgumentError; a scheme other than tcp://, an address that cannot be reached, or one that
+    does not greet as a Dask scheduler within `timeout` (a socket that never answers, a web
+    server) a DistributedRenderError naming it."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise ArgumentError("scheduler", f"expected tcp://HOST:PORT, got {limits.show(scheduler)}")
+    try:
+        scheme, location = parse_address(scheduler)
+        host, port = parse_host_port(location)
+    except ValueError as e:   # not an address: 'missing port number'
+        raise ArgumentError("scheduler", f"{e}; expected tcp://HOST:PORT") from None
+    if not 0 < port <= 65535:
+        raise ArgumentError("scheduler", f"port {port} is not a port number; expected tcp://HOST:PORT")
+    if scheme != "tcp":
+        raise DistributedRenderError(f"cannot connect to the Dask scheduler at {limits.show(scheduler)}: "
+                                     f"clrender connects over tcp:// only, not {limits.show(scheme + '://')}")
+    _check_greeting(scheduler, host, port, timeout)
     try:
         return dask_distributed.Client(scheduler, timeout=timeout)
-    except ValueError as e:   # not an address: 'missing port number', 'unknown address scheme'
-        raise ArgumentError("scheduler", f"{e}; expected tcp://HOST:PORT") from None
+    except Exception as e:   # OSError, TimeoutError, or what Dask makes of a peer it misreads
+        raise DistributedRenderError(f"cannot connect to the Dask scheduler at {scheduler}: "
+                                     f"{type(e).__name__}: {e}") from None
+
+
+def _check_greeting(scheduler, host, port, timeout):
+    """Raise DistributedRenderError unless HOST:PORT accepts a connection and sends what a Dask
+    scheduler sends first, its handshake (a frame, length first, holding a dict with its pickle
+    protocol), within `timeout` seconds in all. Dask's own connect waits forever for a peer that
+    accepts and says nothing or stops half-way, and reads a web server's 'HTTP/1.1 400' as the
+    length of a 3 EiB frame."""
+    import msgpack   # Dask's wire format
+    from distributed.protocol.utils import unpack_frames
+
+    def fail(problem):
+        return DistributedRenderError(f"cannot connect to the Dask scheduler at {scheduler}: {problem}")
+
+    deadline = time.monotonic() + timeout
+    try:
+        with socket.create_connection((host or "127.0.0.1", port), timeout=timeout) as connection:
+            def receive(count):
+                data = b""
+                while len(data) < count:
+                    connection.settimeout(max(deadline - time.monotonic(), 1e-3))
+                    received = connection.recv(min(count - len(data), 1 << 16))
+                    if not received:
+                        raise fail("it closed the connection during the Dask handshake")
+                    data += received
+                return data
+
+            (length,) = struct.unpack("<Q", receive(8))
+            if not 0 < length <= MAX_HANDSHAKE_BYTES:
+                raise fail("what it sends is not a Dask handshake (a web server?)")
+            frames, _ = unpack_frames(receive(length), partial=True)
+            greeting = msgpack.loads(frames[0], use_list=False, strict_map_key=False)
+    except socket.timeout:
+        raise fail(f"no Dask handshake within {timeout:g} s (not a Dask scheduler, or a firewall?)") from None
     except OSError as e:
-        raise DistributedRenderError(f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
+        raise fail(e.strerror or str(e)) from None
+    except ClrenderError:
+        raise
+    except Exception:   # frames or msgpack that do not parse
+        raise fail("what it sends is not a Dask handshake") from None
+    if not (isinstance(greeting, dict) and "pickle-protocol" in greeting):
+        raise fail("what it sends is not a Dask handshake")
 
 
 def dask_setup(worker):
@@ -332,14 +411,57 @@ def require_dask(where="distributed"):
     return distributed
 
 
-def _chunk_results(finished):
-    """(future, result) of each chunk as it finishes; a chunk's failure as DistributedRenderError."""
+def _chunk_results(finished, running, timeout, client):
+    """(future, result) of each chunk as it finishes; a chunk's failure, or no chunk finishing
+    for `timeout` seconds (of those `running()` returns), as DistributedRenderError."""
+    from distributed import wait
+
     try:
-        yield from finished
+        while True:
+            if not finished.has_ready():
+                pending = running()
+                if pending:
+                    wait(pending, timeout=timeout, return_when="FIRST_COMPLETED")
+            future, result = next(finished)
+            if future.status == "cancelled":   # by the cluster: its scene was lost with the workers holding it
+                _raise_a_failure(running())
+                raise DistributedRenderError(f"a chunk was cancelled by the cluster of "
+                                             f"{_scheduler_address(client)}: {result}")
+            yield future, result
+    except StopIteration:
+        return
     except ClrenderError:   # raised by the chunk itself on every try: already names the worker
         raise
-    except Exception as e:   # KilledWorker: every worker that ran the chunk died
-        raise DistributedRenderError(f"chunk failed: {type(e).__name__}: {e}") from None
+    except TimeoutError:
+        raise DistributedRenderError(f"no chunk finished within {timeout:g} s on the cluster of "
+                                     f"{_scheduler_address(client)}") from None
+    except Exception as e:   # KilledWorker: every worker that ran the chunk died; a lost scheduler
+        raise DistributedRenderError(f"chunk failed on the cluster of {_scheduler_address(client)}: "
+                                     f"{type(e).__name__}: {e}") from None
+
+
+def _raise_a_failure(futures):
+    """Raise the error of the first failed future, if any: the cause (a KilledWorker naming the
+    worker) of a cancellation that reached the client first."""
+    for future in futures:
+        if future.status == "error":
+            future.result()
+
+
+@contextmanager
+def _cluster_errors(client):
+    """A failure of the cluster (a lost scheduler while scattering a scene) as DistributedRenderError."""
+    try:
+        yield
+    except ClrenderError:
+        raise
+    except (OSError, TimeoutError) as e:
+        raise DistributedRenderError(f"the cluster of {_scheduler_address(client)} failed: "
+                                     f"{type(e).__name__}: {e}") from None
+
+
+def _scheduler_address(client):
+    return getattr(client.scheduler, "address", None) or "an unknown scheduler"
 
 
 def _cancel(client, running):

@@ -18,6 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
+from .files import check_regular_file, read_bounded
+
 GRID_SUFFIXES = (".npy", ".npz", ".vol")
 MAX_VOXELS = 1 << 28          # 1 GiB of float32: beyond that, use a GPU renderer with sparse grids
 MAX_PROCEDURAL_VOXELS = 1 << 24   # 256^3: the generators need up to ~100 bytes per voxel
@@ -99,6 +102,7 @@ def load_density_file(path):
 
 def _load_numpy(path, name):
     """The array of an .npy file, or of an .npz file the one named `name` (or its only one)."""
+    check_regular_file(path, "grid file", limits.MAX_GRID_FILE_BYTES)
     suffix = path.suffix.lower()
     if suffix == ".npy":
         with open(path, "rb") as f:
@@ -158,7 +162,7 @@ def read_vol(path, channels_allowed=(1,)):
     channels, bounding box (6 floats), then the data with x fastest, then y, z, channels
     interleaved. Returns (values, bbox (2, 3)): values (nz, ny, nx) float32 for one channel,
     (nz, ny, nx, channels) for more. Densities have one channel, albedos one or three."""
-    data = Path(path).read_bytes()
+    data = read_bounded(path, "grid file", limits.MAX_GRID_FILE_BYTES)
     if len(data) < _VOL_HEADER.size:
         raise ValueError(f"too short for a .vol header ({len(data)} bytes)")
     magic, version, encoding, nx, ny, nz, channels, *bbox = _VOL_HEADER.unpack_from(data)

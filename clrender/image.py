@@ -25,6 +25,7 @@ import numpy as np
 
 from . import limits
 from .errors import ArgumentError, FileError
+from .files import describe, not_a_file
 
 LDR_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 # EXR channel letters of a layer; others: R, G, B (three channels) or Y (one). "depth.Z" is
@@ -172,8 +173,11 @@ def _write_exr(channels, path):
     import OpenEXR
 
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    with OpenEXR.File(header, channels) as exr:
-        exr.write(str(path))
+    try:
+        with OpenEXR.File(header, channels) as exr:
+            exr.write(str(path))
+    except RuntimeError as e:   # OpenEXR's for every failed write: a full disk, a file size limit
+        raise OSError(str(e)) from None
 
 
 def _atomic_write(path, write):
@@ -256,8 +260,8 @@ def _reading(path, read):
     if not isinstance(path, (str, os.PathLike)):
         raise ArgumentError("path", f"must be a file path, got {type(path).__name__}")
     path = Path(path)
-    if not path.is_file():
-        raise FileError(f"image not found: {path}" if not path.exists() else f"not a file: {path}")
+    if not_a_file(path) is not None:   # a named pipe would block OpenImageIO's read
+        raise FileError(describe(path, "image"))
     try:
         return read(path)
     except FileError:

@@ -29,6 +29,13 @@ MAX_TRANSFORM_CONDITION = 1e12   # largest / smallest stretch of a transform: be
 MAX_IMAGE_VALUES = 2**29   # width x height x channels of an image file read (textures, environment
                            # maps): 2 GiB as float32, e.g. 16384 x 8192 RGBA; checked before reading
 
+# Bytes of a file a reader reads, checked before the first one is read (files.py).
+MAX_SCENE_FILE_BYTES = 2**28   # a JSON or XML scene file, and all the files an XML scene includes
+MAX_MESH_FILE_BYTES = 2**34    # OBJ, PLY, serialized: 16 GiB, beyond any mesh of MAX_TRIANGLES
+MAX_GRID_FILE_BYTES = 2**33    # .vol, .npy, .npz: 8 GiB
+MAX_XML_INCLUDES = 1024        # <include> elements one scene may expand (include graphs double per level)
+MAX_SUBSTITUTED_CHARS = 2**24  # characters $name substitution may add over a whole XML scene
+
 MAX_SHADING_SAMPLES = 1024 # the direct integrator's light or BSDF samples per camera hit: a ray each
 
 MIN_MARCH_STEP = 1e-3       # ray marching's step, in voxels: below, a march takes millions of steps
@@ -50,6 +57,8 @@ SETTINGS = {
     "chunk_seconds": (False, 0.0, None, True),
     "samples_per_chunk": (True, 1, MAX_SPP, False),
     "scenes_in_flight": (True, 1, INT32_MAX, False),
+    "connect_timeout": (False, 0.0, None, True),
+    "chunk_timeout": (False, 0.0, None, True),
 }
 
 

@@ -52,13 +52,12 @@ def path_argument(value, where):
 
 
 def read_scene_bytes(path, error=SceneError):
-    """The contents of the scene file `path`; `error("", message)` naming it where it is a
-    folder, missing or unreadable."""
-    if path.is_dir():
-        raise error("", f"{path} is a directory, not a scene file")
+    """The contents of the scene file `path`, at most limits.MAX_SCENE_FILE_BYTES (checked before
+    reading); `error("", message)` naming it where it is missing, not a regular file (a folder, a
+    named pipe), too large or unreadable."""
+    from . import files, limits
+
     try:
-        return path.read_bytes()
-    except FileNotFoundError:
-        raise error("", f"scene file not found: {path}") from None
-    except OSError as e:
-        raise error("", f"cannot read scene file {path}: {e.strerror or e}") from None
+        return files.read_bounded(path, "scene file", limits.MAX_SCENE_FILE_BYTES)
+    except ValueError as e:
+        raise error("", str(e)) from None

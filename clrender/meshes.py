@@ -9,6 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
+from .files import check_regular_file
+
 
 @dataclass
 class Mesh:
@@ -116,8 +119,24 @@ def flip(mesh):
 
 
 def _normalized(v):
-    length = np.linalg.norm(v, axis=1, keepdims=True)
+    """Rows of (N, 3) scaled to unit length (zero rows stay zero)."""
+    return _unit_columns(v.T).T
+
+
+def _unit_columns(v):
+    """Columns of (3, N) scaled to unit length (zero columns stay zero)."""
+    length = np.sqrt(_dot(v, v))   # np.linalg.norm's sum, without its overhead
     return v / np.where(length > 0, length, 1.0)
+
+
+def _dot(a, b):
+    """Dot products of the columns of (3, N) arrays."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a, b):
+    """Cross products of the columns of (3, N) arrays (np.cross's arithmetic)."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def icosphere(center=(0, 0, 0), radius=1.0, subdivisions=4, smooth=True):
@@ -198,6 +217,7 @@ def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None, shape_index=0
     Raises ValueError with a message meant for the user when the file is malformed or holds no
     triangles, a vertex that is not a finite float32 number, or a face naming a vertex that does
     not exist."""
+    check_regular_file(path, "mesh file", limits.MAX_MESH_FILE_BYTES)
     suffix = Path(path).suffix.lower()
     if suffix == ".obj":
         from .obj_reader import read_obj as read
@@ -267,18 +287,22 @@ def vertex_normals(vertices, faces):
     the face's angle at that vertex (Thuerrner and Wuethrich 1998, as Mitsuba and trimesh compute
     them, but without scipy). Faces of zero area, or with an angle below 1e-8, do not contribute;
     a vertex whose faces cancel (or that has none) gets +x, as in Mitsuba."""
-    corners = vertices[faces]
-    face_normals = _normalized(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
-    u = _normalized(corners[:, 1] - corners[:, 0])
-    v = _normalized(corners[:, 2] - corners[:, 0])
-    w = _normalized(corners[:, 2] - corners[:, 1])
-    angles = np.empty((len(faces), 3))
-    angles[:, 0] = np.arccos(np.clip(np.sum(u * v, axis=1), -1, 1))
-    angles[:, 1] = np.arccos(np.clip(np.sum(-u * w, axis=1), -1, 1))
-    angles[:, 2] = np.pi - angles[:, 0] - angles[:, 1]
-    angles[np.any(angles < 1e-8, axis=1)] = 0.0
-    angles[np.sum(face_normals ** 2, axis=1) <= 0.5] = 0.0
-    summed = np.stack([sum(np.bincount(faces[:, k], angles[:, k] * face_normals[:, axis], len(vertices))
+    # Coordinates as rows (3, F): every operation below then reads contiguous memory.
+    columns = np.ascontiguousarray(vertices.T)
+    corners = np.ascontiguousarray(faces.T)
+    p0, p1, p2 = (columns[:, corner] for corner in corners)
+    face_normals = _unit_columns(_cross(p1 - p0, p2 - p0))
+    u = _unit_columns(p1 - p0)
+    v = _unit_columns(p2 - p0)
+    w = _unit_columns(p2 - p1)
+    del p0, p1, p2
+    angles = np.empty((3, len(faces)))
+    angles[0] = np.arccos(np.clip(_dot(u, v), -1, 1))
+    angles[1] = np.arccos(np.clip(-_dot(u, w), -1, 1))
+    angles[2] = np.pi - angles[0] - angles[1]
+    angles[:, np.any(angles < 1e-8, axis=0)] = 0.0
+    angles[:, _dot(face_normals, face_normals) <= 0.5] = 0.0
+    summed = np.stack([sum(np.bincount(corners[k], angles[k] * face_normals[axis], len(vertices))
                            for k in range(3)) for axis in range(3)], axis=1)
     summed[~np.any(summed != 0, axis=1)] = [1, 0, 0]   # no direction (faces cancel, or none): Mitsuba's choice
     return _normalized(summed)

@@ -74,7 +74,8 @@ def read_obj(path):
     if not len(sizes):
         raise ObjError("the file holds no faces")
     corners = _absolute_indices(text, corners, sizes, (len(positions), len(texcoords), len(normals)))
-    keys, first, vertex_of_corner = np.unique(corners, axis=0, return_index=True, return_inverse=True)
+    first, vertex_of_corner = _distinct_rows(corners, (len(positions), len(texcoords), len(normals)))
+    keys = corners[first]
     order = np.argsort(first, kind="stable")   # Mitsuba numbers vertices by first use
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
@@ -87,6 +88,19 @@ def read_obj(path):
     if np.all(keys[:, 2] > 0):
         vertex_normals = normals[keys[:, 2] - 1]
     return MeshData(positions[keys[:, 0] - 1], faces, uvs, vertex_normals)
+
+
+def _distinct_rows(corners, counts):
+    """(first corner of each distinct (p, t, n) triple, triple of each corner). The triples are
+    numbered as one integer each where they fit in 63 bits (a 1-D unique is several times faster
+    than np.unique over rows); numbering them in order of first use is left to the caller."""
+    p, t, n = (int(c) + 1 for c in counts)
+    if p * t * n < 2**63:
+        key = (corners[:, 0] * t + corners[:, 1]) * n + corners[:, 2]
+        _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    else:
+        _, first, inverse = np.unique(corners, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.reshape(-1)
 
 
 def _vectors(text, key, width):
@@ -161,6 +175,8 @@ def _check_indices(text, sizes, bad, problem):
 def fans(corners, sizes):
     """The triangles (first, k, k + 1) of polygons given as their corners one after another and
     their sizes, in order: Mitsuba's triangulation of OBJ polygons."""
+    if np.all(sizes == 3):   # triangles already: the usual large mesh, read without index arrays
+        return corners.reshape(-1, 3)
     starts = np.cumsum(sizes) - sizes
     per_face = sizes - 2
     first = np.repeat(starts, per_face)

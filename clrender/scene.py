@@ -17,6 +17,7 @@ from .errors import ArgumentError, FileError, SceneError
 from .conductor_presets import CONDUCTOR_PRESETS
 from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
 from .aovs import parse_aovs
+from .files import describe, not_a_file
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "thin_dielectric",
@@ -890,8 +891,8 @@ def _load_grid_file(node, base_dir, load):
     if path.suffix.lower() not in grids.GRID_SUFFIXES:
         raise SceneError(node.at("file"), f"unsupported grid format {path.suffix!r}; "
                                           f"valid: {', '.join(grids.GRID_SUFFIXES)}")
-    if not path.is_file():
-        raise SceneError(node.at("file"), f"file not found: {path}")
+    if not_a_file(path) is not None:
+        raise SceneError(node.at("file"), describe(path))
     try:
         return load(path)
     except Exception as e:  # numpy and struct raise many types for malformed files
@@ -1006,8 +1007,8 @@ def _read_mesh_file(node, base_dir):
     path = (base_dir / filename).resolve()
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise SceneError(node.at("file"), f"unsupported mesh format {path.suffix!r}; valid: {', '.join(MESH_SUFFIXES)}")
-    if not path.is_file():
-        raise SceneError(node.at("file"), f"file not found: {path}")
+    if not_a_file(path) is not None:
+        raise SceneError(node.at("file"), describe(path))
     shape_index = 0
     if path.suffix.lower() == ".serialized":
         shape_index = node.number("shape_index", 0, low=0, integer=True)
@@ -1085,8 +1086,8 @@ def _texture_file(node, base_dir, raw):
     from .image import load_texture_image
 
     path = (base_dir / node.string("file")).resolve()
-    if not path.is_file():
-        raise SceneError(node.at("file"), f"file not found: {path}")
+    if not_a_file(path) is not None:
+        raise SceneError(node.at("file"), describe(path))
     try:
         image = load_texture_image(path, raw=raw)
     except FileError as e:
@@ -1154,8 +1155,8 @@ def _read_environment(node, base_dir):
         from .image import load_image
 
         path = (base_dir / node.string("file")).resolve()
-        if not path.is_file():
-            raise SceneError(node.at("file"), f"file not found: {path}")
+        if not_a_file(path) is not None:
+            raise SceneError(node.at("file"), describe(path))
         try:
             image = load_image(path)
         except FileError as e:

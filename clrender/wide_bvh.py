@@ -19,44 +19,38 @@ def collapse(bvh, sphere_slots=None):
     kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
     lo, hi, index, count = _binary_slots(bvh.nodes)
     interior = (count == 0) & (index >= 0)
-    slot_node, slot_side = _greedy_slots(lo, hi, index, interior)
+    area = _slot_areas(lo, hi)
     wide_of = np.full(len(bvh.nodes), -1, np.int64)  # binary node -> wide node
-    order, frontier, depth, numbered = [], np.array([0]), 0, 0
+    levels, frontier, numbered = [], np.array([0]), 0
     while frontier.size:  # breadth first: a level's wide nodes are numbered together
         wide_of[frontier] = np.arange(numbered, numbered + frontier.size)
         numbered += frontier.size
-        order.append(frontier)
-        depth += 1
-        node, side = slot_node[frontier], slot_side[frontier]
-        valid = node >= 0
-        below = valid & interior[np.maximum(node, 0), side]
+        node, side = _greedy_slots(frontier, area, index, interior)
+        levels.append((node, side))
+        below = (node >= 0) & interior[np.maximum(node, 0), side]
         frontier = index[node[below], side[below]]
-    binary = np.concatenate(order)
-    nodes = _assemble(binary, wide_of, slot_node, slot_side, lo, hi, index, count)
+    slot_node, slot_side = (np.concatenate(lanes) for lanes in zip(*levels))
+    nodes = _assemble(slot_node, slot_side, wide_of, lo, hi, index, count)
     if sphere_slots is not None and np.any(sphere_slots):
         leaf = nodes["count"] > 0
         spheres = leaf & np.asarray(sphere_slots)[np.where(leaf, nodes["child"], 0)]
         nodes["count"][spheres] *= -1
-    return nodes, depth
+    return nodes, len(levels)
 
 
 # Children per wide node: the lanes of layout.WIDE_BVH_NODE.
 WIDTH = 8
 
 
-def _greedy_slots(lo, hi, index, interior, width=WIDTH):
-    """Per binary node, its wide node's `width` lanes as (binary node, side) slot references
-    (-1: an empty lane): its two children, then, while a lane is free, the interior lane of
-    largest surface area replaced by that child's two children."""
-    n = len(index)
+def _greedy_slots(roots, area, index, interior, width=WIDTH):
+    """Per binary node of `roots`, its wide node's `width` lanes as (binary node, side) slot
+    references (-1: an empty lane): its two children, then, while a lane is free, the interior
+    lane of largest surface area replaced by that child's two children."""
+    n = len(roots)
     nodes = np.full((n, width), -1, np.int64)
     sides = np.zeros((n, width), np.int64)
-    nodes[:, :2] = np.arange(n)[:, None]
+    nodes[:, :2] = roots[:, None]
     sides[:, 1] = 1
-    with np.errstate(invalid="ignore"):   # empty slots: inf - inf
-        extent = hi - lo
-    extent = np.where(np.isfinite(extent), extent, 0.0)
-    area = extent[..., 0] * extent[..., 1] + extent[..., 1] * extent[..., 2] + extent[..., 2] * extent[..., 0]
     rows = np.arange(n)
     for free in range(2, width):
         valid = nodes[:, :free] >= 0
@@ -74,6 +68,14 @@ def _greedy_slots(lo, hi, index, interior, width=WIDTH):
     return nodes, sides
 
 
+def _slot_areas(lo, hi):
+    """Surface area (half) of every child slot's box; 0 for empty slots."""
+    with np.errstate(invalid="ignore"):   # empty slots: inf - inf
+        extent = hi - lo
+    extent = np.where(np.isfinite(extent), extent, 0.0)
+    return extent[..., 0] * extent[..., 1] + extent[..., 1] * extent[..., 2] + extent[..., 2] * extent[..., 0]
+
+
 def _binary_slots(nodes):
     """Per binary node and side (0 left, 1 right): box corners, index and primitive count."""
     lo = np.stack([nodes["left_lo"][:, :3], nodes["right_lo"][:, :3]], axis=1)
@@ -83,14 +85,14 @@ def _binary_slots(nodes):
     return lo, hi, index, count
 
 
-def _assemble(binary, wide_of, slot_node, slot_side, lo, hi, index, count):
-    """Write the wide nodes. Empty lanes get the never-entered box (all corners at +inf, as the
-    binary tree's empty slots), child -1 and count 0; interior children are renumbered."""
-    nodes = np.zeros(len(binary), layout.WIDE_BVH_NODE)
+def _assemble(node, side, wide_of, lo, hi, index, count):
+    """Write the wide nodes (lanes `node`, `side` (W, WIDTH) in wide node order). Empty lanes get
+    the never-entered box (all corners at +inf, as the binary tree's empty slots), child -1 and
+    count 0; interior children are renumbered."""
+    nodes = np.zeros(len(node), layout.WIDE_BVH_NODE)
     for name in ("lo_x", "hi_x", "lo_y", "hi_y", "lo_z", "hi_z"):
         nodes[name] = np.inf
     nodes["child"] = -1
-    node, side = slot_node[binary], slot_side[binary]      # (W, 4)
     valid = (node >= 0)
     valid[valid] = (index[node[valid], side[valid]] >= 0) | (count[node[valid], side[valid]] > 0)
     rows, lanes = np.nonzero(valid)

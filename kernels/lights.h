@@ -1,6 +1,6 @@
 // Emitters: area lights (emissive triangles and spheres), the environment (constant or lat-long
-// image), point, spot and directional lights. One emitter is picked per shading point with
-// probability proportional to its power.
+// image), point, spot and directional lights. One emitter is picked per shading point, half
+// by power, half uniformly as Mitsuba (clrender/light_selection.py builds the CDF).
 #ifndef CLRENDER_LIGHTS_H
 #define CLRENDER_LIGHTS_H
 #include "types.h"

@@ -33,7 +33,7 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
 }
 
 // Next-event estimation at the diffuse vertices of `lanes` (path.h, direct_light), from the 2D
-// draw u: an emitter picked by power, a point on it, a shadow ray.
+// draw u: an emitter picked (light_selection.py), a point on it, a shadow ray.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
                                lane_float2 u, lane_int lanes) {
     int count = scene->params->config.w;

@@ -44,8 +44,8 @@ def render(scene, device, method=None, local_size=None, launches=2, aovs=(), ban
     the samples after the first in bands of one work-group row, launches offset to their row."""
     renderer = clrender.Renderer(scene, device, local_size=local_size, volume_method=method,
                                  **settings, **({"pass_seconds": 1e-9} if banded else {}))
-    result = renderer.render(spp=launches, samples_per_pass=None if banded else 1,
-                             max_depth=min(scene.render.max_depth, 4), seed=1, aovs=aovs)
+    depth = {} if scene.render.integrator == "direct" else {"max_depth": min(scene.render.max_depth, 4)}
+    result = renderer.render(spp=launches, samples_per_pass=None if banded else 1, seed=1, aovs=aovs, **depth)
     return {"discarded": result.discarded_samples, "finite": bool(np.all(np.isfinite(result.image)))}
 
 

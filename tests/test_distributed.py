@@ -171,6 +171,22 @@ def test_interrupted_render_returns_each_strip_as_far_as_it_got(client):
     assert all(len(set(counts[top:top + 6])) == 1 for top in range(0, 24, 6))   # strips of 6 rows
 
 
+def test_an_interrupted_batch_leaves_scenes_without_a_finished_chunk_alone(client):
+    """Interrupted after its first chunk: the scene of that chunk comes back as far as it got; the
+    second scene in flight, none of whose chunks finished, does not (a 0-sample black image would
+    replace its file; the local batch leaves later scenes alone too)."""
+    scenes = [small("scenes/cornell_box.json", (16, 8), seed=seed) for seed in (1, 2)]
+
+    def interrupt(done, frames, seconds):
+        raise KeyboardInterrupt
+
+    with pytest.raises(RenderInterrupted) as interrupted:
+        for _ in distributed.render_many(scenes, client, 4, device=TEST_DEVICE, tiles=2, samples_per_chunk=1,
+                                         progress=interrupt):
+            pass
+    assert len(interrupted.value.result) == 1
+
+
 @contextmanager
 def killing_busy_workers(client, when, again=False):
     """While the block runs: once the event `when` is set, SIGKILL the process of a worker that
@@ -293,16 +309,19 @@ def test_cli_renders_a_batch_on_a_running_cluster(client, tmp_path):
         assert np.array_equal(image, local(clrender.load_scene(path), 2).image)
 
 
-@pytest.mark.parametrize("signum,group", [
-    (signal.SIGINT, True),    # a terminal's Ctrl-C goes to the whole process group: client and workers
-    (signal.SIGHUP, True),    # so does the hang-up of a closed terminal
-    (signal.SIGTERM, False),  # `kill PID`: the client alone
+@pytest.mark.parametrize("signum,group,times", [
+    (signal.SIGINT, True, 1),    # a terminal's Ctrl-C goes to the whole process group: client and workers
+    (signal.SIGHUP, True, 1),    # so does the hang-up of a closed terminal
+    (signal.SIGTERM, False, 1),  # `kill PID`: the client alone
+    (signal.SIGTERM, False, 2),  # twice, quickly: still saved (the second is ignored)
 ])
-def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path, signum, group):
+def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path, client, signum, group, times):
     path = tmp_path / "box.json"
     path.write_text(_scene_json("scenes/cornell_box.json", resolution=[32, 24], spp=10 ** 6))
+    # A cluster of the CLI's own (--workers) where its workers get the signal too; else the module's.
+    cluster = ("--workers", "2") if group else ("--scheduler", client.scheduler.address)
     command = [sys.executable, "-m", "clrender.cli", "render", str(path), "-o", str(tmp_path / "box.exr"),
-               "--workers", "2", "--device", TEST_DEVICE, "--chunk-seconds", "0.2"]
+               *cluster, "--device", TEST_DEVICE, "--chunk-seconds", "0.2"]
     process = subprocess.Popen(command, stderr=subprocess.PIPE, start_new_session=True, text=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     seen = []
@@ -312,7 +331,9 @@ def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path,
     while " spp [" not in "".join(seen) and time.monotonic() < deadline:   # the bar is up
         time.sleep(0.1)
     time.sleep(1)   # chunks are flowing
-    (os.killpg if group else os.kill)(process.pid, signum)
+    for _ in range(times):
+        (os.killpg if group else os.kill)(process.pid, signum)
+        time.sleep(0.02)
     assert process.wait(timeout=60) == 128 + signum
     reader.join()
     err = "".join(seen)

@@ -7,6 +7,13 @@ that cannot be read as JSON at all, the file; for XML, the file's line and eleme
 scene whose tiny render (4 x 4 pixels, 1 spp, depth 3) is finite everywhere or stops at upload
 with such a SceneError. Nothing else may escape.
 
+Round 2 (issue 26) adds what a run does around the scene: XML include graphs, $name chains and
+encodings (bounded time, printable errors at a file's line); sets of batch and AOV outputs, and
+signals at random points of local and distributed renders and batches (every file that existed
+before is untouched or an output the user named); scheduler stand-ins on 127.0.0.1 (exit 4
+naming the address within the connect time-out). These run the CLI, some in subprocesses: few
+examples, each with a time bound.
+
 Loading is cheap and every example is loaded; rendering is not, so at most FUZZ_RENDERS loaded
 scenes per test are rendered, on the session's context (kernels built once per feature set).
 The examples are derandomized (the same ones every run, so CI is reproducible); set
@@ -17,8 +24,12 @@ import json
 import math
 import os
 import re
+import signal
 import struct
+import subprocess
+import sys
 import tempfile
+import time
 import warnings
 from pathlib import Path
 
@@ -62,7 +73,8 @@ class Renders:
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                result = clrender.Renderer(scene, context=self.context).render(spp=1, max_depth=3)
+                depth = {} if scene.render.integrator == "direct" else {"max_depth": 3}   # direct has none
+                result = clrender.Renderer(scene, context=self.context).render(spp=1, **depth)
         except SceneError as e:   # found at upload: degenerate shapes, sizes, scaled values
             assert names_its_place(e), e
             event("SceneError at upload")
@@ -572,3 +584,266 @@ def test_damaged_mitsuba_xml_scenes_load_or_explain(file, xml_folder, renders):
         warnings.simplefilter("ignore")   # MitsubaXmlWarnings about approximations
         load_or_explain(lambda: clrender.load_scene(path, parameters=parameters), renders,
                         lambda e: names_xml_line(e, data))
+
+
+# ---------------------------------------------------------------------------------------------
+# Round 2 (issue 26): XML include graphs, $name chains and encodings; batch and AOV output sets;
+# scheduler stand-ins; signals at random points. Each example has a time bound.
+# ---------------------------------------------------------------------------------------------
+XML_ENCODINGS = [None, "utf-8", "UTF-8", "latin-1", "utf-16", "shift_jis", "rot13", "no-such-codec", "x" * 300]
+XML_DEFAULT_VALUES = ["x", "$a", "$b", "$a$b", "$c$c$c$c", "$undefined", "8", "$a" * 50, "y" * 2000, ""]
+
+
+@st.composite
+def xml_include_graphs(draw):
+    """The Cornell box with up to 4 more files: each file includes others (cycles, self-includes
+    and diamonds included, some several times), sets <default>s whose values use $name (chains
+    and repetition), declares an encoding, and may hold a <bsdf> with an id with a newline.
+    Returns {file name: bytes} (scene.xml the main one) and -D parameters."""
+    count = draw(st.integers(1, 4))
+    files = {}
+    for index in range(count + 1):
+        lines = []
+        for _ in range(draw(st.integers(0, 3))):
+            name, value = draw(st.sampled_from("abc")), draw(st.sampled_from(XML_DEFAULT_VALUES))
+            lines.append(f'<default name="{name}" value="{value}"/>')
+        for _ in range(draw(st.integers(0, 3))):
+            target = draw(st.integers(1, count))
+            lines += [f'<include filename="f{target}.xml"/>'] * draw(st.integers(1, 3))
+        if draw(st.booleans()):
+            identifier = draw(st.sampled_from(["$a", "x&#10;clrender: error: forged", "$b$c", "plain"]))
+            lines.append(f'<bsdf type="diffuse" id="{identifier}"/>')
+        encoding = draw(st.sampled_from(XML_ENCODINGS))
+        declaration = f'<?xml version="1.0" encoding="{encoding}"?>\n' if encoding else ""
+        body = "\n".join(lines)
+        if index == 0:
+            text = re.sub(r"(<scene[^>]*>)", lambda m: m.group(1) + "\n" + body + "\n", XML_SCENES["cornell_box"], 1)
+            text = re.sub(r"^<\?xml[^>]*\?>\s*", "", text)
+            name = "scene.xml"
+        else:
+            text, name = f'<scene version="3.0.0">\n{body}\n</scene>\n', f"f{index}.xml"
+        files[name] = (declaration + text).encode("utf-8")
+    parameters = draw(mostly(st.just({}), st.dictionaries(st.sampled_from("abc"), st.sampled_from(XML_DEFAULT_VALUES),
+                                                          max_size=2), odds=3))
+    return files, parameters
+
+
+def a_printable_line_at_a_file_line(error):
+    """One printable line, short, whose place is FILE.xml:LINE (then the element, if any)."""
+    text = str(error)
+    return (text.isprintable() and len(text) <= 2 * 2000
+            and re.match(r"(scene|f\d)\.xml:\d+(?: <.*>)?$", error.where) is not None)
+
+
+@fuzz_settings(60)
+@given(graph=xml_include_graphs())
+def test_xml_include_graphs_parameters_and_encodings_load_or_explain_in_bounded_time(graph, tmp_path_factory,
+                                                                                     monkeypatch, renders):
+    """With the limits made small (64 includes, 20000 characters of substitution) so that
+    hitting them is cheap: every graph loads, or fails with a printable error at a file's line,
+    within 5 s."""
+    import warnings
+
+    from clrender import limits
+
+    monkeypatch.setattr(limits, "MAX_XML_INCLUDES", 64)
+    monkeypatch.setattr(limits, "MAX_SUBSTITUTED_CHARS", 20000)
+    files, parameters = graph
+    folder = tmp_path_factory.mktemp("graph")
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        load_or_explain(lambda: clrender.load_scene(folder / "scene.xml", parameters=parameters), renders,
+                        a_printable_line_at_a_file_line)
+    assert time.perf_counter() - start < 5
+
+
+def cli(*args):
+    """(exit code, stderr) of the CLI in this process (test_errors.run_cli)."""
+    from test_errors import run_cli
+
+    return run_cli(*args)
+
+
+def file_state(folder):
+    return {path: path.read_bytes() for path in folder.rglob("*") if path.is_file()}
+
+
+def named_outputs(output, scene_paths, layers):
+    """The files a render command names as outputs (docs/distributed.md: a folder holds
+    STEM.exr, a pattern names {stem} and {index}; 8-bit formats write NAME.LAYER.png beside)."""
+    folder = output.endswith("/") or (len(scene_paths) > 1 and Path(output).is_dir())
+    pattern = str(Path(output) / "{stem}.exr") if folder else output
+    images = [Path(pattern.format(stem=p.stem, index=i)) for i, p in enumerate(scene_paths)]
+    sides = [image.with_name(f"{image.stem}.{layer}{image.suffix}") for image in images for layer in layers
+             if image.suffix != ".exr"]
+    return {os.path.realpath(p) for p in images + sides}
+
+
+@st.composite
+def output_sets(draw):
+    """Scene names (same stems in two folders, stems that are another's side file, a scene
+    whose name is an image), an output (folder, patterns, a scene file itself), AOVs, and the
+    files that exist before the run."""
+    names = draw(st.lists(st.sampled_from(["a.json", "b.json", "a.albedo.json", "sub/a.json", "0.json", "a.png",
+                                           "a.normal.png"]), min_size=1, max_size=3, unique=True))
+    output = draw(st.sampled_from(["{stem}.png", "{stem}.exr", "out/", "{index}.png", "o.png", "a.png",
+                                   "{stem}.albedo.png", "a.normal.png", "sub/{stem}.png"]))
+    aovs = draw(st.sampled_from([(), ("albedo",), ("albedo", "normal")]))
+    existing = draw(st.lists(st.sampled_from(["a.png", "b.png", "a.albedo.png", "0.png", "out/a.exr", "o.png",
+                                              "sub/a.png", "a.normal.png", "keep.txt"]), unique=True, max_size=4))
+    return names, output, aovs, existing
+
+
+@fuzz_settings(15)
+@given(case=output_sets())
+def test_batch_and_aov_outputs_never_replace_a_file_not_named_as_an_output(case, tmp_path_factory):
+    """Every file that existed before the run is untouched, or an output the user named; a scene
+    file is never written; a run that succeeds wrote every image it names."""
+    names, output, aovs, existing = case
+    folder = tmp_path_factory.mktemp("outputs")
+    data = json.loads((Path(__file__).parent.parent / "scenes" / "cornell_box.json").read_text())
+    data["camera"]["resolution"] = [4, 4]
+    scene = json.dumps(data)
+    scene_paths = []
+    for name in names:
+        path = folder / name
+        if path.exists():   # "a.png" both a scene and an existing file: the scene
+            continue
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(scene)
+        scene_paths.append(path)
+    for name in existing:
+        path = folder / name
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(b"the user's file " + name.encode())
+    before = file_state(folder)
+    output_path = str(folder / output)
+    start = time.perf_counter()
+    code, stderr = cli("render", *scene_paths, "-o", output_path, "--spp", "1", "--quiet",
+                       *(("--aov", ",".join(aovs)) if aovs else ()))
+    assert time.perf_counter() - start < 60
+    assert code in (0, 2, 5) and "Traceback" not in stderr, stderr
+    named = named_outputs(output_path, scene_paths, aovs) if code == 0 or "{" in output or "/" in output else set()
+    for path, data in before.items():
+        if path.read_bytes() != data:
+            assert code == 0 and os.path.realpath(path) in named and path not in scene_paths, (path, stderr)
+    if code == 0:
+        assert all(Path(p).exists() for p in named)
+    event(f"exit {code}")
+
+
+@fuzz_settings(10)
+@given(kind=st.sampled_from(["silent", "http", "garbage", "close", "stall", "refused"]),
+       garbage=st.binary(min_size=1, max_size=40), timeout=st.sampled_from([0.3, 0.6]))
+def test_scheduler_stand_ins_fail_with_exit_4_naming_the_address_within_the_time_out(kind, garbage, timeout,
+                                                                                     tmp_path_factory):
+    """A socket on 127.0.0.1 that never answers, answers as a web server, sends random bytes,
+    closes at once, sends half a handshake, or is not there."""
+    import socket
+    import threading
+
+    pytest.importorskip("distributed")
+    server = socket.create_server(("127.0.0.1", 0))
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    payload = {"http": b"HTTP/1.1 400 Bad Request\r\n\r\n", "garbage": garbage,
+               "stall": struct.pack("<Q", 64) + garbage[:8]}.get(kind)
+
+    def serve():
+        try:
+            connection, _ = server.accept()
+            if kind == "http":
+                connection.recv(4096)
+            if payload:
+                connection.sendall(payload)
+            if kind == "close":
+                connection.close()
+            time.sleep(timeout + 3)
+        except OSError:
+            pass
+
+    if kind == "refused":
+        server.close()
+    else:
+        threading.Thread(target=serve, daemon=True).start()
+    folder = tmp_path_factory.mktemp("stand_in")
+    (folder / "s.json").write_text((Path(__file__).parent.parent / "scenes" / "cornell_box.json").read_text())
+    start = time.perf_counter()
+    code, stderr = cli("render", folder / "s.json", "-o", folder / "o.png", "--quiet", "--scheduler", address,
+                       "--connect-timeout", str(timeout))
+    server.close()
+    assert code == 4 and f"scheduler at {address}" in stderr and stderr.count("\n") == 1, stderr
+    assert time.perf_counter() - start < timeout + 5 and not (folder / "o.png").exists()
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    """The address of a LocalCluster of one worker process, for the CLI's --scheduler."""
+    distributed = pytest.importorskip("distributed")
+    import logging
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                  silence_logs=logging.ERROR) as cluster:
+        yield cluster.scheduler_address
+
+
+SIGNALS = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
+
+
+@fuzz_settings(8)
+@given(mode=st.sampled_from(["local", "batch", "distributed batch", "local cluster"]),
+       delay=st.floats(0.0, 4.0), signals=st.lists(st.sampled_from(SIGNALS), min_size=1, max_size=2),
+       gap=st.sampled_from([0.0, 0.01, 0.2]))
+def test_signals_at_any_point_leave_files_named_or_untouched(mode, delay, signals, gap, tmp_path_factory, scheduler):
+    """A render, a batch, a distributed batch or a batch on a local cluster of its own (--workers),
+    signalled once or twice after `delay` seconds:
+    no traceback (but Python's own, for a Ctrl-C during its start-up, before clrender's main); it
+    exits 0, 128 + the first signal, or (before clrender's handlers are in place) of that signal
+    (signals that arrive together: any of them); every file that existed before is untouched or a named output, nothing is
+    half-written, and a partial image it reports saved loads."""
+    folder = tmp_path_factory.mktemp("signals")
+    base = json.loads((Path(__file__).parent.parent / "scenes" / "cornell_box.json").read_text())
+    base["camera"]["resolution"] = [16, 12]
+    scenes = []
+    for name, spp in (("first", 1), ("second", 10 ** 6))[:1 if mode == "local" else 2]:
+        scene = {**base, "render": {**base.get("render", {}), "spp": spp}}
+        (folder / f"{name}.json").write_text(json.dumps(scene))
+        scenes.append(folder / f"{name}.json")
+    if mode == "local":
+        (folder / "first.json").write_text(json.dumps({**base, "render": {**base.get("render", {}), "spp": 10 ** 6}}))
+    (folder / "out").mkdir()
+    (folder / "out" / "second.png").write_bytes(b"an older image")
+    (folder / "notes.txt").write_text("not an output")
+    before = file_state(folder)
+    cluster = {"distributed batch": ("--scheduler", scheduler, "--chunk-seconds", "0.2"),
+               "local cluster": ("--workers", "1", "--chunk-seconds", "0.2")}.get(mode, ())
+    process = subprocess.Popen([sys.executable, "-m", "clrender.cli", "render", *map(str, scenes), "-o",
+                                str(folder / "out" / "{stem}.png"), "--quiet", *cluster],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))   # as in a terminal
+    time.sleep(delay)
+    for signum in signals:
+        process.send_signal(signum)
+        time.sleep(gap)
+    try:
+        _, stderr = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        raise AssertionError("still running 60 s after the signals")
+    # Signals pending together are handled in signal number order: any of those sent may be "first".
+    assert process.returncode in {0} | {128 + s for s in signals} | {-s for s in signals}, stderr
+    # -SIGINT: an interrupt before clrender's main (Python's own start-up, where Python prints
+    # its KeyboardInterrupt traceback; main catches every one after) is Python's.
+    assert "Traceback" not in stderr or process.returncode == -signal.SIGINT, stderr
+    named = {folder / "out" / f"{p.stem}.png" for p in scenes}
+    after = file_state(folder)
+    for path, data in before.items():
+        assert after.get(path) == data or path in named, path
+    assert set(after) <= set(before) | named, sorted(set(after) - set(before))   # no temporary files left
+    for path in named:
+        if f"{path}: " in stderr and "partial image saved" in stderr.split(f"{path}: ")[1].splitlines()[0]:
+            assert clrender.load_image(path).shape == (12, 16, 3)
+    event(f"{mode}: exit {process.returncode}")

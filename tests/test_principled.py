@@ -12,7 +12,7 @@ import clrender
 from clrender import features, layout, mitsuba
 from clrender.arrays import build_scene_arrays
 from clrender.principled import eta_from_specular
-from conftest import build_test_kernels, camera
+from conftest import build_test_kernels, camera, float32_rtol
 from test_dielectric import Bsdf, check_sampling, direction, uniform_sphere
 from test_dielectric import test_grazing_and_degenerate_directions_stay_finite as check_finite
 
@@ -197,7 +197,7 @@ def direction_pairs(bsdf, front_face, seed):
 @needs_mitsuba
 @pytest.mark.parametrize("front_face", [True, False], ids=["outside", "inside"])
 @pytest.mark.parametrize("name", sorted(CASES))
-def test_eval_and_pdf_match_mitsuba(context, queue, kernels, name, front_face):
+def test_eval_and_pdf_match_mitsuba(device, context, queue, kernels, name, front_face):
     mi.set_variant("scalar_rgb")
     params = CASES[name]
     bsdf = Bsdf(context, queue, kernels, material(params))
@@ -210,10 +210,11 @@ def test_eval_and_pdf_match_mitsuba(context, queue, kernels, name, front_face):
     black = np.all(theirs_value == 0, axis=1)
     assert np.all(value[black] == 0)
     theirs_pdf[black & ~np.any(value > 0, axis=1)] = 0
-    # float32 in both, in different orders: 2e-4 relative, and 1e-6 of the largest value where
-    # terms cancel.
-    np.testing.assert_allclose(value, theirs_value, rtol=2e-4, atol=1e-6 * theirs_value.max())
-    np.testing.assert_allclose(pdf, theirs_pdf, rtol=2e-4, atol=1e-6 * theirs_pdf.max())
+    # float32 in both, in different orders: 2e-4 relative (on the sharpest lobes, where the
+    # half-vector's rounding is amplified), and 1e-6 of the largest value where terms cancel.
+    rtol = float32_rtol(device, 2e-4)
+    np.testing.assert_allclose(value, theirs_value, rtol=rtol, atol=1e-6 * theirs_value.max())
+    np.testing.assert_allclose(pdf, theirs_pdf, rtol=rtol, atol=1e-6 * theirs_pdf.max())
 
 
 @needs_mitsuba

@@ -2,6 +2,11 @@
 large procedural mesh, median of several renders after a warm-up.
 
     python tools/bench_bvh_trace.py [--triangles 1000000] [--resolution 512] [--device cpu]
+                                    [--builders ploc binned]
+
+--builders: the binary trees to trace (collapsed to the kernel's wide tree alike): ploc, the
+scenes' builder (clrender/ploc.py), and binned, the top-down binned SAH of clrender/bvh.py
+(put in the scene arrays' place for the comparison); interleaved, with per-round ratios.
 """
 import argparse
 import sys
@@ -12,8 +17,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import trimesh  # noqa: E402
 
 import clrender  # noqa: E402
+import clrender.arrays  # noqa: E402
 from bench_bvh_build import displaced_grid  # noqa: E402
-from clrender.bench import interleaved, median, timed  # noqa: E402
+from clrender.bench import interleaved, median, round_ratios, timed  # noqa: E402
+from clrender.bvh import build_bvh  # noqa: E402
+from clrender.ploc import build_ploc_bvh  # noqa: E402
+
+BUILDERS = {"ploc": build_ploc_bvh, "binned": build_bvh}
 
 
 def main():
@@ -23,6 +33,7 @@ def main():
     parser.add_argument("--spp", type=int, default=8)
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--device")
+    parser.add_argument("--builders", nargs="+", default=["ploc"], choices=list(BUILDERS))
     args = parser.parse_args()
     vertices, faces = displaced_grid(args.triangles)
     with tempfile.TemporaryDirectory() as folder:
@@ -34,16 +45,25 @@ def main():
             "shapes": [{"type": "mesh", "file": "grid.ply", "material": "m"}],
             "lights": [{"type": "environment", "radiance": 1.0}],
         }, base_dir=folder)
-        setup, renderer = timed(lambda: clrender.Renderer(scene, args.device))
-    print(f"device: {renderer.device.name.strip()}")
-    print(f"mesh: {len(renderer.arrays.triangles)} triangles, BVH {len(renderer.arrays.nodes)} nodes, "
-          f"depth {renderer.arrays.bvh_depth}; scene set-up (load, build, upload, kernel) {setup:.2f} s")
+        renderers = {}
+        for builder in args.builders:
+            clrender.arrays.build_ploc_bvh = BUILDERS[builder]
+            setup, renderers[builder] = timed(lambda: clrender.Renderer(scene, args.device))
+            arrays = renderers[builder].arrays
+            print(f"{builder}: {len(arrays.triangles)} triangles, BVH {len(arrays.nodes)} wide nodes, "
+                  f"depth {arrays.bvh_depth}; scene set-up (build, upload, kernel) {setup:.2f} s")
+        clrender.arrays.build_ploc_bvh = build_ploc_bvh
+    print(f"device: {renderers[args.builders[0]].device.name.strip()}")
     labels = {1: "camera rays only", 2: "camera + shadow + bounce rays"}
-    runs = interleaved({depth: (lambda depth=depth: renderer.render(spp=args.spp, max_depth=depth).samples_per_second)
-                        for depth in labels}, rounds=args.runs)
-    for depth, rates in runs.items():
-        print(f"max depth {depth} ({labels[depth]}): {median(rates) / 1e6:.2f} M samples/s "
+    runs = interleaved({(builder, depth): (lambda r=renderer, depth=depth:
+                                           r.render(spp=args.spp, max_depth=depth).samples_per_second)
+                        for builder, renderer in renderers.items() for depth in labels}, rounds=args.runs)
+    for (builder, depth), rates in runs.items():
+        print(f"{builder}, max depth {depth} ({labels[depth]}): {median(rates) / 1e6:.2f} M samples/s "
               f"(median of {args.runs}; min {min(rates) / 1e6:.2f}, max {max(rates) / 1e6:.2f})")
+        if builder != args.builders[0]:
+            ratio = median(round_ratios(rates, runs[args.builders[0], depth]))
+            print(f"  {builder} / {args.builders[0]}: {ratio:.3f} (median of per-round ratios)")
     print("at max depth 1 each sample is one closest-hit ray: M samples/s = M rays/s")
 
 

@@ -5,16 +5,23 @@ does before it makes any plugin.
 |---|---|
 | `<scene version="3.x">` | the root of the scene and of every included file; 2.x too (READ_VERSIONS) |
 | `<default name value>`, `$name` | substituted in every attribute, in document order; parameters given to the reader (`-D`) override defaults |
-| `<include filename>` | spliced in place, nested up to MAX_INCLUDE_DEPTH |
+| `<include filename>` | spliced in place, nested up to MAX_INCLUDE_DEPTH, at most limits.MAX_XML_INCLUDES in all |
 | `<path value>` | a folder where file names are also looked up (`Files`) |
 | `id` attributes | collected for `<ref>` (`collect_ids`) |
+
+Bounded work for bounded input: every file is a regular file, each and the included ones
+together at most limits.MAX_SCENE_FILE_BYTES, checked before reading; substitution adds at most
+limits.MAX_SUBSTITUTED_CHARS characters to a scene (a value of 1 MB used a million times would
+be a terabyte); the XML declaration's encoding must be one expat can read.
 """
 import re
 import xml.parsers.expat
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .. import limits
 from ..errors import SceneError
+from ..files import describe, not_a_file
 from ..loader import read_scene_bytes
 
 
@@ -48,8 +55,8 @@ class Element:
     children: list = field(default_factory=list)
 
     def where(self):
-        kind = f" type='{self.attrs['type']}'" if "type" in self.attrs else ""
-        name = f" name='{self.attrs['name']}'" if "name" in self.attrs else ""
+        kind = f" type={limits.show(self.attrs['type'])}" if "type" in self.attrs else ""
+        name = f" name={limits.show(self.attrs['name'])}" if "name" in self.attrs else ""
         return f"{self.file.name}:{self.line} <{self.tag}{kind}{name}>"
 
     def error(self, message):
@@ -83,6 +90,9 @@ def parse_xml(path):
         parser.Parse(data, True)
     except xml.parsers.expat.ExpatError as e:
         raise MitsubaXmlError(f"{path.name}:{e.lineno}", f"malformed XML: {xml.parsers.expat.ErrorString(e.code)}") from None
+    except (LookupError, ValueError) as e:   # encoding="x": unknown, or a multi-byte one expat cannot read
+        raise MitsubaXmlError(f"{path.name}:{parser.CurrentLineNumber}",
+                              f"cannot read the encoding of the XML declaration: {e}; use UTF-8") from None
     return roots[0]
 
 
@@ -99,10 +109,14 @@ def check_version(root):
 
 class Files:
     """Relative file names resolve against the folder of the XML file that names them, then the
-    main scene's folder, then folders added by <path> (Mitsuba's file resolver)."""
+    main scene's folder, then folders added by <path> (Mitsuba's file resolver). Also what the
+    scene has used of the reader's bounds: includes, bytes read, characters substituted."""
 
     def __init__(self, scene_dir):
         self.search = [scene_dir]
+        self.includes = 0
+        self.bytes_read = 0
+        self.substituted = 0
 
     def resolve(self, name, element):
         name = Path(name)
@@ -110,26 +124,36 @@ class Files:
             candidates = [name]
         else:
             candidates = [element.file.parent / name] + [folder / name for folder in self.search]
-        for candidate in candidates:
-            if candidate.is_file():
+        problems = [not_a_file(candidate) for candidate in candidates]   # None: a regular file
+        for candidate, problem in zip(candidates, problems):
+            if problem is None:
                 return candidate.resolve()
+        for candidate, problem in zip(candidates, problems):   # there, but a folder or a named pipe: say so
+            if problem != "not found":
+                raise element.error(describe(candidate))
         raise element.error(f"file not found: {name} (looked in: "
                             f"{', '.join(str(c.parent) for c in candidates)})")
 
 
-def _substitute(element, parameters):
-    """A copy of `element` and its subtree with $name replaced in every attribute value."""
-    def value(text):
-        def replace(match):
-            if match.group(1) not in parameters:
-                raise element.error(f"undefined parameter ${match.group(1)} (give it a <default> "
+def _substitute(element, parameters, files):
+    """A copy of `element` and its subtree with $name replaced in every attribute value; the
+    characters added count against limits.MAX_SUBSTITUTED_CHARS (files.substituted), checked
+    before each value is built."""
+    def value(key, text):
+        names = _PARAMETER.findall(text)
+        for name in names:
+            if name not in parameters:
+                raise element.error(f"undefined parameter ${name} (give it a <default> "
                                     "or pass it, e.g. -D name=value)")
-            return parameters[match.group(1)]
-        return _PARAMETER.sub(replace, text)
+        files.substituted += sum(len(parameters[name]) - len(name) - 1 for name in names)
+        if files.substituted > limits.MAX_SUBSTITUTED_CHARS:
+            raise element.error(f"attribute {key}: $name substitution makes the scene more than "
+                                f"{limits.MAX_SUBSTITUTED_CHARS} characters longer")
+        return _PARAMETER.sub(lambda match: parameters[match.group(1)], text) if names else text
 
-    attrs = {key: value(text) for key, text in element.attrs.items()}
+    attrs = {key: value(key, text) for key, text in element.attrs.items()}
     copy = Element(element.tag, attrs, element.file, element.line)
-    copy.children = [_substitute(child, parameters) for child in element.children]
+    copy.children = [_substitute(child, parameters, files) for child in element.children]
     return copy
 
 
@@ -143,21 +167,35 @@ def expand(root, parameters, files, depth=0):
                 raise child.error("<default> needs name and value attributes")
             parameters.setdefault(name, text)
         elif child.tag == "include":
-            child = _substitute(child, parameters)
+            child = _substitute(child, parameters, files)
             if depth >= MAX_INCLUDE_DEPTH:
                 raise child.error(f"includes nested deeper than {MAX_INCLUDE_DEPTH} (a cycle?)")
-            included = parse_xml(files.resolve(attribute(child, "filename"), child))
+            files.includes += 1
+            if files.includes > limits.MAX_XML_INCLUDES:
+                raise child.error(f"more than {limits.MAX_XML_INCLUDES} includes in one scene "
+                                  "(a file included many times over?)")
+            included = _parse_included(files.resolve(attribute(child, "filename"), child), files, child)
             check_version(included)
             elements += expand(included, parameters, files, depth + 1)
         elif child.tag == "path":
-            child = _substitute(child, parameters)
+            child = _substitute(child, parameters, files)
             folder = (child.file.parent / attribute(child, "value")).resolve()
             if not folder.is_dir():
                 raise child.error(f"folder not found: {folder}")
             files.search.append(folder)
         else:
-            elements.append(_substitute(child, parameters))
+            elements.append(_substitute(child, parameters, files))
     return elements
+
+
+def _parse_included(path, files, include):
+    """The root of an included file, its size counted with the other included files' against
+    the limit before it is read."""
+    files.bytes_read += path.stat().st_size
+    if files.bytes_read > limits.MAX_SCENE_FILE_BYTES:
+        raise include.error(f"the included files are more than {limits.MAX_SCENE_FILE_BYTES} bytes together "
+                            f"({path.name} and those included before it)")
+    return parse_xml(path)
 
 
 def collect_ids(elements):
@@ -168,7 +206,7 @@ def collect_ids(elements):
         if "id" in element.attrs and element.tag in OBJECT_TAGS:
             if element.attrs["id"] in ids:
                 first = ids[element.attrs["id"]]
-                raise element.error(f"duplicate id '{element.attrs['id']}' (first at line {first.line})")
+                raise element.error(f"duplicate id {limits.show(element.attrs['id'])} (first at line {first.line})")
             ids[element.attrs["id"]] = element
         for child in element.children:
             visit(child)

@@ -4,6 +4,7 @@ from pathlib import Path
 
 from ..aovs import AOV_NAMES
 from ..errors import ArgumentError
+from ..files import file_identity
 from ..image import check_output_path, save_display_image, save_image
 from .tonemap import tone_map
 
@@ -24,6 +25,8 @@ def output_paths(output, scene, where="output"):
             raise ArgumentError(where, f"the viewer saves {' and '.join(SUFFIXES)}; got {output} (name one or neither)")
     paths = tuple(base.with_name(base.name + suffix) for suffix in SUFFIXES)
     for path in paths:
+        if scene.path is not None and file_identity(path) == file_identity(scene.path):
+            raise ArgumentError(where, f"saving to {path} would replace the scene file")
         check_output_path(path, where)
     return paths
 
