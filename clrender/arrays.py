@@ -146,6 +146,8 @@ def build_scene_arrays(scene):
     # Each light a group of its own, after the shapes.
     groups += list(len(scene.shapes) + np.arange(len(light_emitters)))
     selection = light_selection.selection_weights(powers, areas + [1.0] * len(light_emitters), groups)
+    if len(emitters):
+        emitters["e2"][:, 3] = light_selection.power_shares(powers)
     materials = _material_array(scene.materials, scene.textures, scale)
     used = set(scene.used_material_indices())
     # Plastic's coat tables are its model, not a compensation.

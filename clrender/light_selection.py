@@ -27,3 +27,11 @@ def selection_weights(powers, areas, groups):
     as_mitsuba = areas / group_area[group] / len(group_count)
     by_power = powers / powers.sum() if powers.sum() > 0 else as_mitsuba
     return 0.5 * by_power + 0.5 * as_mitsuba
+
+
+def power_shares(powers):
+    """Each emitter's share of the scene's light power (toon shading's p_j, kernels/types.h);
+    equal shares where no emitter has power."""
+    powers = np.asarray(powers, dtype=float)
+    total = powers.sum()
+    return powers / total if total > 0 else np.full(len(powers), 1.0 / max(len(powers), 1))

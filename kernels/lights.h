@@ -19,6 +19,7 @@ typedef struct {
     float3 radiance;  // arriving radiance (irradiance-like for delta lights), before the pdf
     float pdf_w;      // solid-angle pdf including the selection probability; 1 * pmf for delta
     bool delta;
+    int emitter;      // the emitter picked
 } LightSample;
 
 // ----- environment ---------------------------------------------------------------------------
@@ -217,6 +218,7 @@ bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSam
 // ----- one sample --------------------------------------------------------------------------
 INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     LightSample ls;
+    ls.emitter = -1;
     ls.pdf_w = 0.0f;
     ls.delta = false;
     ls.dist = INFINITY;
@@ -230,6 +232,7 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     if (count == 0) return ls;
     float u_on_emitter;
     int index = sample_discrete_cdf_reuse(scene->emitter_cdf, count, u.x, &u_on_emitter);
+    ls.emitter = index;
     u.x = u_on_emitter;
     float pmf = emitter_selection_pmf(scene, index);
     __global const Emitter* e = scene->emitters + index;

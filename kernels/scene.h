@@ -260,4 +260,7 @@ lane_float emitter_selection_pmf(const Scene* scene, lane_int emitter) {
     return LANE_LOAD(scene->emitter_cdf, emitter + 1, ) - LANE_LOAD(scene->emitter_cdf, emitter, );
 }
 
+// Its share of the scene's light power (kernels/types.h, Emitter e2.w).
+float emitter_power_share(const Scene* scene, int emitter) { return scene->emitters[emitter].e2.w; }
+
 #endif

@@ -15,8 +15,8 @@
 // s_j: the light's strength, its irradiance / pi (a white Lambertian surface facing a unit-strength
 // light shows 1, so toon and physical objects share one exposure); T_j: its transmittance along
 // the shadow ray, 0 where an opaque surface blocks it or it is below the surface, exp(-tau)
-// through media, 1 in vacuum; p_j: its share of the scene's light power (the probability with
-// which next-event estimation picks it). With one light and T = 0 or 1 this is the formula: a
+// through media, 1 in vacuum; p_j: its share of the scene's light power (Emitter e2.w; next-event
+// estimation picks lights by a mixture of power and count instead). With one light and T = 0 or 1 this is the formula: a
 // blocked point shows C * 0.1 * (ambient + rim), its light term being blocked too.
 //
 // A toon surface is shaded, not scattered: a path vertex that hits one adds
@@ -122,7 +122,7 @@ void toon_environment(const Scene* scene, const Material* m, const SurfacePoint*
     int env = scene->params->environment.x;
     float2 u = rng_float2(rng);
     if (env < 0) return;
-    float share = emitter_selection_pmf(scene, env);
+    float share = emitter_power_share(scene, env);
 #if ENVIRONMENT == ENVIRONMENT_CONSTANT
     float3 wi = sample_uniform_sphere(u);
     float3 irradiance = environment_radiance(scene, wi) * (2.0f * PI_F);  // (1/2) / pdf
@@ -150,7 +150,7 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
     for (int i = scene->params->lights.x; i < count; ++i) {
         LightSample ls;
         if (delta_light_sample(scene->emitters + i, sp->p, 1.0f, &ls))
-            toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance, emitter_selection_pmf(scene, i),
+            toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance, emitter_power_share(scene, i),
                            medium, rng, &lighting);
     }
 #if ENVIRONMENT != ENVIRONMENT_NONE
@@ -159,13 +159,15 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
     // Area lights (they come first in the emitter array): one sample as next-event estimation
     // draws it. Other emitters drawn here were counted above and are skipped (an area-light
     // sample is the only kind that is not delta and lies at a finite distance). The sample was
-    // picked with probability p_j, so share 1 makes E[share * T] = sum p_j T_j over the area
-    // lights, and radiance / pdf_w (pdf_w includes p_j) estimates their irradiance.
+    // picked with next-event estimation's probability q_j, so share p_j / q_j makes
+    // E[share * T] = sum p_j T_j over the area lights, and radiance / pdf_w (pdf_w includes q_j)
+    // estimates their irradiance.
     if (scene->params->lights.x > 0) {
         LightSample ls = sample_light(scene, sp->p, rng);
         if (!ls.delta && ls.dist < INFINITY && ls.pdf_w > 0.0f)
-            toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance / ls.pdf_w, 1.0f, medium, rng,
-                           &lighting);
+            toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance / ls.pdf_w,
+                           emitter_power_share(scene, ls.emitter) / emitter_selection_pmf(scene, ls.emitter),
+                           medium, rng, &lighting);
     }
     // Ambient and rim are counted once, dimmed by the shadow factor as far as the light is blocked.
     float3 blocked = material_toon_shadow_color(m) * material_toon_shadow_factor(m);
