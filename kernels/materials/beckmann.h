@@ -86,12 +86,15 @@ float2 sample_beckmann_visible_11(float cos_theta, float2 u) {
     float cot_theta = c / sqrt(fmax(1e-12f, 1.0f - c * c));
     float max_x = erf(cot_theta);
     u = clamp(u, 1e-6f, 1.0f - 1e-6f);
-    float x = max_x - (max_x + 1.0f) * erf(sqrt(-log(u.x)));
+    // x stays inside (-1, 1), where inverse_erf is finite: an erf within its allowed 2 ulp of 1
+    // (Intel's, at u.x = 1e-6) would put x at -1 exactly.
+    const float x_limit = 0.99999988f;   // the largest float below 1
+    float x = clamp(max_x - (max_x + 1.0f) * erf(sqrt(-log(u.x))), -x_limit, x_limit);
     float target = u.x * (1.0f + max_x + INV_SQRT_PI_F * tan_theta * exp(-cot_theta * cot_theta));
     for (int i = 0; i < 3; ++i) {
         float slope = inverse_erf(x);
         float value = 1.0f + x + INV_SQRT_PI_F * tan_theta * exp(-slope * slope) - target;
-        x -= value / (1.0f - slope * tan_theta);
+        x = clamp(x - value / (1.0f - slope * tan_theta), -x_limit, x_limit);
     }
     return (float2)(inverse_erf(x), inverse_erf(2.0f * u.y - 1.0f));
 }
