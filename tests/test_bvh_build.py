@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from clrender import bvh as bvh_mod
-from clrender import layout
+from clrender import layout, ploc
 from clrender.bvh import build_bvh, intersect_brute_force, ray_triangle_distance
 
 
@@ -223,11 +223,12 @@ def assert_same_hits(tree, v0, v1, v2, n_rays=3000, seed=7):
 # Tests
 
 
+@pytest.mark.parametrize("builder", [build_bvh, ploc.build_ploc_bvh], ids=["binned_sah", "ploc"])
 @pytest.mark.parametrize("name", list(SCENES))
 @pytest.mark.parametrize("max_leaf_size", [1, 4])
-def test_tree_invariants_and_hits(name, max_leaf_size):
+def test_tree_invariants_and_hits(builder, name, max_leaf_size):
     v0, v1, v2 = SCENES[name]()
-    tree = build_bvh(v0, v1, v2, max_leaf_size=max_leaf_size)
+    tree = builder(v0, v1, v2, max_leaf_size=max_leaf_size)
     check_tree(tree, v0, v1, v2, max_leaf_size)
     n_hits = assert_same_hits(tree, v0, v1, v2)
     if name in ("soup", "plane", "mixed_sizes"):

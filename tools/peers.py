@@ -365,6 +365,18 @@ def block_means(images, size=8):
     return images.reshape(*lead, h // size, size, w // size, size, c).mean(axis=(-4, -2))
 
 
+def joint_reference(batches):
+    """Both renderers' reference batches -> ((their mean, the variance of that mean averaged over
+    the pixels), their agreement), printed. The reference's own noise adds to every MSE against it."""
+    import numpy as np
+
+    check = agreement(batches["clrender"], batches["mitsuba"])
+    both = np.concatenate([batches["clrender"], batches["mitsuba"]])
+    print(f"  convergence: difference / noise = {check['pixels']:.2f} per pixel, {check['blocks']:.2f} per 8x8 "
+          f"block; image means differ by {100 * check['mean']:+.2f} %", flush=True)
+    return (both.mean(axis=0), float(np.mean(both.var(axis=0, ddof=1) / len(both)))), check
+
+
 def agreement(a, b):
     """How two sets of batch images agree: mean squared difference of their means over its
     expectation from their noise (1: equal expectations), per pixel and per 8x8 block (where
@@ -450,7 +462,7 @@ def run(args):
     import numpy as np
 
     import clrender
-    from clrender.bench import interleaved, machine_description, markdown_table, median, run_process
+    from clrender.bench import interleaved, machine_description, markdown_table, median
 
     command = "python tools/peers.py " + " ".join(sys.argv[1:])
     env = child_environment()
@@ -473,13 +485,7 @@ def run(args):
                 old.unlink()
         batches = {r: reference_batches(r, folders[name], args.spp, args.reference_batches, args.variant,
                                         keys[r]) for r in RENDERERS}
-        checks[name] = agreement(batches["clrender"], batches["mitsuba"])
-        both = np.concatenate([batches["clrender"], batches["mitsuba"]])
-        # The reference's own noise (variance of its mean) adds to every MSE against it.
-        references[name] = (both.mean(axis=0), float(np.mean(both.var(axis=0, ddof=1) / len(both))))
-        c = checks[name]
-        print(f"  convergence: difference / noise = {c['pixels']:.2f} per pixel, {c['blocks']:.2f} per 8x8 block; "
-              f"image means differ by {100 * c['mean']:+.2f} %", flush=True)
+        references[name], checks[name] = joint_reference(batches)
     if args.check_only:
         return
     with tempfile.TemporaryDirectory() as scratch:
@@ -565,8 +571,6 @@ def run_real(args, env, command):
     table (median phases; cold with --cold)."""
     import tempfile
 
-    import numpy as np
-
     from clrender.bench import interleaved, markdown_table
 
     scenes, references, checks = {}, {}, {}
@@ -581,12 +585,7 @@ def run_real(args, env, command):
         for renderer in RENDERERS:
             batches[renderer] = reference_batches(renderer, _real_folder(mirrors), args.spp, args.reference_batches,
                                                   args.variant, key, reference_command)
-        checks[name] = agreement(batches["clrender"], batches["mitsuba"])
-        both = np.concatenate([batches["clrender"], batches["mitsuba"]])
-        references[name] = (both.mean(axis=0), float(np.mean(both.var(axis=0, ddof=1) / len(both))))
-        c = checks[name]
-        print(f"  convergence: difference / noise = {c['pixels']:.2f} per pixel, {c['blocks']:.2f} per 8x8 block; "
-              f"image means differ by {100 * c['mean']:+.2f} %", flush=True)
+        references[name], checks[name] = joint_reference(batches)
     if args.check_only:
         return
     ours = [("clrender", args.sampler)] + ([("baseline", args.sampler)] if args.baseline else [])
