@@ -37,15 +37,16 @@ Ray through_lens(__constant Camera* camera, Ray pinhole, lane_float2 u) {
     return ray;
 }
 
-// A camera ray of pixel (x, y) and the weight of its radiance in the pixel's mean (the filter's,
-// filter.h). It takes the path's first sampler dimension, and with a lens the second.
-typedef struct { Ray ray; lane_float weight; } CameraSample;
+// A camera ray of pixel (x, y), the weight of its radiance in the pixel's mean (the filter's,
+// filter.h) and its image position relative to the pixel's top-left corner (what splatting
+// weighs, splat.h). It takes the path's first sampler dimension, and with a lens the second.
+typedef struct { Ray ray; lane_float weight; lane_float2 position; } CameraSample;
 
 CameraSample sample_camera(__constant RenderParams* params, lane_int x, int y, Rng* rng) {
     int width = params->frame.x, height = params->frame.y;
     CameraSample sample;
-    lane_float2 position = sample_filter(&params->filter, rng_float2(rng), x, y, width, height, &sample.weight);
-    sample.ray = camera_ray(&params->camera, x, y, width, height, position);
+    sample.position = sample_filter(&params->filter, rng_float2(rng), x, y, width, height, &sample.weight);
+    sample.ray = camera_ray(&params->camera, x, y, width, height, sample.position);
     if (params->camera.lens.x > 0.0f) sample.ray = through_lens(&params->camera, sample.ray, rng_float2(rng));
     return sample;
 }

@@ -446,9 +446,9 @@ def test_focus_distance_is_accepted_on_a_pinhole_camera(tmp_path):
 
 
 @pytest.mark.parametrize("sampler,spp,seed,kind", [
-    ("", 4, 0, "independent"),
+    ("", 4, 0, "sobol"),
     ('<sampler type="independent"><integer name="sample_count" value="10"/><integer name="seed" value="7"/></sampler>', 10, 7,
-     "independent"),
+     "sobol"),
     ('<sampler type="stratified"><integer name="sample_count" value="10"/></sampler>', 16, 0, "sobol"),
     ('<sampler type="multijitter"><integer name="sample_count" value="9"/></sampler>', 9, 0, "sobol"),
     ('<sampler type="ldsampler"><integer name="sample_count" value="10"/></sampler>', 16, 0, "sobol"),
