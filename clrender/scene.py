@@ -1179,7 +1179,7 @@ def _environment_image(node, image, key, scale):
     times `scale` still finite in float32."""
     limits.float32_values(image, node.at(key), SceneError)
     image = np.asarray(image, dtype=np.float32)
-    if np.any(image < 0):
+    if image.size and image.min() < 0:
         raise SceneError(node.at(key), "image must be non-negative")
     limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
     return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale))
