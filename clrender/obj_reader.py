@@ -11,10 +11,14 @@ a file that gives texture coordinates or normals on some corners only is read (M
 others undefined): corners without one get (0, 0), and normals are then computed for the whole
 mesh instead of taken from the file.
 
-The file is parsed with regular expressions over its whole text and numpy, not line by line:
-a 2.3 MB OBJ file reads in a fraction of a second.
+The file is read with numpy over its whole text, not line by line: the statements of each kind
+are picked out by their lines' first bytes, and a file whose statements are all of the plain
+forms (numbers only, every face's corners of one form, no comments) is checked and parsed as
+arrays (_plain_statements). Any other file, a malformed one included, is read with regular
+expressions (_general_statements), which name the line at fault. Both give the same values.
 """
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -67,13 +71,11 @@ def read_obj(path):
     text = Path(path).read_bytes()
     if b"\0" in text:
         raise ObjError("not a text file (it holds NUL bytes)")
-    text = _INDENT.sub(b"\n", b"\n" + text)
-    positions = _vectors(text, b"v", 3)
-    texcoords = _vectors(text, b"vt", 2)
-    normals = _vectors(text, b"vn", 3)
-    corners, sizes = _face_corners(text)
+    text = _statement_text(text)
+    positions, texcoords, normals, (corners, sizes, given) = _plain_statements(text) or _general_statements(text)
     if not len(sizes):
         raise ObjError("the file holds no faces")
+    _check_indices(text, sizes, np.any(given & (corners == 0), axis=1), "index 0 (indices start at 1)")
     corners = _absolute_indices(text, corners, sizes, (len(positions), len(texcoords), len(normals)))
     first, vertex_of_corner = _distinct_rows(corners, (len(positions), len(texcoords), len(normals)))
     keys = corners[first]
@@ -89,6 +91,12 @@ def read_obj(path):
     if np.all(keys[:, 2] > 0):
         vertex_normals = normals[keys[:, 2] - 1]
     return MeshData(positions[keys[:, 0] - 1], faces, uvs, vertex_normals)
+
+
+def _statement_text(text):
+    """The file's text with a line break before its first line and its lines' indents removed:
+    every statement then starts with a line break and its keyword."""
+    return _INDENT.sub(b"\n", b"\n" + text)
 
 
 def _distinct_rows(corners, counts):
@@ -126,12 +134,168 @@ def _count(text, key):
     return text.count(b"\n" + key + b" ") + text.count(b"\n" + key + b"\t")
 
 
+def _byte_set(characters):
+    table = np.zeros(256, bool)
+    table[list(characters)] = True
+    return table
+
+
+# The plain forms' bytes (no comments, no inf or nan: every byte but a gap is above b" "), and
+# corners' forms: (slashes, pairs of adjacent slashes) -> the indices given (p, p/t, p/t/n, p//n).
+_KEYWORDS = (b"v", b"vt", b"vn", b"f")
+_NUMBER_BYTES = b"0123456789.+-eE \t\r\n"
+_INDEX_BYTES = b"0123456789+-/ \t\r\n"
+_IS_BLANK = _byte_set(b" \t")   # what follows a keyword
+_NUMBERS_PER_LINE = {b"v": (3, np.inf), b"vt": (2, 3), b"vn": (3, 3)}   # (fewest, most); the first `fewest` kept
+_CORNER_FORMS = {(0, 0): [0], (1, 0): [0, 1], (2, 0): [0, 1, 2], (2, 1): [0, 2]}
+
+
+def _plain_statements(text):
+    """What _general_statements gives, for a file whose statements are all plain (see the
+    module's docstring), without regular expressions; None for any other file."""
+    buf = np.frombuffer(text, np.uint8)
+    breaks = (buf == ord("\n")).nonzero()[0]
+    kinds = _line_kinds(buf, breaks)
+    read = []
+    for kind, key in enumerate(_KEYWORDS, start=1):
+        body, body_breaks = _bodies(buf, breaks, kinds == kind, len(key))
+        data = body.tobytes()
+        if data.translate(None, _INDEX_BYTES if key == b"f" else _NUMBER_BYTES) or not _returns_end_lines(body, data):
+            return None
+        starts, per_line = _tokens(body, body_breaks)
+        read.append(_plain_faces(body, data, starts, per_line) if key == b"f" else
+                    _plain_numbers(data, per_line, *_NUMBERS_PER_LINE[key]))
+        if read[-1] is None:
+            return None
+    return read
+
+
+def _line_kinds(buf, breaks):
+    """The kind of statement of each line: 1 + the index of its keyword in _KEYWORDS, 0 for other
+    lines. A line here is a line break and what follows it up to the next (read_obj puts one
+    before the first line)."""
+    # A keyword's letters and the gap after it; an index past the end reads the last byte
+    # instead, a letter of the keyword, which no statement has there.
+    first, second, third = (buf[np.minimum(breaks + k, len(buf) - 1)] for k in (1, 2, 3))
+    v = first == ord("v")
+    kinds = np.zeros(len(breaks), np.uint8)
+    kinds[v & _IS_BLANK[second]] = 1
+    kinds[v & (second == ord("t")) & _IS_BLANK[third]] = 2
+    kinds[v & (second == ord("n")) & _IS_BLANK[third]] = 3
+    kinds[(first == ord("f")) & _IS_BLANK[second]] = 4
+    return kinds
+
+
+def _bodies(buf, breaks, chosen, keyword_length):
+    """The `chosen` lines, one after another, their keywords blanked out (a copy: one slice
+    where they follow each other, as exporters write them), and where their line breaks are."""
+    lines = chosen.nonzero()[0]
+    if not len(lines):
+        return np.zeros(0, np.uint8), lines
+    if lines[-1] - lines[0] + 1 == len(lines):
+        stop = breaks[lines[-1] + 1] if lines[-1] + 1 < len(breaks) else len(buf)
+        body = buf[breaks[lines[0]]:stop].copy()
+        body_breaks = breaks[lines[0]:lines[-1] + 1] - breaks[lines[0]]
+    else:
+        body = buf[np.repeat(chosen, np.diff(breaks, append=len(buf)))]
+        body_breaks = (body == ord("\n")).nonzero()[0]
+    body[body_breaks[:, None] + np.arange(1, keyword_length + 1)] = ord(" ")
+    return body, body_breaks
+
+
+def _returns_end_lines(body, data):
+    """Whether every carriage return ends its line (one in a line is malformed)."""
+    if b"\r" not in data:
+        return True
+    returns = (body[:-1] == ord("\r")).nonzero()[0]
+    return bool((body[returns + 1] == ord("\n")).all())
+
+
+def _tokens(body, breaks):
+    """Where each run of bytes between gaps starts, and how many start on each line (of plain
+    bytes only: the gaps are those up to b" ")."""
+    gap = body <= ord(" ")
+    starts = (gap[:-1] & ~gap[1:]).nonzero()[0] + 1
+    return starts, _per_run(starts, breaks)
+
+
+def _per_run(positions, starts):
+    """How many of the sorted `positions` fall in each run [starts[i], starts[i + 1])."""
+    first = np.searchsorted(positions, starts)
+    counts = np.empty_like(first)
+    counts[:-1] = first[1:] - first[:-1]
+    counts[-1:] = len(positions) - first[-1:]
+    return counts
+
+
+def _plain_numbers(data, counts, fewest, most):
+    """The first `fewest` numbers of each line, (lines, fewest) float64; None unless every line
+    holds fewest to most numbers."""
+    if len(counts) and (counts.min() < fewest or counts.max() > most):
+        return None
+    values = _parsed(data, np.float64)
+    if values is None or len(values) != counts.sum():
+        return None
+    if len(values) == fewest * len(counts):
+        return values.reshape(-1, fewest)
+    return values[(np.cumsum(counts) - counts)[:, None] + np.arange(fewest)]
+
+
+def _plain_faces(body, data, starts, sizes):
+    """_face_corners of faces whose corners all have one form, each index [-+]?digits; None for
+    other faces."""
+    if not len(starts):
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64), np.zeros((0, 3), bool)
+    if sizes.min() < 3 or body[-1] in b"/+-":
+        return None
+    # Each slash between two non-gaps, each sign after a gap or slash and before a digit: then
+    # every piece between gaps and slashes is an index, and the slashes say the form.
+    at = (body == ord("/")).nonzero()[0]
+    if (body[at - 1] <= ord(" ")).any() or (body[at + 1] <= ord(" ")).any():
+        return None
+    if b"+" in data or b"-" in data:
+        signs = ((body == ord("+")) | (body == ord("-"))).nonzero()[0]
+        before, after = body[signs - 1], body[signs + 1]
+        if not (((before <= ord(" ")) | (before == ord("/"))) & (after >= ord("0")) & (after <= ord("9"))).all():
+            return None
+    slashes = _per_run(at, starts)
+    paired = _per_run(at[1:][at[1:] - at[:-1] == 1], starts)
+    form = (int(slashes[0]), int(paired[0]))
+    if form not in _CORNER_FORMS or (slashes != form[0]).any() or (paired != form[1]).any():
+        return None
+    columns = _CORNER_FORMS[form]
+    values = _parsed(data.replace(b"/", b" ") if len(at) else data, np.int64)
+    if values is None or len(values) != len(starts) * len(columns):
+        return None
+    corners = np.zeros((len(starts), 3), np.int64)
+    corners[:, columns] = values.reshape(len(starts), len(columns))
+    given = np.zeros((len(starts), 3), bool)
+    given[:, columns] = True
+    return corners, sizes, given
+
+
+def _parsed(data, dtype):
+    """The numbers of `data` (numbers and gaps), None where a run between gaps is not one."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)   # older numpy warns, newer raises
+        try:
+            return np.fromstring(data, dtype, sep=" ")
+        except (ValueError, DeprecationWarning):
+            return None
+
+
+def _general_statements(text):
+    """(positions, texture coordinates, normals, _face_corners) of any file, read with the
+    regular expressions; ObjError naming the first malformed statement."""
+    return _vectors(text, b"v", 3), _vectors(text, b"vt", 2), _vectors(text, b"vn", 3), _face_corners(text)
+
+
 def _face_corners(text):
-    """Every face corner as (p, t, n) indices (0: not given), (C, 3) int64, and the number of
-    corners of each face. ObjError for an index 0 (indices start at 1)."""
+    """Every face corner as (p, t, n) indices (0: not given), (C, 3) int64, the number of
+    corners of each face, and which indices each corner gives, (C, 3) bool."""
     bodies = _well_formed(text, b"f")
     if not bodies:
-        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+        return np.zeros((0, 3), np.int64), np.zeros(0, np.int64), np.zeros((0, 3), bool)
     sizes = np.fromiter(map(len, map(bytes.split, bodies)), np.int64, len(bodies))
     joined = b" ".join(bodies)
     count = int(sizes.sum())
@@ -147,8 +311,7 @@ def _face_corners(text):
         given = corners != b""
         corners[~given] = b"0"
         corners = corners.astype(np.int64)
-    _check_indices(text, sizes, np.any(given & (corners == 0), axis=1), "index 0 (indices start at 1)")
-    return corners, sizes
+    return corners, sizes, given
 
 
 def _absolute_indices(text, corners, sizes, counts):

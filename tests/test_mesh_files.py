@@ -163,6 +163,60 @@ def test_obj_files_give_trimeshs_triangles(tmp_path):
                                   turned_to_first_corner(np.asarray(theirs.vertices)[np.asarray(theirs.faces)]))
 
 
+def read_both_ways(text):
+    """The statements of an OBJ text as the plain forms' reader reads them (None: not plain) and
+    as the general reader does (a malformed text: ObjError)."""
+    from clrender import obj_reader
+
+    prepared = obj_reader._statement_text(text if isinstance(text, bytes) else text.encode())
+    return obj_reader._plain_statements(prepared), lambda: obj_reader._general_statements(prepared)
+
+
+def assert_read_alike(text):
+    plain, general = read_both_ways(text)
+    assert plain is not None
+    general = general()
+    for ours, theirs in zip(plain[:3] + list(plain[3]), general[:3] + general[3]):
+        assert ours.dtype == theirs.dtype
+        np.testing.assert_array_equal(ours, theirs)
+
+
+PLAIN_OBJ = {**OBJ_VARIANTS, "pt vt-w": corners_as(OBJ, "pt").replace("vt 1 1", "vt 1 1 0.5"),
+             "tabs and indents": "\tv 0\t0 0 \n  v 1  0 0\t\nv 0 1 0\nf\t1 2\t 3 \n",
+             "signs and exponents": "v +1e-3 -.5 2.\nv 1E+2 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf +1/1 -2/-2 3/+3\n",
+             "interleaved kinds": "v 0 0 0\nvn 0 0 1\nv 1 0 0\nvn 0 1 0\nvt 0.5 0.5\nv 0 1 0\nvn 1 0 0\ng x\n"
+                                  "f 1/1/1 2/1/2 3/1/3\ns off\nf 3/1/3 2/1/2 1/1/1\n",
+             "no final line break": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3"}
+NOT_PLAIN_OBJ = {"comment after a statement": "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                 "corners of several forms": "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3\n",
+                 "p/ corner": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/ 2/ 3/\n",
+                 "inf": "v 0 0 0\nv 1 0 inf\nv 0 1 0\nf 1 2 3\n",
+                 "carriage return in a line": "v 0 0 0\nv 1\r0 0\nv 0 1 0\nf 1 2 3\n",
+                 "two numbers glued": "v 0 0 0\nv 1.0.0 0 0\nv 0 1 0\nf 1 2 3\n",
+                 "sign after an index": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3-\n",
+                 "lone sign": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 + 3\n",
+                 "four slashes": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2/1/1/1 3/1/1/1\n",
+                 "too few numbers": "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                 "too many normal numbers": "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1 0\nf 1//1 2//1 3//1\n",
+                 "a face of two corners": "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n"}
+
+
+@pytest.mark.parametrize("name", PLAIN_OBJ)
+def test_plain_obj_statements_read_as_the_general_reader_reads_them(name):
+    assert_read_alike(PLAIN_OBJ[name])
+
+
+@pytest.mark.parametrize("name", NOT_PLAIN_OBJ)
+def test_obj_statements_of_other_forms_are_left_to_the_general_reader(name):
+    assert read_both_ways(NOT_PLAIN_OBJ[name])[0] is None
+
+
+@pytest.mark.parametrize("path", real_files("bitterli-living-room/models/Mesh0[0-6]*.obj")
+                         + real_files("bitterli-staircase/models/Mesh0[0-3]*.obj"))
+def test_real_obj_files_are_plain_and_read_as_the_general_reader_reads_them(path):
+    assert_read_alike(Path(path).read_bytes())
+
+
 @pytest.mark.parametrize("text, message", [
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\nf 1 2 4\n", "line 6: face 'f 1 2 4' names a position beyond the 3"),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", "line 4: face 'f 1 2 0' names index 0 (indices start at 1)"),
