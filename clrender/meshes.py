@@ -273,13 +273,15 @@ def _checked_mesh(vertices, faces, smooth, normals=None, uvs=None):
             raise ValueError(f"{name} {index + 1} is not finite in float32: {values[index].tolist()}")
     if not smooth:
         return Mesh(vertices, faces, None, uvs)
-    computed = vertex_normals(vertices, faces)
-    if normals is not None:
-        with np.errstate(all="ignore"):
-            length = np.linalg.norm(normals, axis=1, keepdims=True)
-            usable = np.isfinite(length) & (length > 0)
-            computed = np.where(usable, normals / np.where(usable, length, 1.0), computed)
-    return Mesh(vertices, faces, computed, uvs)
+    if normals is None:
+        return Mesh(vertices, faces, vertex_normals(vertices, faces), uvs)
+    with np.errstate(all="ignore"):
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        usable = np.isfinite(length) & (length > 0)
+        unit = normals / np.where(usable, length, 1.0)
+    if not usable.all():   # computed normals only where the file's have no direction
+        unit = np.where(usable, unit, vertex_normals(vertices, faces))
+    return Mesh(vertices, faces, unit, uvs)
 
 
 def vertex_normals(vertices, faces):
