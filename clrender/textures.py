@@ -25,6 +25,7 @@ WRAPS = tuple(layout.TEXTURE_WRAPS)
 # Mitsuba's luminance of linear RGB (eval_1 of a colour texture).
 LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 MAX_TEXELS_BYTES = 2**31 - 1   # byte offsets into the texel buffer are int32
+_MEAN_BLOCK = 1 << 14   # texels decoded at a time by Texture.mean (a few hundred kB)
 
 
 @dataclass
@@ -49,8 +50,18 @@ class Texture:
         two colours): the weight of an emitter it drives."""
         if self.type == "checkerboard":
             return (np.asarray(self.color0, float) + np.asarray(self.color1, float)) / 2
-        rgb = _as_rgb(_linear(self.pixels, self.srgb))
-        return rgb.reshape(-1, 3).mean(axis=0)
+        # numpy's float32 mean over the texels, rgb.reshape(-1, 3).mean(axis=0), adds them row
+        # after row: the same running sum here, block by block (the total carried in each
+        # block's first row), without decoding the whole image into a float32 copy.
+        texels = self.pixels.reshape(-1, self.channels)
+        rows = np.empty((_MEAN_BLOCK + 1, 3), np.float32)
+        total = np.zeros(3, np.float32)
+        for start in range(0, len(texels), _MEAN_BLOCK):
+            block = texels[start:start + _MEAN_BLOCK]
+            rows[0] = total
+            rows[1:len(block) + 1] = _as_rgb(_linear(block, self.srgb))
+            total = rows[:len(block) + 1].sum(axis=0)
+        return total / len(texels)
 
     def number_range(self):
         """The least and the largest number (lookup_number) the texture takes: filtering keeps

@@ -139,6 +139,19 @@ def test_gradient_is_the_derivative_of_the_lookup():
         assert np.all(textures.lookup_number_gradient(flat, uv) == 0)
 
 
+@pytest.mark.parametrize("channels, dtype, srgb", [(3, np.uint8, True), (1, np.uint8, True), (4, np.uint8, False),
+                                                   (3, np.float32, False)])
+def test_bitmap_mean_is_the_float32_mean_of_its_linear_texels(channels, dtype, srgb):
+    # Texture.mean decodes block by block: the bits of numpy's mean over the decoded image (its
+    # running float32 sum), on images of more texels than a block and not a multiple of one.
+    rng = np.random.default_rng(9)
+    height = 2 * textures._MEAN_BLOCK // 97 + 3
+    texture = textures.Texture("t", "bitmap", pixels=random_image(rng, height, 97, channels, dtype), srgb=srgb)
+    whole = textures._as_rgb(textures._linear(texture.pixels, srgb)).reshape(-1, 3).mean(axis=0)
+    assert texture.mean().dtype == whole.dtype
+    np.testing.assert_array_equal(texture.mean(), whole)
+
+
 def test_bitmap_values_are_mitsubas_conventions():
     # Row 0 at v = 0; bilinear weights between texel centres; sRGB decoded before filtering.
     pixels = np.array([[[0], [255]], [[255], [255]]], np.uint8)
