@@ -198,8 +198,6 @@ CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4), ("l
 # that lies beyond the radius).
 FILTER_CELLS = 64
 FILTER_EDGES = 16
-# Steps of splatting's table of the filter over [0, radius] (kernels/splat.cl, clrender/splatting.py).
-SPLAT_TABLE_STEPS = 1024
 _FILTER_EDGE_TABLE = ("<f4", (FILTER_EDGES // 4, 4))
 FILTER = _struct(("kind", I4), ("support", F4), ("shape", F4), ("cells", ("<f4", (FILTER_CELLS, 4))),
                  ("edge_cdf", _FILTER_EDGE_TABLE), ("edge_mass", _FILTER_EDGE_TABLE))
@@ -216,6 +214,7 @@ RENDER_PARAMS = np.dtype([
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
     ("splat", I4),         # splatting (kernels/splat.h): the tile the samples are splatted to,
                            # inside `tile` grown by the filter's reach; width 0: no splatting
+    ("splat_reach", I4),   # x: the pixels beyond its own a sample's filter reaches (splatting.reach)
     ("sampling", I4),      # x the sampler of camera paths (SAMPLERS); y, z the direct integrator's
                            # light and BSDF samples per camera hit (0, 0: path tracing)
     ("filter", FILTER),    # the pixel reconstruction filter
@@ -358,7 +357,6 @@ def c_constants():
     lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")
     lines.append(f"#define FILTER_CELLS {FILTER_CELLS}")
     lines.append(f"#define FILTER_EDGES {FILTER_EDGES}")
-    lines.append(f"#define SPLAT_TABLE_STEPS {SPLAT_TABLE_STEPS}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

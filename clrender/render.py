@@ -19,7 +19,7 @@ from .energy import fill_albedo_tables
 from .errors import ArgumentError
 from .features import scene_features
 from .origins import errors_at_source
-from .scene import Camera, Filter, as_scene
+from .scene import Camera, as_scene
 
 
 @dataclass
@@ -209,9 +209,9 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["lights"] = (arrays.first_light, 0, 0, 0)
     p["tile"] = (0, 0, width, height) if tile is None else tile
     p["splat"] = (0, 0, 0, 0) if splat is None else splat
+    p["splat_reach"] = (splatting.reach(camera.filter) if splat is not None else 0, 0, 0, 0)
     p["sampling"] = (sampler_code(scene, sampler), *direct_samples(scene.render), 0)
-    # Splatting's samples are uniform in their pixels (the box); the gather applies the filter.
-    p["filter"] = filters.filter_record(Filter() if splat is not None else camera.filter)
+    p["filter"] = filters.filter_record(camera.filter)
     return p
 
 
@@ -432,7 +432,7 @@ class Renderer:
 
         end = state.samples + samples
         done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
-        most = splatting.samples_per_pass_limit(traced) if splat else MAX_SPP
+        most = splatting.samples_per_pass_limit(traced, self._gather.reach) if splat else MAX_SPP
         rows = tile_height if samples_per_pass else self._first_launch_rows(tile_width, tile_height)
         try:
             while done < end and (time_limit is None or seconds < time_limit):
@@ -483,8 +483,8 @@ class Renderer:
                                          "accumulated by splatting")
         filtered = state.filtered if state.filtered is not None else np.zeros((n, 4), np.float32)
         mf = cl.mem_flags
-        records = min(samples, splatting.samples_per_pass_limit(traced)) * traced[2] * traced[3]
-        return _SplatBuffers(cl.Buffer(self.context, mf.READ_WRITE, records * splatting.RECORD_BYTES),
+        records = min(samples, splatting.samples_per_pass_limit(traced, self._gather.reach)) * traced[2] * traced[3]
+        return _SplatBuffers(cl.Buffer(self.context, mf.READ_WRITE, records * splatting.record_bytes(self._gather.reach)),
                              cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
                                        hostbuf=np.ascontiguousarray(filtered, dtype=np.float32)),
                              state.samples)
@@ -493,7 +493,7 @@ class Renderer:
     def _no_records(self):
         """The render pass's records argument when it does not splat."""
         if not hasattr(self, "_placeholder_records"):
-            self._placeholder_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, splatting.RECORD_BYTES)
+            self._placeholder_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
         return self._placeholder_records
 
     def _check_depths(self, max_depth, rr_depth):

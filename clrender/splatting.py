@@ -11,11 +11,9 @@ import math
 import numpy as np
 import pyopencl as cl
 
-from . import filters, layout
+from . import filters
 from .device import build_program
 
-# Bytes of one sample's record (kernels/splat.h: float4 of radiance and position).
-RECORD_BYTES = 16
 # The records of one pass are at most this many bytes (fewer samples per pass on large images).
 RECORDS_BUDGET = 64 << 20
 
@@ -60,31 +58,24 @@ def crop(values, traced, tile):
     return np.ascontiguousarray(grid[_window(tile, traced)]).reshape((-1,) + values.shape[1:])
 
 
-def samples_per_pass_limit(traced):
+def record_bytes(distance):
+    """Bytes of one sample's record for a filter reaching `distance` pixels (kernels/splat.h,
+    SPLAT_COMPONENTS: radiance and the weights along x and y)."""
+    return 4 * (3 + 2 * (2 * distance + 1))
+
+
+def samples_per_pass_limit(traced, distance):
     """The most samples per pixel a pass over `traced` may take: their records within RECORDS_BUDGET."""
-    return max(1, RECORDS_BUDGET // (RECORD_BYTES * traced[2] * traced[3]))
-
-
-def weight_table(f):
-    """The gather's table of the filter (kernels/splat.cl, splat_weight): f at |t| = i / scale for
-    i = 0 .. SPLAT_TABLE_STEPS, the last at the radius (0), and scale. Linear in between: exact
-    for the tent, within 2e-6 of Mitsuba's gaussian of stddev 0.5."""
-    scale = layout.SPLAT_TABLE_STEPS / filters.radius(f)
-    table = filters.evaluate(f, np.arange(layout.SPLAT_TABLE_STEPS + 1) / scale).astype(np.float32)
-    table[-1] = 0.0
-    return table, np.float32(scale)
+    return max(1, RECORDS_BUDGET // (record_bytes(distance) * traced[2] * traced[3]))
 
 
 class Gather:
-    """The gather kernel of one device (kernels/splat.cl) with the scene's filter."""
+    """The gather kernel of one device (kernels/splat.cl) for a filter reaching `reach` pixels."""
 
     def __init__(self, context, f):
         self.reach = reach(f)
         self.kernel = cl.Kernel(build_program(context, {}, entry="splat.cl"), "gather_splats")
-        table, self.scale = weight_table(f)
-        self.table = cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=table)
 
     def __call__(self, queue, tile, params_buffer, records, filtered):
         """Add the records of the pass of `params_buffer` to the sums `filtered` of `tile`."""
-        self.kernel(queue, (tile[2], tile[3]), None, params_buffer, self.table, self.scale, np.int32(self.reach),
-                    records, filtered)
+        self.kernel(queue, (tile[2], tile[3]), None, params_buffer, records, filtered)
