@@ -260,6 +260,12 @@ class RenderInterrupted(KeyboardInterrupt):
 # Work-group size of the packet kernel (LANES 8) when the caller gives none: 4 x 4 work-items,
 # 128 pixels.
 PACKET_LOCAL_SIZE = (4, 4)
+# The megakernel's on CPU devices. Left to the implementation, the size follows the launch's
+# shape, which the launches' timing adapts, and PoCL compiles the kernel for each size it picks
+# (seconds for the megakernel; cached on disk): a render of the SSS bunny took 28-36 s at 16 spp
+# where it takes 2.5-3 s with one size, a compile being taken for slowness and shrinking the
+# launches to single rows (docs/performance.md).
+CPU_LOCAL_SIZE = (8, 1)
 
 
 class Renderer:
@@ -309,6 +315,8 @@ class Renderer:
         # equally fast (docs/performance.md), so packets get 4 x 4 unless told otherwise.
         if local_size is None and self.features["LANES"] > 1:
             local_size = PACKET_LOCAL_SIZE
+        elif local_size is None and self.device.type & cl.device_type.CPU:
+            local_size = CPU_LOCAL_SIZE
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
@@ -442,14 +450,14 @@ class Renderer:
                                        traced, self.sampler, state.tile if splat else None)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 # The tile's rows in bands of `rows` (a multiple of the work-group height but for
-                # the last, whose excess rows the kernel's guard skips), each band a launch
-                # offset to its first row: every pixel gets these samples once, in index order.
+                # the last, whose excess rows the kernel's guard skips), each band a launch told
+                # its first row: every pixel gets these samples once, in index order.
                 for first_row in range(0, tile_height, rows):
                     band = min(rows, tile_height - first_row)
                     start = time.perf_counter()
                     kernel(self.queue, self._global_size(tile_width, band, lanes), self.local_size, params_buffer,
                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer,
-                           splat.records if splat else self._no_records, global_offset=(0, first_row))
+                           splat.records if splat else self._no_records, np.int32(first_row))
                     if splat and first_row + band >= tile_height:
                         self._gather(self.queue, state.tile, params_buffer, splat.records, splat.filtered)
                     self.queue.finish()

@@ -27,8 +27,9 @@ typedef struct {
 } Scene;
 
 // The arguments of render_pass, in the order the host passes them (render.py: RenderParams,
-// Renderer.ARRAYS, then the per-pixel buffers), for both of its forms (integrator.cl,
-// integrator_packets.cl), and the Scene they make.
+// Renderer.ARRAYS, then the per-pixel buffers, and the launch's first row of the tile: an
+// argument, not a global offset, which PoCL compiles the kernel again for), for both of its
+// forms (integrator.cl, integrator_packets.cl), and the Scene they make.
 #define RENDER_PASS_ARGUMENTS __constant RenderParams* params, __global const WideBvhNode* nodes, \
     __global const Triangle* triangles, __global const TriangleShading* shading, \
     __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media, \
@@ -37,7 +38,7 @@ typedef struct {
     __global const float* majorant_data, __global const float2* uvs, __global const Texture* textures, \
     __global const uchar* texels, __global float4* accumulator, __global int* discarded_samples, \
     __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums, \
-    __global float* splat_records
+    __global float* splat_records, int first_row
 #define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, triangles, shading, info, materials, media, emitters, \
     emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels}
 
