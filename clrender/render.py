@@ -308,7 +308,7 @@ class Renderer:
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
-    ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
+    ARRAYS = ("nodes", "blocks", "triangles", "shading", "info", "materials", "media", "emitters",
               "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
               "uvs", "textures", "texels")
 

@@ -21,7 +21,7 @@ def test_test_kernels_build_with_every_environment(context):
     for features in all_feature_combinations():
         if features["AOVS"] or features["LANES"] > 1:   # the test kernels run one lane
             continue
-        assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 7
+        assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 8
 
 
 def test_build_error_carries_the_compiler_log(context, tmp_path, monkeypatch):
