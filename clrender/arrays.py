@@ -6,6 +6,7 @@ import numpy as np
 
 from . import layout, light_selection, limits, meshes, plastic, principled, textures
 from . import wide_bvh
+from .triangle_blocks import triangle_blocks
 from .bvh import intersect_brute_force
 from .ploc import build_ploc_bvh
 from .errors import SceneError
@@ -17,6 +18,7 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 @dataclass
 class SceneArrays:
     nodes: np.ndarray
+    blocks: np.ndarray          # the leaves' triangles, four to a block (triangle_blocks.py)
     triangles: np.ndarray
     shading: np.ndarray
     info: np.ndarray
@@ -106,6 +108,7 @@ def build_scene_arrays(scene):
     del bvh
     triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
     del normals
+    nodes, blocks = triangle_blocks(nodes, triangles)
     unordered_info = np.concatenate([info, sphere_info])
     info = unordered_info[order]
 
@@ -164,7 +167,7 @@ def build_scene_arrays(scene):
     except ValueError as e:
         raise SceneError("textures", str(e)) from None
     return SceneArrays(
-        nodes=nodes, triangles=triangles, shading=shading,
+        nodes=nodes, blocks=blocks, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(selection),

@@ -325,7 +325,7 @@ class Renderer:
         self._gather = splatting.Gather(self.context, scene.camera.filter) if splatting.splats(scene) else None
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
-    ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
+    ARRAYS = ("nodes", "blocks", "triangles", "shading", "info", "materials", "media", "emitters",
               "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
               "uvs", "textures", "texels")
 
