@@ -65,6 +65,8 @@ typedef struct {
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
     int4 environment;  // x emitter index (-1: none), y image width, z image height,
                        // w what camera rays do not see (HIDE_* bits: path.h)
+    int4 env_lookup;   // x how the environment image is looked up (ENV_LOOKUP_*: lights.h)
+    float4 env_to_map[3];  // rows (xyz) of the rotation from world directions into the image's frame
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
