@@ -36,7 +36,7 @@ typedef struct { int4 info; int4 format; float4 to_uv_u; float4 to_uv_v; float4 
 // cosine of its cutoff angle, e2.x the cosine of its beam width, e2.y the cutoff angle (radians),
 // e2.z 1 / (cutoff - beam width) (0: no transition; lights.h, spot_falloff).
 // Directional: p0 = unit direction towards the light, radiance = irradiance.
-// Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
+// Environment: radiance = constant radiance (or scale; an image is looked up as RenderParams says).
 // Every kind: e2.w = its share of the scene's light power (toon shading's p_j; next-event
 // estimation picks by emitter_cdf, clrender/light_selection.py).
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
