@@ -199,6 +199,8 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
     p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))
     p["environment"] = (arrays.env_index, *arrays.env_size, hidden_from_camera(scene.render))
+    p["env_lookup"] = (arrays.env_lookup, 0, 0, 0)
+    p["env_to_map"][0, :, :3] = arrays.env_to_map
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
     step = settings.step if step is None else step

@@ -41,7 +41,7 @@ typedef struct { int4 info; int4 format; float4 to_uv_u; float4 to_uv_v; float4 
 // cosine of its cutoff angle, e2.x the cosine of its beam width, e2.y the cutoff angle (radians),
 // e2.z 1 / (cutoff - beam width) (0: no transition; lights.h, spot_falloff).
 // Directional: p0 = unit direction towards the light, radiance = irradiance.
-// Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
+// Environment: radiance = constant radiance (or scale; an image is looked up as RenderParams says).
 // Every kind: e2.w = its share of the scene's light power (toon shading's p_j; next-event
 // estimation picks by emitter_cdf, clrender/light_selection.py).
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
@@ -70,6 +70,8 @@ typedef struct {
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
     int4 environment;  // x emitter index (-1: none), y image width, z image height,
                        // w what camera rays do not see (HIDE_* bits: path.h)
+    int4 env_lookup;   // x how the environment image is looked up (ENV_LOOKUP_*: lights.h)
+    float4 env_to_map[3];  // rows (xyz) of the rotation from world directions into the image's frame
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry

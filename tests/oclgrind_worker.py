@@ -195,8 +195,12 @@ def run_test_kernels(case, device):
     kernel("delta_light_values")(queue, (n,), None, upload(context, arrays.emitters[spot:spot + 1]),
                                  upload(context, float4(rng.uniform(-1, 1, (n, 3)))), *outputs(context, (n, 4)))
     if features["ENVIRONMENT"] == layout.ENVIRONMENT_MODES["image"]:
-        kernel("sample_environment")(queue, (n,), None, params, upload(context, arrays.env_texels),
-                                     upload(context, arrays.env_cdf), np.uint32(9), *outputs(context, (n, 4), (n, 4)))
+        for lookup in layout.ENVIRONMENT_LOOKUPS:   # the scene's is Mitsuba's; the texel one too
+            scene.environment.lookup = lookup
+            env = build_scene_arrays(scene)
+            kernel("sample_environment")(queue, (n,), None, upload(context, render_params(scene, env, 0, 1, 4, 2, 0)),
+                                         upload(context, env.env_texels), upload(context, env.env_cdf), np.uint32(9),
+                                         *outputs(context, (n, 4), (n, 4)))
     if features["GRID_MEDIA"]:
         media = [upload(context, a) for a in (arrays.media, arrays.grid_data, arrays.majorant_data)]
         cloud = [m.name for m in scene.media].index("cloud")
