@@ -14,8 +14,8 @@ import pyopencl as cl
 from . import filters
 from .device import build_program
 
-# Bytes of one sample's record (kernels/splat.h: float4 of radiance and position).
-RECORD_BYTES = 16
+# The gather's work-group size on CPU devices (the kernel skips work-items beyond the tile).
+CPU_GATHER_LOCAL_SIZE = (8, 1)
 # The records of one pass are at most this many bytes (fewer samples per pass on large images).
 RECORDS_BUDGET = 64 << 20
 
@@ -60,21 +60,29 @@ def crop(values, traced, tile):
     return np.ascontiguousarray(grid[_window(tile, traced)]).reshape((-1,) + values.shape[1:])
 
 
-def samples_per_pass_limit(traced):
+def record_bytes(distance):
+    """Bytes of one sample's record for a filter reaching `distance` pixels (kernels/splat.h,
+    SPLAT_COMPONENTS: radiance and the weights along x and y)."""
+    return 4 * (3 + 2 * (2 * distance + 1))
+
+
+def samples_per_pass_limit(traced, distance):
     """The most samples per pixel a pass over `traced` may take: their records within RECORDS_BUDGET."""
-    return max(1, RECORDS_BUDGET // (RECORD_BYTES * traced[2] * traced[3]))
+    return max(1, RECORDS_BUDGET // (record_bytes(distance) * traced[2] * traced[3]))
 
 
 class Gather:
-    """The gather kernel of one device (kernels/splat.cl) with the scene's filter."""
+    """The gather kernel of one device (kernels/splat.cl) for a filter reaching `reach` pixels."""
 
     def __init__(self, context, f):
         self.reach = reach(f)
         self.kernel = cl.Kernel(build_program(context, {}, entry="splat.cl"), "gather_splats")
-        self.filter = cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                                hostbuf=np.ascontiguousarray(filters.filter_record(f)))
+        # One work-group size on CPUs, whatever the tile (render.CPU_LOCAL_SIZE says why).
+        self.local_size = CPU_GATHER_LOCAL_SIZE if context.devices[0].type & cl.device_type.CPU else None
 
     def __call__(self, queue, tile, params_buffer, records, filtered):
         """Add the records of the pass of `params_buffer` to the sums `filtered` of `tile`."""
-        self.kernel(queue, (tile[2], tile[3]), None, params_buffer, self.filter, np.int32(self.reach), records,
-                    filtered)
+        size = (tile[2], tile[3])
+        if self.local_size:
+            size = tuple(-(-n // m) * m for n, m in zip(size, self.local_size))
+        self.kernel(queue, size, self.local_size, params_buffer, records, filtered)

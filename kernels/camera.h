@@ -7,6 +7,7 @@
 #include "rng.h"
 #include "sampling.h"
 #include "filter.h"
+#include "splat.h"
 
 typedef struct { lane_float3 origin; lane_float3 direction; } Ray;
 
@@ -45,7 +46,10 @@ typedef struct { Ray ray; lane_float weight; lane_float2 position; } CameraSampl
 CameraSample sample_camera(__constant RenderParams* params, lane_int x, int y, Rng* rng) {
     int width = params->frame.x, height = params->frame.y;
     CameraSample sample;
-    sample.position = sample_filter(&params->filter, rng_float2(rng), x, y, width, height, &sample.weight);
+    lane_float2 u = rng_float2(rng);
+    // Splatting weighs samples taken uniformly in their pixels (splat.h); else the filter places them.
+    sample.weight = 1.0f;
+    sample.position = SPLATTING(params) ? u : sample_filter(&params->filter, u, x, y, width, height, &sample.weight);
     sample.ray = camera_ray(&params->camera, x, y, width, height, sample.position);
     if (params->camera.lens.x > 0.0f) sample.ray = through_lens(&params->camera, sample.ray, rng_float2(rng));
     return sample;

@@ -15,7 +15,7 @@
 #include "splat.h"
 
 KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
-    int tx = get_global_id(0), ty = get_global_id(1);
+    int tx = get_global_id(0), ty = first_row + (int)get_global_id(1);
     if (tx >= params->tile.z || ty >= params->tile.w) return;
     int x = params->tile.x + tx, y = params->tile.y + ty;
     int width = params->frame.x;
@@ -33,7 +33,6 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     // Pixels traced only to lend their samples to the target tile report no dropped samples:
     // their own tile does.
     bool reports = !splatting || IN_SPLAT_TILE(params, x, y);
-    __global float4* records = splat_records + slot;
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_path((uint)pixel, (uint)s, (uint)params->config.z, params->sampling.x);
         CameraSample camera = sample_camera(params, x, y, &rng);
@@ -44,7 +43,7 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
         bool finite = isfinite(radiance.x) && isfinite(radiance.y) && isfinite(radiance.z);
         discarded += finite || !reports ? 0 : 1;
         float3 value = finite ? radiance : (float3)(0.0f);
-        if (splatting) records[(s - first) * params->tile.z * params->tile.w] = splat_record(value, camera.position.x, camera.position.y);
+        if (splatting) write_splat_records(params, splat_records, s - first, slot, 1, value, camera.position);
 #if AOVS
         aov_weight(&aov, camera.weight);
         accumulate_aovs(&aovs, &aov, value, finite, sum);

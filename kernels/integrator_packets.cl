@@ -18,7 +18,7 @@
 #endif
 
 KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
-    int first_column = get_global_id(0) * 8, ty = get_global_id(1);
+    int first_column = get_global_id(0) * 8, ty = first_row + (int)get_global_id(1);
     int tile_width = params->tile.z;
     if (first_column >= tile_width || ty >= params->tile.w) return;
     int8 tx = first_column + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
@@ -80,14 +80,7 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
         int8 finite = isfinite(radiance.x) & isfinite(radiance.y) & isfinite(radiance.z);
         discarded -= in_tile & reports & !finite;
         lane_float3 value = l3_select(l3_splat(0.0f), radiance, finite);
-        if (splatting) {
-            float record[5][8];
-            vstore8(value.x, 0, record[0]); vstore8(value.y, 0, record[1]); vstore8(value.z, 0, record[2]);
-            vstore8(camera.position.x, 0, record[3]); vstore8(camera.position.y, 0, record[4]);
-            __global float4* records = splat_records + (s - first) * tile_width * params->tile.w + slot;
-            for (int i = 0; i < lanes; ++i)
-                records[i] = splat_record((float3)(record[0][i], record[1][i], record[2][i]), record[3][i], record[4][i]);
-        }
+        if (splatting) write_splat_records(params, splat_records, s - first, slot, lanes, value, camera.position);
 #if AOVS
         // aovs.h, aov_weight and accumulate_aovs: Welford's update from the sums before this sample.
         albedo_sum = l3_add(albedo_sum, l3_scale(aov.albedo, camera.weight));
