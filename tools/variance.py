@@ -60,19 +60,6 @@ def pixel_variances(images):
     return images.var(axis=0, ddof=1)
 
 
-def jackknife_ratio(ours, theirs):
-    """mean variance of `ours` over that of `theirs` (images by seed, the same seeds' count) and
-    its jackknife standard error over the seeds."""
-    def leave_one_out(images):
-        n = len(images)
-        s1, s2 = images.sum(0), (images ** 2).sum(0)
-        return np.array([np.mean(((s2 - x * x) - (s1 - x) ** 2 / (n - 1)) / (n - 2)) for x in images])
-    ratio = pixel_variances(ours).mean() / pixel_variances(theirs).mean()
-    partial = leave_one_out(ours) / leave_one_out(theirs)
-    n = len(partial)
-    return ratio, float(np.sqrt((n - 1) / n * np.sum((partial - partial.mean()) ** 2)))
-
-
 def scene_camera(xml, params):
     """The scene's camera as clrender reads it (its filter Mitsuba's default gaussian where the
     film has none)."""
@@ -94,9 +81,11 @@ def splat_factor(f):
 
 def compare(xml, params, choice, args):
     """The table's cells after the scene for the mirrored scene `xml` and filter `choice`."""
+    from clrender.metrics import variance_ratio
+
     ours = render_clrender(xml, params, args.spp, range(1, args.seeds + 1), args.clrender_sampler)
     theirs = render_mitsuba(xml, params, args.spp, range(1, args.seeds + 1), args.variant)
-    ratio, error = jackknife_ratio(ours, theirs)
+    ratio, error = variance_ratio(ours, theirs)
     v_ours, v_theirs = pixel_variances(ours), pixel_variances(theirs)
     f = scene_camera(xml, params).filter
     calm = v_ours + v_theirs <= np.quantile(v_ours + v_theirs, 0.99)
