@@ -1,5 +1,6 @@
-"""Which emitter next-event estimation picks (clrender/light_selection.py): half by power (the environment's a quarter of it), half
-as Mitsuba 3 (each emitting shape and each light alike, a mesh's triangles by area)."""
+"""Which emitter next-event estimation picks (clrender/light_selection.py): half by power (the
+environment's a quarter of it), half as Mitsuba 3 (each emitting shape and each light alike, a
+mesh's triangles by area)."""
 import warnings
 
 import numpy as np

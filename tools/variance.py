@@ -7,6 +7,10 @@ estimators alone) and `scene` (the scene's own filter).
 
     python tools/variance.py ../shared/real-scenes/ppg-torus ... [--size 64] [--spp 64] [--seeds 48]
                              [--filters box scene] [--clrender-sampler independent|sobol]
+    python tools/variance.py --test-scenes [NAME ...] --size 16 --spp 128 --seeds 16
+
+With --test-scenes, the scenes of tests/mitsuba_scenes.py (test_mitsuba_parity.py's; their filter
+is the box) instead: the variance of the estimators on small scenes of one feature each.
 
 Per scene and filter, the mean over pixels and channels of the per-pixel variance of an --spp
 image (across the seeds): both renderers are unbiased, so it is the expected MSE of one image
@@ -95,9 +99,34 @@ def compare(xml, params, choice, args):
             f"{(ours.mean() / theirs.mean() - 1) * 100:+.1f} %"]
 
 
+def real_scene_cases(paths, args, scratch):
+    """(row label, mirrored XML, -D parameters, filter choice) of each real scene and filter."""
+    for xml in real_scenes.scene_files(paths):
+        name, params = real_scenes.scene_name(xml), real_scenes.parameters(xml)
+        size = real_scenes.film_size(scene_camera(xml, params).resolution, args.size)
+        for choice in args.filters:
+            mirrored = real_scenes.mirror(xml, Path(scratch) / f"{name}-{choice}", size, "independent",
+                                          rfilter="box" if choice == "box" else None)
+            yield f"{name} ({size[0]}x{size[1]})", mirrored, params, choice
+
+
+def test_scene_cases(names, args, scratch):
+    """The same for the scenes of tests/mitsuba_scenes.py (all where `names` is empty), square
+    films of --size pixels, their own filter (the box)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import mitsuba_scenes
+
+    for name in names or sorted(mitsuba_scenes.SCENES):
+        (Path(scratch) / name).mkdir()
+        yield f"{name} ({args.size}x{args.size})", mitsuba_scenes.write(Path(scratch) / name, name), \
+            {"res": str(args.size)}, "scene"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("scenes", nargs="+", type=Path, help="Mitsuba XML scenes or their folders")
+    parser.add_argument("scenes", nargs="*", type=Path, help="Mitsuba XML scenes or their folders")
+    parser.add_argument("--test-scenes", nargs="*", metavar="NAME",
+                        help="instead, these scenes of tests/mitsuba_scenes.py (none named: all)")
     parser.add_argument("--size", type=int, default=64, help="the film's longer side (the aspect kept)")
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--seeds", type=int, default=48, help="images per renderer, scene and filter")
@@ -111,14 +140,11 @@ def main():
 
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
-        for xml in real_scenes.scene_files(args.scenes):
-            name, params = real_scenes.scene_name(xml), real_scenes.parameters(xml)
-            size = real_scenes.film_size(scene_camera(xml, params).resolution, args.size)
-            for choice in args.filters:
-                mirrored = real_scenes.mirror(xml, Path(scratch) / f"{name}-{choice}", size, "independent",
-                                              rfilter="box" if choice == "box" else None)
-                rows.append([f"{name} ({size[0]}x{size[1]})"] + compare(mirrored, params, choice, args))
-                print(" | ".join(rows[-1]), flush=True)
+        cases = (test_scene_cases(args.test_scenes, args, scratch) if args.test_scenes is not None
+                 else real_scene_cases(args.scenes, args, scratch))
+        for label, xml, params, choice in cases:
+            rows.append([label] + compare(xml, params, choice, args))
+            print(" | ".join(rows[-1]), flush=True)
     print(f"\n{args.spp} spp, {args.seeds} seeds (1..{args.seeds}) per renderer; clrender's sampler "
           f"{args.clrender_sampler}, Mitsuba's independent ({args.variant}); variance: mean over pixels and "
           f"channels of one image's per-pixel variance across the seeds\n")
