@@ -51,7 +51,7 @@ def active_environment(scene):
     if env is None:
         return None
     if env.image is not None:
-        return env if np.any(env.image > 0) else None
+        return env if env.image.size and env.image.max() > 0 else None   # (non-negative: a positive texel)
     return env if np.any(env.radiance > 0) else None
 
 

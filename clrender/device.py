@@ -22,6 +22,7 @@ from pathlib import Path
 import pyopencl as cl
 
 from . import layout
+from .disk_cache import cache_dir
 from .errors import ArgumentError, DeviceError, KernelBuildError
 
 BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
@@ -144,10 +145,6 @@ def define_options(features):
     return " ".join(f"-D{name}={int(value)}" for name, value in sorted(features.items()))
 
 
-def cache_dir():
-    return os.environ.get("CLRENDER_CACHE_DIR") or str(Path.home() / ".cache" / "clrender")
-
-
 def build_program(context, features, entry=None):
     """Build the program for `features` (from `entry`, default the render kernel they select),
     or fetch it from the memory or disk cache."""
@@ -161,7 +158,14 @@ def build_program(context, features, entry=None):
     programs = _memory_cache(context)
     if key not in programs:
         programs[key] = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
+        programs[key].clrender_key = key
     return programs[key]
+
+
+def program_key(program):
+    """The build key (device, driver, options, source) of a program build_program made, None
+    for any other: what the tables a program computes depend on (disk_cache.py)."""
+    return getattr(program, "clrender_key", None)
 
 
 def _memory_cache(context):

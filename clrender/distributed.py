@@ -347,10 +347,12 @@ def merge_strips(scene, states):
     object_id = [s.object_id if s.object_id is not None else np.full(len(s.sums), -1, np.int32)
                  for s in states]
     aov_sums = None if states[0].aov_sums is None else np.concatenate([s.aov_sums for s in states])
+    filtered = [s.filtered if s.filtered is not None else np.zeros((len(s.sums), 4), np.float32) for s in states]
+    splatted = any(s.filtered is not None for s in states)
     return Accumulation((0, 0, width, height), min(s.samples for s in states),
                         np.concatenate([s.sums for s in states]), sum(s.discarded for s in states),
                         sum(s.seconds for s in states), np.concatenate(geometry),
-                        np.concatenate(object_id), aov_sums)
+                        np.concatenate(object_id), aov_sums, np.concatenate(filtered) if splatted else None)
 
 
 class _Job:

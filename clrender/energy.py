@@ -2,12 +2,14 @@
 
 Each table is the directional albedo E(mu_o) of a material's single-scattering lobe, computed on
 the device by the kernel code that renders it, so host and kernel cannot disagree. Tables depend
-only on the lobe (kind, indices, the microfacet model) and are cached for the session.
+only on the lobe (kind, indices, the microfacet model) and are cached for the session, and on
+disk per program build (disk_cache.py).
 """
 import numpy as np
 import pyopencl as cl
 
-from . import layout, plastic
+from . import disk_cache, layout, plastic
+from .device import program_key
 
 _cache = {}  # (device, *TABLE_FIELDS) -> float32 (sides, ALBEDO_TABLE_SIZE)
 
@@ -24,6 +26,16 @@ def _table_key(queue, material):
     return (queue.device.int_ptr, *(float(_field(material, name)) for name in TABLE_FIELDS))
 
 
+def _disk_fields(key):
+    """The disk cache's fields of a session key (the program's build key names the device)."""
+    return ("albedo",) + key[1:]
+
+
+def _sides(material):
+    """Tables of a material: a dielectric's two sides, one otherwise."""
+    return 2 if _field(material, "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
+
+
 def fill_albedo_tables(queue, program, arrays):
     """Fill arrays.specular_albedo for the materials in arrays.table_materials (plastic's coat
     tables: clrender/plastic.py)."""
@@ -36,10 +48,16 @@ def fill_albedo_tables(queue, program, arrays):
     size = layout.ALBEDO_TABLE_SIZE
     context = queue.context
     pending = []
+    build_key = program_key(program)
     for index in owners:
         m = materials[index]
         key = _table_key(queue, m)
-        if key not in _cache:
+        if key in _cache:
+            continue
+        stored = disk_cache.load_table(build_key, _disk_fields(key), (_sides(m), size))
+        if stored is not None:
+            _cache[key] = stored
+        else:
             pending.append((index, key))
     if pending:
         kernel = cl.Kernel(program, "specular_albedo_table")
@@ -52,8 +70,9 @@ def fill_albedo_tables(queue, program, arrays):
         cl.enqueue_copy(queue, out, out_buffer)
         for index, key in pending:
             offset = int(_field(materials[index], "albedo_tables"))
-            sides = 2 if _field(materials[index], "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
+            sides = _sides(materials[index])
             _cache[key] = out[offset:offset + sides * size].reshape(sides, size).copy()
+            disk_cache.store_table(build_key, _disk_fields(key), _cache[key])
     for index in owners:
         m = materials[index]
         key = _table_key(queue, m)

@@ -212,6 +212,9 @@ RENDER_PARAMS = np.dtype([
     ("scene_sphere", F4),  # centre, radius
     ("lights", I4),        # x index of the first emitter that is not an area light (lights follow them)
     ("tile", I4),          # the pixels of this pass: first column, first row, width, height
+    ("splat", I4),         # splatting (kernels/splat.h): the tile the samples are splatted to,
+                           # inside `tile` grown by the filter's reach; width 0: no splatting
+    ("splat_reach", I4),   # x: the pixels beyond its own a sample's filter reaches (splatting.reach)
     ("sampling", I4),      # x the sampler of camera paths (SAMPLERS); y, z the direct integrator's
                            # light and BSDF samples per camera hit (0, 0: path tracing)
     ("filter", FILTER),    # the pixel reconstruction filter

@@ -49,7 +49,8 @@ _WELL_FORMED = {
     b"v": _statement(b"v", _numbers(3) + rb"(?:" + _GAP + _NUMBER + rb")*" + _END),
     b"vt": _statement(b"vt", _numbers(2) + rb"(?:" + _GAP + _NUMBER + rb")?" + _END),
     b"vn": _statement(b"vn", _numbers(3) + _END),
-    b"f": _statement(b"f", rb"[ \t]*((?:" + _CORNER_TEXT + _GAP + rb"){2,}" + _CORNER_TEXT + rb")" + _END),
+    # (a corner, then gaps and corners: each repetition starts with a gap, so nothing backtracks)
+    b"f": _statement(b"f", rb"[ \t]*(" + _CORNER_TEXT + rb"(?:" + _GAP + _CORNER_TEXT + rb"){2,})" + _END),
 }
 _EXPECTED = {b"v": "3 numbers", b"vt": "2 numbers", b"vn": "3 numbers",
              b"f": "3 or more corners p, p/t, p//n or p/t/n"}
@@ -112,11 +113,17 @@ def _vectors(text, key, width):
 def _well_formed(text, key):
     """The captured values of every `key` statement; ObjError naming the first malformed one."""
     values = _WELL_FORMED[key].findall(text)
-    if len(values) != len(_ANY[key].findall(text)):
+    if len(values) != _count(text, key):
         bad = next(m for m in _ANY[key].finditer(text) if not _WELL_FORMED[key].match(text, m.start()))
         raise ObjError(f"line {_line_of(text, bad)}: cannot read {bad.group(0).decode(errors='replace').strip()!r} "
                        f"(expected {_EXPECTED[key]})")
     return values
+
+
+def _count(text, key):
+    """The number of `key` statements (_ANY's matches, counted without the regular expression:
+    each starts at a line break, so none overlaps another)."""
+    return text.count(b"\n" + key + b" ") + text.count(b"\n" + key + b"\t")
 
 
 def _face_corners(text):

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pyopencl as cl
 
-from . import filters, layout, limits
+from . import filters, layout, limits, splatting
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
@@ -79,6 +79,9 @@ class Accumulation:
     object_id: np.ndarray = None # (n, 4) float32 and (n,) int32, see RenderResult.aux
     aov_sums: np.ndarray = None  # (n,) layout.AOV_SUMS: the sample-level AOVs' sums, when they
                                  # are accumulated (the kernel's AOVS build), else None
+    filtered: np.ndarray = None  # (n, 4) float32 when splatting (splatting.py): the sums of w L
+                                 # (xyz) and of w (w) of the samples splatted to each pixel; the
+                                 # image is their ratio. None before the first sample or without.
 
     @classmethod
     def start(cls, tile, sample_aovs=False):
@@ -102,14 +105,16 @@ def output_request(aovs=(), denoise=False, denoise_prefilter=False, denoise_keep
 
 def image_result(scene, state, aovs=(), denoising=None):
     """The RenderResult of a whole-image Accumulation: sums normalised per pixel by their sample
-    count (so an interrupted render is exact for what was done), the AOVs named in `aovs`
+    count, or splatted sums by their weights (so an interrupted render is exact for what was
+    done), the AOVs named in `aovs`
     (their sums must be in `state` for the sample-level ones), denoised with the
     DenoiseSettings `denoising` unless None, with the scene's outlines."""
     width, height = scene.camera.resolution
     if tuple(state.tile) != (0, 0, width, height):
         raise ArgumentError("state.tile", f"expected the whole {width}x{height} image, got tile {state.tile}")
-    counts = state.sums[:, 3:4]
-    image = np.where(counts > 0, state.sums[:, :3] / np.maximum(counts, 1), 0.0)
+    sums = state.sums if state.filtered is None else state.filtered
+    with np.errstate(invalid="ignore", divide="ignore"):
+        image = np.where(sums[:, 3:4] > 0, sums[:, :3] / sums[:, 3:4], 0.0)
     image = image.reshape(height, width, 3).astype(np.float32)
     geometry, object_id = state.geometry, state.object_id
     if geometry is None:   # interrupted before sample 0: as if every centre ray escaped
@@ -128,7 +133,7 @@ def image_result(scene, state, aovs=(), denoising=None):
     image, alpha = apply_outlines(image, aux, scene.outlines)
     if noisy is not None and alpha is not None:
         noisy = composite(noisy, alpha, scene.outlines.color)
-    return RenderResult(image, int(counts.min()) if counts.size else 0, state.seconds, state.discarded,
+    return RenderResult(image, state.samples, state.seconds, state.discarded,
                         aux=aux, outline_alpha=alpha, aovs=images, noisy_image=noisy,
                         denoise_seconds=denoise_seconds)
 
@@ -176,10 +181,11 @@ def sampler_code(scene, override=None):
 
 
 def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True,
-                  step=None, raymarch_multiple_scattering=None, tile=None, sampler=None):
+                  step=None, raymarch_multiple_scattering=None, tile=None, sampler=None, splat=None):
     """The RenderParams struct of one launch. `step`, `raymarch_multiple_scattering` (ray
     marching of grid media) and `sampler` default to the scene's render settings; `tile` (x, y,
-    width, height) to the whole image."""
+    width, height), the pixels traced, to the whole image; `splat` the tile their samples are
+    splatted to (splatting.py; None: no splatting)."""
     camera = scene.camera
     width, height = camera.resolution
     forward, right, up = camera.basis()
@@ -202,6 +208,8 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["scene_sphere"] = arrays.scene_sphere
     p["lights"] = (arrays.first_light, 0, 0, 0)
     p["tile"] = (0, 0, width, height) if tile is None else tile
+    p["splat"] = (0, 0, 0, 0) if splat is None else splat
+    p["splat_reach"] = (splatting.reach(camera.filter) if splat is not None else 0, 0, 0, 0)
     p["sampling"] = (sampler_code(scene, sampler), *direct_samples(scene.render), 0)
     p["filter"] = filters.filter_record(camera.filter)
     return p
@@ -306,6 +314,7 @@ class Renderer:
         self.spectral_mis = spectral_mis
         fill_albedo_tables(self.queue, program, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
+        self._gather = splatting.Gather(self.context, scene.camera.filter) if splatting.splats(scene) else None
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
     ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
@@ -398,10 +407,15 @@ class Renderer:
         seed = settings.seed if seed is None else seed
         max_depth = settings.max_depth if max_depth is None else max_depth
         rr_depth = settings.rr_depth if rr_depth is None else rr_depth
-        _, _, tile_width, tile_height = state.tile
+        # The pixels traced: the tile, grown by the filter's reach when splatting; the per-pixel
+        # buffers below are theirs, the tile's part of them is the Accumulation's.
+        width, height = self.scene.camera.resolution
+        traced = (splatting.traced_tile(state.tile, self._gather.reach, width, height) if self._gather
+                  else state.tile)
+        _, _, tile_width, tile_height = traced
         n = tile_width * tile_height
         mf = cl.mem_flags
-        sums = np.ascontiguousarray(state.sums, dtype=np.float32)
+        sums = splatting.embed(np.asarray(state.sums, dtype=np.float32), state.tile, traced)
         accum_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=sums)
         discarded = np.zeros(1, np.int32)
         discarded_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=discarded)
@@ -409,21 +423,23 @@ class Renderer:
         aux_buffers = (cl.Buffer(self.context, mf.WRITE_ONLY, n * 16),
                        cl.Buffer(self.context, mf.WRITE_ONLY, n * 4))
         # Read by the AOVS build only; the colour-only build gets a placeholder.
-        aov_sums = state.aov_sums if state.aov_sums is not None else np.zeros(1, layout.AOV_SUMS)
-        aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
-                               hostbuf=np.ascontiguousarray(aov_sums, dtype=layout.AOV_SUMS))
+        aov_sums = (splatting.embed(np.asarray(state.aov_sums, dtype=layout.AOV_SUMS), state.tile, traced)
+                    if state.aov_sums is not None else np.zeros(1, layout.AOV_SUMS))
+        aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=aov_sums)
+        splat = self._splat_buffers(state, traced, samples)
         kernel, lanes = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
 
         end = state.samples + samples
         done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
+        most = splatting.samples_per_pass_limit(traced, self._gather.reach) if splat else MAX_SPP
         rows = tile_height if samples_per_pass else self._first_launch_rows(tile_width, tile_height)
         try:
             while done < end and (time_limit is None or seconds < time_limit):
-                count = min(per_pass, end - done)
+                count = min(per_pass, end - done, most)
                 params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
                                        seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering,
-                                       state.tile, self.sampler)
+                                       traced, self.sampler, state.tile if splat else None)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 # The tile's rows in bands of `rows` (a multiple of the work-group height but for
                 # the last, whose excess rows the kernel's guard skips), each band a launch
@@ -433,23 +449,52 @@ class Renderer:
                     start = time.perf_counter()
                     kernel(self.queue, self._global_size(tile_width, band, lanes), self.local_size, params_buffer,
                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer,
-                           global_offset=(0, first_row))
+                           splat.records if splat else self._no_records, global_offset=(0, first_row))
+                    if splat and first_row + band >= tile_height:
+                        self._gather(self.queue, state.tile, params_buffer, splat.records, splat.filtered)
                     self.queue.finish()
                     elapsed = time.perf_counter() - start
                     seconds += elapsed
                     if progress is not None and first_row + band < tile_height:   # a fraction of a sample
                         progress(done + count * (first_row + band) / tile_height, end, state.seconds + seconds)
                 done += count
+                if splat:
+                    splat.samples = done
                 if samples_per_pass is None:
                     per_pass, rows = self._next_launch(count, band, tile_height, elapsed)
                 if progress is not None:
                     progress(done, end, state.seconds + seconds)
         except KeyboardInterrupt as interrupt:
             self.queue.finish()
-            raise RenderInterrupted(self._download(state, accum_buffer, discarded_buffer, aux_buffers,
-                                                   aov_buffer, seconds),
+            raise RenderInterrupted(self._download(state, traced, accum_buffer, discarded_buffer, aux_buffers,
+                                                   aov_buffer, splat, seconds),
                                     getattr(interrupt, "signal", signal.SIGINT)) from None
-        return self._download(state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, done)
+        return self._download(state, traced, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, splat, seconds,
+                              done)
+
+    def _splat_buffers(self, state, traced, samples):
+        """_SplatBuffers for accumulating `samples` onto `state` over the pixels `traced`, or None
+        without splatting."""
+        if self._gather is None:
+            return None
+        n = state.tile[2] * state.tile[3]
+        if state.filtered is None and state.samples > 0:
+            raise ArgumentError("state", "holds samples without their splatted sums (filtered): it was not "
+                                         "accumulated by splatting")
+        filtered = state.filtered if state.filtered is not None else np.zeros((n, 4), np.float32)
+        mf = cl.mem_flags
+        records = min(samples, splatting.samples_per_pass_limit(traced, self._gather.reach)) * traced[2] * traced[3]
+        return _SplatBuffers(cl.Buffer(self.context, mf.READ_WRITE, records * splatting.record_bytes(self._gather.reach)),
+                             cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
+                                       hostbuf=np.ascontiguousarray(filtered, dtype=np.float32)),
+                             state.samples)
+
+    @property
+    def _no_records(self):
+        """The render pass's records argument when it does not splat."""
+        if not hasattr(self, "_placeholder_records"):
+            self._placeholder_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
+        return self._placeholder_records
 
     def _check_depths(self, max_depth, rr_depth):
         """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""
@@ -468,7 +513,8 @@ class Renderer:
                 and x + tile_width <= width and y + tile_height <= height):
             raise ArgumentError("state.tile", f"{state.tile} is not a tile of the {width}x{height} image")
         n = tile_width * tile_height
-        if np.shape(state.sums) != (n, 4) or (state.aov_sums is not None and np.shape(state.aov_sums) != (n,)):
+        if (np.shape(state.sums) != (n, 4) or (state.aov_sums is not None and np.shape(state.aov_sums) != (n,))
+                or (state.filtered is not None and np.shape(state.filtered) != (n, 4))):
             raise ArgumentError("state", f"its sums do not have the {n} pixels of its tile")
         limits.number(state.samples, "state.samples", low=0, high=MAX_SPP, integer=True)
         limits.setting("spp", samples, "samples")
@@ -516,30 +562,49 @@ class Renderer:
             return target // height, height
         return 1, self._band_rows(target, height)
 
-    def _download(self, state, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, seconds, samples=None):
-        """The Accumulation after the launches completed on `state`'s buffers, which hold
-        `samples` per pixel (None: count them, after Ctrl-C)."""
-        sums = np.empty_like(state.sums, dtype=np.float32)
+    def _download(self, state, traced, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, splat, seconds,
+                  samples=None):
+        """The Accumulation after the launches completed on `state`'s buffers (of the pixels
+        `traced`), which hold `samples` per pixel (None: count them, after Ctrl-C)."""
+        n = traced[2] * traced[3]
+        sums = np.empty((n, 4), np.float32)
         discarded = np.empty(1, np.int32)
         cl.enqueue_copy(self.queue, sums, accum_buffer)
         cl.enqueue_copy(self.queue, discarded, discarded_buffer)
+        sums = splatting.crop(sums, traced, state.tile)
         # Every launch adds its samples to every pixel of the tile and w counts them, so the
         # sums say how many were taken even when Ctrl-C came between a launch and its count.
+        # Splatted sums hold the passes gathered: the image is their ratio, whatever the count.
         if samples is None:
-            samples = int(sums[:, 3].min())
+            samples = splat.samples if splat else int(sums[:, 3].min())
         geometry, object_id = state.geometry, state.object_id
         if state.samples == 0 and samples > 0:
-            geometry = np.empty((len(sums), 4), np.float32)
-            object_id = np.empty(len(sums), np.int32)
+            geometry = np.empty((n, 4), np.float32)
+            object_id = np.empty(n, np.int32)
             cl.enqueue_copy(self.queue, geometry, aux_buffers[0])
             cl.enqueue_copy(self.queue, object_id, aux_buffers[1])
+            geometry, object_id = splatting.crop(geometry, traced, state.tile), splatting.crop(object_id, traced, state.tile)
             geometry[:, 3] /= self.arrays.length_scale      # depth in scene units
         aov_sums = None
         if state.aov_sums is not None:
-            aov_sums = np.empty(len(sums), layout.AOV_SUMS)
+            aov_sums = np.empty(n, layout.AOV_SUMS)
             cl.enqueue_copy(self.queue, aov_sums, aov_buffer)
+            aov_sums = splatting.crop(aov_sums, traced, state.tile)
+        filtered = state.filtered
+        if splat:
+            filtered = np.empty((len(sums), 4), np.float32)
+            cl.enqueue_copy(self.queue, filtered, splat.filtered)
         return Accumulation(state.tile, samples, sums, state.discarded + int(discarded[0]),
-                            state.seconds + seconds, geometry, object_id, aov_sums)
+                            state.seconds + seconds, geometry, object_id, aov_sums, filtered)
+
+
+@dataclass
+class _SplatBuffers:
+    """One accumulation's splatting buffers: the records of a pass, the tile's splatted sums, and
+    how many samples per pixel those hold."""
+    records: cl.Buffer
+    filtered: cl.Buffer
+    samples: int
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,

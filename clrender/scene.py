@@ -28,6 +28,7 @@ MEDIUM_TYPES = ("homogeneous", "grid")
 VOLUME_METHODS = ("null", "raymarch")
 SAMPLERS = ("sobol", "independent")   # clrender/layout.py SAMPLERS, kernels/rng.h
 FILTER_TYPES = ("box", "gaussian", "tent")   # clrender/filters.py
+FILTER_METHODS = ("splat", "importance")     # render.filter_method: kernels/splat.h, kernels/filter.h
 # Filter radii up to the image edges the kernel's tables cover (layout.FILTER_EDGES); a filter
 # narrower than MIN_FILTER_RADIUS of a pixel is a box in all but name.
 MAX_FILTER_RADIUS = 16.0
@@ -222,6 +223,11 @@ class RenderSettings:
     # Random numbers of camera paths: "sobol" (padded Owen-scrambled Sobol, stratified per
     # pixel) or "independent" (hashed i.i.d. numbers); kernels/rng.h.
     sampler: str = "sobol"
+    # How the pixel filter (camera.filter) makes pixels of samples: "splat" (each sample counts
+    # in every pixel its filter reaches, as Mitsuba does; kernels/splat.h) or "importance" (each
+    # sample's position drawn from its own pixel's filter; kernels/filter.h). The same image in
+    # expectation; splatting has less noise per pixel, importance sampling uncorrelated noise.
+    filter_method: str = "splat"
 
 
 @dataclass
@@ -568,6 +574,7 @@ def _read_render(node):
         hide_environment=node.boolean("hide_environment", False),
         hide_emitters=node.boolean("hide_emitters", False),
         sampler=node.string("sampler", "sobol", choices=SAMPLERS),
+        filter_method=node.string("filter_method", "splat", choices=FILTER_METHODS),
         integrator=node.string("integrator", "path", choices=INTEGRATORS),
         aovs=_read_aovs(node),
     )
@@ -1172,7 +1179,7 @@ def _environment_image(node, image, key, scale):
     times `scale` still finite in float32."""
     limits.float32_values(image, node.at(key), SceneError)
     image = np.asarray(image, dtype=np.float32)
-    if np.any(image < 0):
+    if image.size and image.min() < 0:
         raise SceneError(node.at(key), "image must be non-negative")
     limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
     return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale))

@@ -7,6 +7,7 @@
 #include "rng.h"
 #include "sampling.h"
 #include "filter.h"
+#include "splat.h"
 
 typedef struct { lane_float3 origin; lane_float3 direction; } Ray;
 
@@ -37,15 +38,19 @@ Ray through_lens(__constant Camera* camera, Ray pinhole, lane_float2 u) {
     return ray;
 }
 
-// A camera ray of pixel (x, y) and the weight of its radiance in the pixel's mean (the filter's,
-// filter.h). It takes the path's first sampler dimension, and with a lens the second.
-typedef struct { Ray ray; lane_float weight; } CameraSample;
+// A camera ray of pixel (x, y), the weight of its radiance in the pixel's mean (the filter's,
+// filter.h) and its image position relative to the pixel's top-left corner (what splatting
+// weighs, splat.h). It takes the path's first sampler dimension, and with a lens the second.
+typedef struct { Ray ray; lane_float weight; lane_float2 position; } CameraSample;
 
 CameraSample sample_camera(__constant RenderParams* params, lane_int x, int y, Rng* rng) {
     int width = params->frame.x, height = params->frame.y;
     CameraSample sample;
-    lane_float2 position = sample_filter(&params->filter, rng_float2(rng), x, y, width, height, &sample.weight);
-    sample.ray = camera_ray(&params->camera, x, y, width, height, position);
+    lane_float2 u = rng_float2(rng);
+    // Splatting weighs samples taken uniformly in their pixels (splat.h); else the filter places them.
+    sample.weight = 1.0f;
+    sample.position = SPLATTING(params) ? u : sample_filter(&params->filter, u, x, y, width, height, &sample.weight);
+    sample.ray = camera_ray(&params->camera, x, y, width, height, sample.position);
     if (params->camera.lens.x > 0.0f) sample.ray = through_lens(&params->camera, sample.ray, rng_float2(rng));
     return sample;
 }

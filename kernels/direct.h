@@ -18,6 +18,12 @@ bool direct_integrator(const Scene* scene) {
     return scene->params->sampling.y + scene->params->sampling.z > 0;
 }
 
+// Whether a BSDF sample can find emission at all: emitting shapes or an environment (point, spot
+// and directional lights are never hit). Without, BSDF samples add exactly 0 and are not traced.
+bool emission_can_be_hit(const Scene* scene) {
+    return scene->params->lights.x > 0 || scene->params->environment.x >= 0;
+}
+
 // The emission one BSDF sample from sp finds, MIS-weighted against n_light light samples.
 float3 direct_bsdf_sample(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
                           int n_light, int n_bsdf, Rng* rng) {
@@ -81,7 +87,7 @@ float3 trace_direct(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             lit += direct_light(scene, &m, &sp, wo, -1, (float)n_bsdf / (float)n_light, rng);
         radiance += lit / (float)n_light;
     }
-    if (n_bsdf > 0) {
+    if (n_bsdf > 0 && emission_can_be_hit(scene)) {
         float3 found = (float3)(0.0f);
         for (int i = 0; i < n_bsdf; ++i) found += direct_bsdf_sample(scene, &m, &sp, wo, n_light, n_bsdf, rng);
         radiance += found / (float)n_bsdf;

@@ -1,7 +1,7 @@
-// Pixel reconstruction filters by filter importance sampling: each camera sample's image position
-// is drawn from its pixel's filter, so the mean of a pixel's samples is the filtered image and a
-// sample counts in its own pixel only: per-pixel sums, determinism however the samples are split,
-// distributed tiles and AOVs work as with the box. RenderParams.filter, built by
+// Pixel reconstruction filters: their values (which splatting weighs samples by, splat.h) and
+// filter importance sampling (render.filter_method "importance"): each camera sample's image
+// position is drawn from its pixel's filter, so the mean of a pixel's samples is the filtered
+// image and a sample counts in its own pixel only. RenderParams.filter, built by
 // clrender/filters.py (which also evaluates the filters on the host, for tests).
 //
 // Mitsuba's filters are separable, f(tx) f(ty); each axis transforms one of the camera sample's

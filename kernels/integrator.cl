@@ -2,7 +2,8 @@
 // Samples are taken in index order and added one by one, so the sum is the same however the
 // samples are split into launches; the random numbers and the camera ray are keyed by the pixel
 // of the full image, so a pixel's sum is also the same whichever tile holds it (distributed.py).
-// With AOVS the sample-level AOVs accumulate beside it (aovs.h).
+// With AOVS the sample-level AOVs accumulate beside it (aovs.h). When splatting (splat.h) the
+// tile is the traced pixels and each sample is also written as a record for the gather.
 #include "portability.h"
 #include "rng.h"
 #include "camera.h"
@@ -11,6 +12,7 @@
 #include "path.h"
 #include "direct.h"
 #include "aux_buffers.h"
+#include "splat.h"
 
 KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int tx = get_global_id(0), ty = get_global_id(1);
@@ -27,6 +29,10 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
 #endif
     int discarded = 0;
     int first = params->frame.z;
+    bool splatting = SPLATTING(params);
+    // Pixels traced only to lend their samples to the target tile report no dropped samples:
+    // their own tile does.
+    bool reports = !splatting || IN_SPLAT_TILE(params, x, y);
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_path((uint)pixel, (uint)s, (uint)params->config.z, params->sampling.x);
         CameraSample camera = sample_camera(params, x, y, &rng);
@@ -35,8 +41,9 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
                                                      : trace_path(&scene, camera.ray, &rng, &aov)) * camera.weight;
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         bool finite = isfinite(radiance.x) && isfinite(radiance.y) && isfinite(radiance.z);
-        discarded += finite ? 0 : 1;
+        discarded += finite || !reports ? 0 : 1;
         float3 value = finite ? radiance : (float3)(0.0f);
+        if (splatting) write_splat_records(params, splat_records, s - first, slot, 1, value, camera.position);
 #if AOVS
         aov_weight(&aov, camera.weight);
         accumulate_aovs(&aovs, &aov, value, finite, sum);

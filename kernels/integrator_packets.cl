@@ -3,14 +3,16 @@
 // step, so the CPU runs them in its vector lanes. Otherwise as integrator.cl: samples in index
 // order, random numbers keyed by the pixel of the full image, the pixel-centre record written
 // by the launch holding sample 0, non-finite samples dropped and counted, with AOVS the
-// sample-level AOVs summed beside the colour (aovs.h). The arguments are integrator.cl's (the
-// host launches either the same way, 8 times fewer work-items across).
+// sample-level AOVs summed beside the colour (aovs.h), with splatting each sample written as a
+// record (splat.h). The arguments are integrator.cl's (the host launches either the same way, 8
+// times fewer work-items across).
 #include "portability.h"
 #include "rng.h"
 #include "camera.h"
 #include "scene.h"
 #include "path_packets.h"
 #include "aux_buffers.h"
+#include "splat.h"
 #if LANES != 8
 #error "integrator_packets.cl is built with LANES 8"
 #endif
@@ -66,6 +68,9 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
 #endif
     int8 discarded = 0;
     int first = params->frame.z;
+    bool splatting = SPLATTING(params);
+    // As integrator.cl: pixels traced only to lend their samples report no dropped samples.
+    int8 reports = splatting ? IN_SPLAT_TILE(params, x, (int8)(y)) : (int8)(-1);
     for (int s = first; s < first + params->frame.w; ++s) {
         Rng rng = rng_for_path(pixel, (uint)s, (uint)params->config.z, params->sampling.x);
         CameraSample camera = sample_camera(params, x, y, &rng);
@@ -73,8 +78,9 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
         lane_float3 radiance = l3_scale(trace_paths(&scene, camera.ray, in_tile, &rng, &aov), camera.weight);
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         int8 finite = isfinite(radiance.x) & isfinite(radiance.y) & isfinite(radiance.z);
-        discarded -= in_tile & !finite;
+        discarded -= in_tile & reports & !finite;
         lane_float3 value = l3_select(l3_splat(0.0f), radiance, finite);
+        if (splatting) write_splat_records(params, splat_records, s - first, slot, lanes, value, camera.position);
 #if AOVS
         // aovs.h, aov_weight and accumulate_aovs: Welford's update from the sums before this sample.
         albedo_sum = l3_add(albedo_sum, l3_scale(aov.albedo, camera.weight));

@@ -36,7 +36,8 @@ typedef struct {
     __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data, \
     __global const float* majorant_data, __global const float2* uvs, __global const Texture* textures, \
     __global const uchar* texels, __global float4* accumulator, __global int* discarded_samples, \
-    __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums
+    __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums, \
+    __global float* splat_records
 #define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, triangles, shading, info, materials, media, emitters, \
     emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels}
 

@@ -60,7 +60,7 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
     out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
-    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile);
+    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile); out[k++] = OFFSET(p, splat); out[k++] = OFFSET(p, splat_reach);
     out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);

@@ -70,6 +70,8 @@ typedef struct {
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry
     int4 lights;       // x index of the first emitter that is not an area light (lights follow them)
     int4 tile;         // the pixels of this pass: x, y first column and row, z width, w height
+    int4 splat;        // splatting (splat.h): the target tile as `tile` (z = 0: no splatting)
+    int4 splat_reach;  // x the pixels beyond its own a sample's filter reaches (splat.h)
     int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h); y, z the direct
                        // integrator's light and BSDF samples per camera hit (0, 0: path tracing)
     Filter filter;     // the pixel reconstruction filter (filter.h)

@@ -141,6 +141,23 @@ def sphere(analytic, subdivisions=3, **fields):
     return shape
 
 
+# Debian's libLLVM 19, which Mitsuba's llvm variants load (DRJIT_LIBLLVM_PATH).
+LIBLLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
+
+
+def use_mitsuba_llvm():
+    """Set Mitsuba's llvm_ad_rgb variant, which evaluates pixel filters exactly where scalar_rgb
+    tabulates them; the test is skipped where LLVM is missing (`apt-get install libllvm19`)."""
+    import mitsuba as mi
+
+    if LIBLLVM.exists():
+        os.environ.setdefault("DRJIT_LIBLLVM_PATH", str(LIBLLVM))
+    try:
+        mi.set_variant("llvm_ad_rgb")
+    except (ImportError, AttributeError, RuntimeError) as error:
+        pytest.skip(f"Mitsuba's llvm_ad_rgb variant is unavailable (DRJIT_LIBLLVM_PATH): {error}")
+
+
 def real_scene(relative):
     """The file `relative` of the real scenes; the test is skipped where they are absent (CI)."""
     path = REAL_SCENES / relative

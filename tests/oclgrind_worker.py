@@ -60,8 +60,11 @@ def run_combination(case, device):
     info = render(scene, device, method, aovs=SAMPLE_AOVS if features["AOVS"] else (), packets=packets)
     # Run-time switches, on a quarter of the pixels: ray marching's other next-event path (one
     # light sample per segment instead of per step), hero-only free-flight sampling, an albedo
-    # grid, emitters hidden from the camera and the direct integrator (surfaces only).
+    # grid, emitters hidden from the camera, the direct integrator (surfaces only), and the pixel
+    # filter by importance sampling instead of splatting.
     small, _ = feature_scene(features, (4, 4))
+    info = add(info, render(replace(small, render=replace(small.render, filter_method="importance")), device, method,
+                            launches=1))
     if method == "raymarch":
         info = add(info, render(small, device, method, launches=1, raymarch_multiple_scattering=True))
     if features["MEDIA"]:

@@ -11,7 +11,7 @@ from clrender.features import all_feature_combinations, describe, scene_features
 @pytest.mark.parametrize("features", list(all_feature_combinations()), ids=describe)
 def test_every_feature_combination_builds(context, features):
     program = build_program(context, features)
-    assert cl.Kernel(program, "render_pass").num_args == 22
+    assert cl.Kernel(program, "render_pass").num_args == 23
 
 
 def test_test_kernels_build_with_every_environment(context):

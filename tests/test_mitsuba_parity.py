@@ -24,7 +24,7 @@ from clrender.conductor_presets import CONDUCTOR_PRESETS
 from clrender.mitsuba import (IOR_PRESETS, MitsubaXmlWarning, mitsuba_envmap_lookup,
                               read_scene, resample_envmap)
 from clrender.scene import Filter
-from conftest import camera_rays, delta_light_values
+from conftest import camera_rays, delta_light_values, use_mitsuba_llvm
 import mitsuba_scenes
 
 try:
@@ -37,6 +37,15 @@ RES, SPP, RENDERS, BLOCK, Z_MAX = 16, 128, 8, 4, 4.5
 
 @pytest.fixture(scope="module", autouse=True)
 def scalar_rgb():
+    mi.set_variant("scalar_rgb")
+
+
+@pytest.fixture
+def mitsuba_llvm_variant():
+    """Mitsuba's llvm_ad_rgb variant for one test (skipped where Debian's libLLVM 19 is missing),
+    scalar_rgb again after it."""
+    use_mitsuba_llvm()
+    yield
     mi.set_variant("scalar_rgb")
 
 
@@ -61,28 +70,35 @@ def render_both(path, device, spp=SPP, renders=RENDERS, **parameters):
     return ours, mitsuba
 
 
-def block_z_scores(ours, mitsuba, block):
-    """z per block of pixels (block: an int for squares, or (rows, columns)) and channel, from
-    per-pixel means and variances of the mean over the renders (pixels are independent, so
-    block variances add up)."""
+def block_z_scores(ours, mitsuba, block, independent_pixels=True):
+    """z per block of pixels (block: an int for squares, or (rows, columns)) and channel. With
+    `independent_pixels` (box filters: each sample counts in one pixel) a block's variance of the
+    mean is the sum of its pixels' over the renders; otherwise (splatting: neighbours share
+    samples, their noise is correlated) it is that of the renders' block means."""
     count, height, width, _ = ours.shape
     rows, columns = (block, block) if np.isscalar(block) else block
-    difference = ours.mean(0) - mitsuba.mean(0)
-    variance = (ours.var(0, ddof=1) + mitsuba.var(0, ddof=1)) / count
-    shape = (height // rows, rows, width // columns, columns, 3)
-    d = difference.reshape(shape).mean(axis=(1, 3))
-    v = variance.reshape(shape).sum(axis=(1, 3)) / (rows * columns) ** 2
+    shape = (count, height // rows, rows, width // columns, columns, 3)
+    if independent_pixels:
+        difference = ours.mean(0) - mitsuba.mean(0)
+        variance = (ours.var(0, ddof=1) + mitsuba.var(0, ddof=1)) / count
+        d = difference.reshape(shape[1:]).mean(axis=(1, 3))
+        v = variance.reshape(shape[1:]).sum(axis=(1, 3)) / (rows * columns) ** 2
+    else:
+        ours_blocks, mitsuba_blocks = (images.reshape(shape).mean(axis=(2, 4)) for images in (ours, mitsuba))
+        d = ours_blocks.mean(0) - mitsuba_blocks.mean(0)
+        v = (ours_blocks.var(0, ddof=1) + mitsuba_blocks.var(0, ddof=1)) / count
     steady = v == 0
     assert np.all(d[steady] == 0), "blocks without noise differ"
     return np.where(steady, 0.0, d / np.sqrt(np.where(steady, 1.0, v)))
 
 
-def assert_same_image(ours, mitsuba, z_max=Z_MAX):
+def assert_same_image(ours, mitsuba, z_max=Z_MAX, independent_pixels=True):
     """Blocks of BLOCK x BLOCK pixels and the whole image agree: |z| < z_max, a number or a
-    function of the count of z values (blocks x channels)."""
+    function of the count of z values (blocks x channels); `independent_pixels` as for
+    block_z_scores."""
     assert np.all(np.isfinite(ours))
     for block in (BLOCK, ours.shape[1:3]):
-        z = block_z_scores(ours, mitsuba, block)
+        z = block_z_scores(ours, mitsuba, block, independent_pixels)
         limit = z_max(z.size) if callable(z_max) else z_max
         assert np.abs(z).max() < limit, f"{block} blocks: max |z| {np.abs(z).max():.2f} (limit {limit:.2f})\n{z.round(1)}"
 
@@ -114,18 +130,31 @@ def test_cornell_box_renders_as_in_mitsuba(device, max_depth):
     assert_same_image(ours, mitsuba)
 
 
+# Splatted images: neighbouring pixels share samples, so blocks are judged by the renders' block
+# means, FILTER_RENDERS of them per renderer, against Student's t (Welch's smallest degrees of
+# freedom, FILTER_RENDERS - 1) Bonferroni-corrected over the z values for a false alarm of
+# FILTER_FALSE_ALARM per comparison.
+FILTER_RENDERS, FILTER_FALSE_ALARM = 24, 1e-3
+
+
+def splatted_z_limit(count):
+    from scipy import stats
+    return stats.t.isf(FILTER_FALSE_ALARM / (2 * count), FILTER_RENDERS - 1)
+
+
 @pytest.mark.parametrize("rfilter", ["", '<rfilter type="tent"/>',
                                      '<rfilter type="gaussian"><float name="stddev" value="0.3"/></rfilter>'],
                          ids=["gaussian (Mitsuba's default)", "tent", "narrow gaussian"])
-def test_pixel_filters_blur_edges_as_in_mitsuba(tmp_path, device, rfilter):
+def test_pixel_filters_blur_edges_as_in_mitsuba(tmp_path, device, mitsuba_llvm_variant, rfilter):
     # At 16 x 16 the Cornell box is mostly edges: its box-filtered image differs from Mitsuba's
     # gaussian-filtered one by |z| 8 in some blocks; its edge blocks check the filter's
-    # truncation at the image's edges. (scalar_rgb splats with a filter tabulated in 31 steps
-    # per radius, 0.8 % of an edge's contrast off the exact filter: below the noise here.)
+    # truncation at the image's edges. Both splat each sample into the pixels its filter
+    # reaches. Against llvm_ad_rgb, which evaluates the filter: scalar_rgb splats with a filter
+    # tabulated in 31 steps per radius (its gaussian's mass beyond 1.5 pixels 1.2 times the exact one's).
     path = tmp_path / "cornell_box.xml"
     path.write_text(Path("scenes/cornell_box.xml").read_text().replace('<rfilter type="box"/>', rfilter))
-    ours, mitsuba = render_both(path, device, resolution=RES, max_depth=8)
-    assert_same_image(ours, mitsuba)
+    ours, mitsuba = render_both(path, device, renders=FILTER_RENDERS, resolution=RES, max_depth=8)
+    assert_same_image(ours, mitsuba, splatted_z_limit, independent_pixels=False)
 
 
 def test_sun_and_sky_lit_paths_are_no_noisier_than_mitsubas(tmp_path, device):

@@ -446,9 +446,9 @@ def test_focus_distance_is_accepted_on_a_pinhole_camera(tmp_path):
 
 
 @pytest.mark.parametrize("sampler,spp,seed,kind", [
-    ("", 4, 0, "independent"),
+    ("", 4, 0, "sobol"),
     ('<sampler type="independent"><integer name="sample_count" value="10"/><integer name="seed" value="7"/></sampler>', 10, 7,
-     "independent"),
+     "sobol"),
     ('<sampler type="stratified"><integer name="sample_count" value="10"/></sampler>', 16, 0, "sobol"),
     ('<sampler type="multijitter"><integer name="sample_count" value="9"/></sampler>', 9, 0, "sobol"),
     ('<sampler type="ldsampler"><integer name="sample_count" value="10"/></sampler>', 16, 0, "sobol"),
@@ -741,6 +741,32 @@ def test_envmap_is_resampled_with_a_warning(tmp_path):
     assert np.isclose(light["image"].mean(), 2 * image.mean(), rtol=0.05)
     column = light["image"][24, 40 + 4]     # clrender's u = 0.5 + 0.5 / 10 looks down +z (Mitsuba's u 0.05 ...)
     assert np.all(column > 0)
+
+
+def test_a_resampled_envmap_is_kept_on_disk(tmp_path, monkeypatch):
+    """The resampled map is stored (clrender/disk_cache.py) under the image, the rotation and the
+    size: read again it is the map resampled, bit for bit, without resampling; another rotation
+    or another image is resampled."""
+    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path / "cache"))
+    image = np.random.default_rng(4).uniform(0.5, 2.0, (6, 10, 3)).astype(np.float32)
+    clrender.save_image(image, tmp_path / "env.exr")
+
+    def envmap(rotation=""):
+        body = ('<emitter type="envmap"><string name="filename" value="env.exr"/><float name="scale" value="2"/>'
+                f'{rotation}</emitter>')
+        return translate(tmp_path, body)[0]["lights"][0]["image"]
+
+    first = envmap()
+    decoded = clrender.load_image(tmp_path / "env.exr")
+    assert np.array_equal(first, mitsuba.resample_envmap(decoded, np.eye(3), 80, 48) * np.float32(2))
+    monkeypatch.setattr(mitsuba.emitter, "resample_envmap", lambda *a: pytest.fail("resampled again"))
+    assert np.array_equal(envmap(), first)
+    turned = '<transform name="to_world"><rotate x="1" angle="90"/></transform>'
+    with pytest.raises(pytest.fail.Exception, match="resampled again"):
+        envmap(turned)
+    clrender.save_image(image[::-1], tmp_path / "env.exr")
+    with pytest.raises(pytest.fail.Exception, match="resampled again"):
+        envmap()
 
 
 def direct_resample(image, rotation, width, height):

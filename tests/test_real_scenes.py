@@ -5,11 +5,9 @@ absent assets (tests/stand_ins.py). The 15 complete scenes render as Mitsuba 3.9
 (issues 22 and 23; skipped without Mitsuba). About 20 s on 2 cores (the staircase's 775 meshes,
 the Lego's 439), and 2 minutes for the renders (warm kernel caches).
 """
-import os
 import re
 import warnings
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 from scipy import stats
@@ -20,7 +18,7 @@ from clrender.cli import main
 from clrender.features import scene_features
 from clrender.mitsuba import MitsubaXmlError, read_scene
 from clrender.mitsuba.xml import Files, check_version, expand, parse_xml
-from conftest import real_scene
+from conftest import real_scene, use_mitsuba_llvm
 from small_copies import small_copy
 from stand_ins import copy_with_stand_ins
 
@@ -226,17 +224,16 @@ def test_the_staircases_bump_map_wraps_a_bsdf_its_shapes_reference_by_its_inner_
 # ============================================================================================
 # Each complete scene, its film made small (its aspect kept) in a copy whose other files are
 # links (tests/small_copies.py), rendered RENDERS times by both renderers at the same spp with
-# different seeds, compared as tests/test_mitsuba_parity.py compares images: z per 4 x 4 block
-# and channel, and of the whole image. The renders are few and these scenes' noise is far from
+# different seeds, compared as tests/test_mitsuba_parity.py compares splatted images: z per 4 x 4
+# block and channel, and of the whole image, from the renders' block means. The renders are few and these scenes' noise is far from
 # Gaussian (caustics, small bright lights), so the limit on |z| is Student's t for Welch's
 # smallest degrees of freedom (RENDERS - 1), Bonferroni-corrected over the z values of each
 # comparison for a false alarm of FALSE_ALARM per scene (about 6.2 for the 4 x 4 blocks of
 # 64 x 36, 4.1 for the whole image). Mitsuba renders with llvm_ad_rgb: scalar_rgb splats
 # with a gaussian tabulated in 31 steps per radius, whose mass beyond 1.5 pixels is 1.2 times
 # the exact filter's (seen at mitsuba-cbox's dark edges, z 5), where llvm_ad_rgb evaluates the
-# filter, as clrender samples it (docs/mitsuba-xml.md). Seeds are fixed, so outcomes are deterministic.
+# filter, as clrender does (docs/mitsuba-xml.md). Seeds are fixed, so outcomes are deterministic.
 RENDERS, FALSE_ALARM = 24, 1e-3
-LIBLLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM-19.so")
 
 # scene folder: (scene file, film width and height, spp, -D parameters). The research scenes
 # default to their repository's integrator plugin; SOURCES.md says to render them with path.
@@ -258,32 +255,13 @@ PARITY = {
     "tutorials-cbox": ("cbox.xml", (32, 32), 64, {}),
     "tutorials-simple-teapot": ("simple.xml", (32, 32), 16, {}),
 }
-# Lights smaller than a pixel at these sizes, seen directly and in glossy plates: with a
-# gaussian or tent filter Mitsuba splats each sample into every pixel of the filter's support,
-# clrender draws each sample's position from its pixel's filter (issue 23). Equal in
-# expectation, but a neighbour of such a light sees it only in rare samples in clrender: at
-# these sample counts its renders rarely show it (block |z| 7 where the renders of both do not
-# resolve it). Rendered with the box filter in both; the filters themselves are compared on the
-# Cornell box (test_mitsuba_parity.py) and in the other scenes here.
-BOX_FILTERED = {"bitterli-veach-mis", "docs-veach-mis-direct"}
-
-
 @pytest.fixture(scope="module")
 def mitsuba_llvm():
     """Mitsuba with its llvm_ad_rgb variant, and tests/test_mitsuba_parity.py's comparison."""
-    mi = pytest.importorskip("mitsuba")
-    if LIBLLVM.exists():
-        os.environ.setdefault("DRJIT_LIBLLVM_PATH", str(LIBLLVM))
-    try:
-        mi.set_variant("llvm_ad_rgb")
-    except (ImportError, AttributeError, RuntimeError) as error:
-        pytest.skip(f"Mitsuba's llvm_ad_rgb variant is unavailable (DRJIT_LIBLLVM_PATH): {error}")
+    pytest.importorskip("mitsuba")
+    use_mitsuba_llvm()
     import test_mitsuba_parity
     return test_mitsuba_parity
-
-
-def box_filtered(text):
-    return re.sub(r'<rfilter type="(gaussian|tent)"\s*/>', '<rfilter type="box"/>', text)
 
 
 def z_limit(count):
@@ -295,7 +273,7 @@ def z_limit(count):
 @pytest.mark.parametrize("scene", sorted(PARITY))
 def test_real_scene_renders_as_in_mitsuba(tmp_path, device, mitsuba_llvm, scene):
     file, (width, height), spp, parameters = PARITY[scene]
-    edit = box_filtered if scene in BOX_FILTERED else (lambda text: text)
-    path = small_copy(real_scene(scene), file, tmp_path / scene, width, height, edit)
+    path = small_copy(real_scene(scene), file, tmp_path / scene, width, height)
     ours, mitsuba = mitsuba_llvm.render_both(path, device, spp=spp, renders=RENDERS, **parameters)
-    mitsuba_llvm.assert_same_image(ours, mitsuba, z_limit)
+    # Both splat with the scenes' gaussian and tent filters: neighbouring pixels share samples.
+    mitsuba_llvm.assert_same_image(ours, mitsuba, z_limit, independent_pixels=False)

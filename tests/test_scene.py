@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender.arrays import build_scene_arrays
+from clrender.arrays import active_environment, build_scene_arrays
 from clrender.features import scene_features
 from conftest import camera
 
@@ -190,3 +190,21 @@ def test_scene_file_round_trip(tmp_path):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(base_scene()))
     assert clrender.load_scene(path).path == path
+
+
+@pytest.mark.parametrize("bad,message", [(np.nan, "must be finite in float32"), (np.inf, "must be finite in float32"),
+                                         (-np.inf, "must be finite in float32"), (-1.0, "must be non-negative")])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_an_environment_image_must_be_finite_and_non_negative(bad, message, dtype):
+    # One bad texel among many (float32 images are checked by their min and max).
+    image = np.ones((4, 8, 3), dtype)
+    image[2, 5, 1] = bad
+    text = error_of(base_scene(lights=[{"type": "environment", "image": image}]))
+    assert "lights[0].image" in text and message in text
+
+
+def test_a_black_environment_image_is_no_light():
+    scene = clrender.load_scene_dict(base_scene(lights=[{"type": "environment", "image": np.zeros((4, 8, 3), np.float32)}]))
+    assert active_environment(scene) is None
+    scene.environment.image[3, 7, 2] = 1e-30
+    assert active_environment(scene) is scene.environment

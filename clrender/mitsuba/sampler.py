@@ -2,12 +2,12 @@
 
 | plugin | parameter (Mitsuba's default) | clrender |
 |---|---|---|
-| `independent` | `sample_count` (4), `seed` (0) | `render.sampler` "independent" |
+| `independent` | `sample_count` (4), `seed` (0) | `render.sampler` "sobol" |
 | `stratified`, `multijitter` | the same; sample_count rounded up to a square | "sobol" |
 | `orthogonal` | the same; rounded up to the square of a prime | "sobol" |
 | `ldsampler` | the same; rounded up to a power of two | "sobol" |
 | accepted | `jitter`, `strength`, `dimension`, `scramble_seed` | |
-| none | | independent, 4 spp, seed 0 (Mitsuba's default) |
+| none | | 4 spp, seed 0 (Mitsuba's default), "sobol" |
 """
 import numpy as np
 
@@ -16,11 +16,13 @@ SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler
 
 def read_sampler(plugin, reader):
     """(spp, seed, our render.sampler); plugin None: the sensor has none. Samplers differ in how
-    they stratify, not in what they estimate: Mitsuba's `independent` (its default) stays
-    independent, its stratified ones become our Sobol sampler; the sample count is rounded as
+    they stratify, not in what they estimate, and clrender's padded Owen-scrambled Sobol sampler
+    stratifies at least as well as any of them, so each becomes it, Mitsuba's `independent` (its
+    default) too: a scene renders with less error at its sample count (independent numbers stay
+    a choice: `--sampler independent`, `render.sampler`). The sample count is rounded as
     Mitsuba's samplers round it."""
     if plugin is None:
-        return 4, 0, "independent"
+        return 4, 0, "sobol"
     if plugin.type not in SAMPLERS:
         raise plugin.error(f"unsupported sampler '{plugin.type}' (supported: {', '.join(SAMPLERS)})")
     count = plugin.integer("sample_count", 4)
@@ -38,4 +40,4 @@ def read_sampler(plugin, reader):
         while any(root % d == 0 for d in range(2, int(np.sqrt(root)) + 1)) or root < 2:
             root += 1
         count = root * root
-    return count, seed % 2**32, "independent" if plugin.type == "independent" else "sobol"
+    return count, seed % 2**32, "sobol"

@@ -18,6 +18,7 @@ from ..aovs import AOV_NAMES
 from ..denoise import DenoiseSettings
 from ..image import ldr_layer
 from ..render import image_result
+from ..splatting import splats
 from .camera import describe
 
 # The layers the page can show: the image, the denoised image (with pyoidn), every AOV.
@@ -35,8 +36,9 @@ def relative_noise(image, variance):
     per-pixel variances of the mean / sum of squared values), from the variance AOV; None before
     the second sample (the variance is unknown, inf) or for a black image. The variance AOV is
     that of a mean of independent samples: with the Sobol sampler, whose samples are stratified,
-    the true error is lower (about a quarter of the estimate on the Cornell box at 16 spp) and
-    this is an upper bound (frame_header's noise_bound)."""
+    the true error is lower (about a quarter of the estimate on the Cornell box at 16 spp), and so
+    it is when splatting averages neighbours' samples into each pixel: this is then an upper
+    bound (frame_header's noise_bound)."""
     if not np.all(np.isfinite(variance)):
         return None
     energy = float(np.sum(np.square(image, dtype=np.float64)))
@@ -100,9 +102,15 @@ def frame_header(snapshot, layer, kind, noise):
     return {"type": "frame", "layer": layer, "kind": kind, "width": width, "height": height,
             "generation": snapshot.generation, "samples": state.samples, "target": snapshot.target,
             "samples_per_second": state.samples * width * height / state.seconds if state.seconds > 0 else 0.0,
-            "seconds": snapshot.seconds, "noise": noise, "noise_bound": snapshot.scene.render.sampler == "sobol",
+            "seconds": snapshot.seconds, "noise": noise, "noise_bound": noise_is_bounded(snapshot.scene),
             "done": state.samples >= snapshot.target,
             "camera": describe(snapshot.scene.camera)}
+
+
+def noise_is_bounded(scene):
+    """Whether relative_noise over-estimates the error of `scene`'s renders: stratified samples,
+    or splatted pixels."""
+    return scene.render.sampler == "sobol" or splats(scene)
 
 
 def encode_frame(header, pixels):
