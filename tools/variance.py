@@ -7,6 +7,7 @@ estimators alone) and `scene` (the scene's own filter).
 
     python tools/variance.py ../shared/real-scenes/ppg-torus ... [--size 64] [--spp 64] [--seeds 48]
                              [--filters box scene] [--clrender-sampler independent|sobol]
+                             [--filter-method splat|importance]
     python tools/variance.py --test-scenes [NAME ...] --size 16 --spp 128 --seeds 16
 
 With --test-scenes, the scenes of tests/mitsuba_scenes.py (test_mitsuba_parity.py's; their filter
@@ -20,9 +21,10 @@ as a rough error); robust to fireflies, the ratio of the mean variances over the
 pixel values (pixel and channel) whose variances, both renderers' summed, are the lowest, and the
 ratio of the median pixels' variances.
 
-"splat" is the factor by which splatting (Mitsuba: each sample weighs into every pixel within
-the filter's radius, divided by the weights' sum) lowers a pixel's variance below filter
-importance sampling (clrender, kernels/filter.h: each sample in its own pixel, drawn from the
+"splat" is the factor by which splatting (Mitsuba's, and clrender's render.filter_method
+"splat", the default: each sample weighs into every pixel within the filter's radius, divided by
+the weights' sum) lowers a pixel's variance below filter importance sampling (clrender's
+--filter-method importance, kernels/filter.h: each sample in its own pixel, drawn from the
 pixel's filter), where radiance and its variance are locally constant: (int f)^2 / int f^2 per
 axis, squared (2.25 for the tent of radius 1, 3.1 for the gaussian of stddev 0.5; 1 for the box).
 """
@@ -42,12 +44,16 @@ sys.path.insert(0, str(ROOT))
 DEBIAN_LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 
 
-def render_clrender(xml, params, spp, seeds, sampler):
+def render_clrender(xml, params, spp, seeds, sampler, filter_method=None):
+    """`filter_method`: render.filter_method ("splat", "importance"; None: the scene's)."""
     import clrender
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        renderer = clrender.Renderer(clrender.load_scene(xml, params), sampler=sampler)
+        scene = clrender.load_scene(xml, params)
+        if filter_method is not None:
+            scene.render.filter_method = filter_method
+        renderer = clrender.Renderer(scene, sampler=sampler)
         return np.stack([renderer.render(spp=spp, seed=s).image[..., :3] for s in seeds]).astype(np.float64)
 
 
@@ -87,7 +93,7 @@ def compare(xml, params, choice, args):
     """The table's cells after the scene for the mirrored scene `xml` and filter `choice`."""
     from clrender.metrics import variance_ratio
 
-    ours = render_clrender(xml, params, args.spp, range(1, args.seeds + 1), args.clrender_sampler)
+    ours = render_clrender(xml, params, args.spp, range(1, args.seeds + 1), args.clrender_sampler, args.filter_method)
     theirs = render_mitsuba(xml, params, args.spp, range(1, args.seeds + 1), args.variant)
     ratio, error = variance_ratio(ours, theirs)
     v_ours, v_theirs = pixel_variances(ours), pixel_variances(theirs)
@@ -133,6 +139,8 @@ def main():
     parser.add_argument("--filters", nargs="+", choices=("box", "scene"), default=["box", "scene"])
     parser.add_argument("--clrender-sampler", choices=("independent", "sobol"), default="independent")
     parser.add_argument("--variant", default="llvm_ad_rgb")
+    parser.add_argument("--filter-method", choices=("splat", "importance"),
+                        help="clrender's render.filter_method (default: the scene's, splat)")
     args = parser.parse_args()
     if Path(DEBIAN_LLVM).is_file():
         os.environ.setdefault("DRJIT_LIBLLVM_PATH", DEBIAN_LLVM)
@@ -146,7 +154,7 @@ def main():
             rows.append([label] + compare(xml, params, choice, args))
             print(" | ".join(rows[-1]), flush=True)
     print(f"\n{args.spp} spp, {args.seeds} seeds (1..{args.seeds}) per renderer; clrender's sampler "
-          f"{args.clrender_sampler}, Mitsuba's independent ({args.variant}); variance: mean over pixels and "
+          f"{args.clrender_sampler}, filter method {args.filter_method or 'splat'}, Mitsuba's independent ({args.variant}); variance: mean over pixels and "
           f"channels of one image's per-pixel variance across the seeds\n")
     print(markdown_table(["scene (size)", "filter", "clrender variance", "Mitsuba variance",
                           "clrender / Mitsuba", "(99 % of pixels)", "(median pixels)", "splat", "means"], rows))
