@@ -93,8 +93,9 @@ def compare(xml, params, choice, args):
     """The table's cells after the scene for the mirrored scene `xml` and filter `choice`."""
     from clrender.metrics import variance_ratio
 
-    ours = render_clrender(xml, params, args.spp, range(1, args.seeds + 1), args.clrender_sampler, args.filter_method)
-    theirs = render_mitsuba(xml, params, args.spp, range(1, args.seeds + 1), args.variant)
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    ours = render_clrender(xml, params, args.spp, seeds, args.clrender_sampler, args.filter_method)
+    theirs = render_mitsuba(xml, params, args.spp, seeds, args.variant)
     ratio, error = variance_ratio(ours, theirs)
     v_ours, v_theirs = pixel_variances(ours), pixel_variances(theirs)
     f = scene_camera(xml, params).filter
@@ -136,6 +137,7 @@ def main():
     parser.add_argument("--size", type=int, default=64, help="the film's longer side (the aspect kept)")
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--seeds", type=int, default=48, help="images per renderer, scene and filter")
+    parser.add_argument("--first-seed", type=int, default=1, help="their seeds: this one and the next")
     parser.add_argument("--filters", nargs="+", choices=("box", "scene"), default=["box", "scene"])
     parser.add_argument("--clrender-sampler", choices=("independent", "sobol"), default="independent")
     parser.add_argument("--variant", default="llvm_ad_rgb")
@@ -153,7 +155,7 @@ def main():
         for label, xml, params, choice in cases:
             rows.append([label] + compare(xml, params, choice, args))
             print(" | ".join(rows[-1]), flush=True)
-    print(f"\n{args.spp} spp, {args.seeds} seeds (1..{args.seeds}) per renderer; clrender's sampler "
+    print(f"\n{args.spp} spp, {args.seeds} seeds ({args.first_seed}..{args.first_seed + args.seeds - 1}) per renderer; clrender's sampler "
           f"{args.clrender_sampler}, filter method {args.filter_method or 'splat'}, Mitsuba's independent ({args.variant}); variance: mean over pixels and "
           f"channels of one image's per-pixel variance across the seeds\n")
     print(markdown_table(["scene (size)", "filter", "clrender variance", "Mitsuba variance",
