@@ -6,6 +6,7 @@ import numpy as np
 
 from . import layout, light_selection, limits, meshes, plastic, principled, textures
 from . import wide_bvh
+from .triangle_blocks import triangle_blocks
 from .bvh import intersect_brute_force
 from .ploc import build_ploc_bvh
 from .errors import SceneError
@@ -17,6 +18,7 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 @dataclass
 class SceneArrays:
     nodes: np.ndarray
+    blocks: np.ndarray          # the leaves' triangles, four to a block (triangle_blocks.py)
     triangles: np.ndarray
     shading: np.ndarray
     info: np.ndarray
@@ -31,6 +33,8 @@ class SceneArrays:
     env_cdf: np.ndarray
     env_index: int              # emitter index of the environment, -1 without one
     env_size: tuple             # (width, height) of the environment image, (0, 0) without one
+    env_lookup: int             # layout.ENVIRONMENT_LOOKUPS value of the environment image
+    env_to_map: np.ndarray      # (3, 3) rotation taking world directions into the image's frame
     first_light: int            # index of the first emitter that is not an area light (lights follow them)
     spheres: int                # analytic spheres among the primitive slots (the rest: triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
@@ -106,6 +110,7 @@ def build_scene_arrays(scene):
     del bvh
     triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
     del normals
+    nodes, blocks = triangle_blocks(nodes, triangles)
     unordered_info = np.concatenate([info, sphere_info])
     info = unordered_info[order]
 
@@ -115,6 +120,7 @@ def build_scene_arrays(scene):
     first_light = len(emitters)
     groups = list(info[emitters["kind"][:, 1], 1])   # the shapes of the area emitters
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
+    env_lookup, env_to_map = layout.ENVIRONMENT_LOOKUPS["texel"], np.eye(3)
     light_emitters = []
     for index, light in enumerate(scene.lights):
         if light.type == "environment":
@@ -122,13 +128,12 @@ def build_scene_arrays(scene):
                 continue
             env_index = len(emitters) + len(light_emitters)
             if light.image is not None:
-                env_texels, env_cdf, mean = _environment_tables(light.image)
+                env_texels, env_cdf, mean = _environment_tables(light.image, light.lookup)
                 env_size = (light.image.shape[1], light.image.shape[0])
+                env_lookup, env_to_map = layout.ENVIRONMENT_LOOKUPS[light.lookup], light.rotation.T
             else:
                 mean = float(light.radiance.mean())
-            environment = _emitter("environment", light.radiance)
-            environment["e1"][:, :3] = environment_mean_radiance(light)
-            light_emitters.append(environment)
+            light_emitters.append(_emitter("environment", light.radiance))
             powers.append(4 * np.pi * np.pi * sphere[3] ** 2 * mean)
         elif light.type in ("point", "spot"):
             # Irradiance intensity / distance^2 must not change with the scale.
@@ -164,11 +169,12 @@ def build_scene_arrays(scene):
     except ValueError as e:
         raise SceneError("textures", str(e)) from None
     return SceneArrays(
-        nodes=nodes, triangles=triangles, shading=shading,
+        nodes=nodes, blocks=blocks, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(selection),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
+        env_lookup=env_lookup, env_to_map=env_to_map,
         first_light=first_light, spheres=int(np.count_nonzero(is_sphere)),
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
         degenerate_triangles=degenerate, length_scale=scale,
@@ -593,17 +599,6 @@ def _cdf(weights):
     return cdf.astype(np.float32)
 
 
-def environment_mean_radiance(light):
-    """RGB radiance of an environment light averaged over the sphere of directions, exactly as
-    the kernel looks it up (piecewise constant per lat-long texel)."""
-    if light.image is None:
-        return np.asarray(light.radiance, dtype=float)
-    height, width, _ = light.image.shape
-    cos_theta = np.cos(np.linspace(0, np.pi, height + 1))
-    row_solid_angle = (cos_theta[:-1] - cos_theta[1:]) * (2 * np.pi / width)
-    return row_solid_angle @ light.image.sum(axis=1, dtype=np.float64) / (4 * np.pi)
-
-
 # The environment's sampling grid has at most this many columns: cells of 2 x 2, 4 x 4, ...
 # texels of a finer map. The tables then stay in the caches (a 4096 x 2048 map's own would be
 # 32 MiB, and its texel rows 16 KiB to search), which paid 1.5-2x in the renders of maps that the
@@ -612,22 +607,48 @@ ENV_SAMPLING_COLUMNS = 1024
 
 
 def environment_sampling_grid(width, height):
-    """(columns, rows) of the sampling grid of a width x height map: halved while wider than
-    ENV_SAMPLING_COLUMNS and both even."""
+    """(columns, rows) of the sampling grid over width x height cells: columns halved while more
+    than ENV_SAMPLING_COLUMNS and even, the rows with them while even (Mitsuba's lookup has an odd
+    number of cells down a map of even height)."""
     columns, rows = width, height
-    while columns > ENV_SAMPLING_COLUMNS and columns % 2 == 0 and rows % 2 == 0:
-        columns, rows = columns // 2, rows // 2
+    while columns > ENV_SAMPLING_COLUMNS and columns % 2 == 0:
+        columns //= 2
+        rows = rows // 2 if rows % 2 == 0 else rows
     return columns, rows
 
 
-def _environment_tables(image):
-    """Texels and the sampling CDFs of a lat-long image: luminance x sin(theta) summed over each
-    cell of its sampling grid (environment_sampling_grid), uniform in (u, v) within a cell.
+def environment_cells(image, lookup):
+    """(rows, columns) of the cells of the (u, v) square (kernels/lights.h) over which an
+    environment image's radiance is one texel (lookup "texel") or the bilinear blend of the four
+    texels at its corners ("mitsuba": a cell between each two columns, the last and the first
+    included, and each two rows)."""
+    height, width, _ = image.shape
+    return (height, width) if lookup == "texel" else (height - 1, width)
+
+
+def _cell_values(image, first, count, lookup):
+    """Per cell of the rows first .. first + count: luminance (non-negative) and the mean of the
+    channels, each the cell's mean over (u, v) (a bilinear patch's is that of its corners)."""
+    if lookup == "texel":
+        texels = image[first:first + count]
+        return np.maximum(texels @ LUMINANCE, 0), texels.mean(axis=2, dtype=np.float64)
+    texels = image[first:first + count + 1]
+    values = []
+    for value in (np.maximum(texels @ LUMINANCE, 0), texels.mean(axis=2, dtype=np.float64)):
+        across = value + np.roll(value, -1, axis=1)
+        values.append((across[:-1] + across[1:]) / 4)
+    return values
+
+
+def _environment_tables(image, lookup="texel"):
+    """Texels and the sampling CDFs of a lat-long image: the luminance x sin(theta) of each cell
+    of the (u, v) square (environment_cells) summed over each cell of its sampling grid
+    (environment_sampling_grid), uniform in (u, v) within a grid cell.
 
     Returns (texels, [grid columns, grid rows, marginal | conditional rows], mean radiance over
     the sphere). Computed a band of rows at a time, in float64, stored in float32: a large map
     needs no full-size float64 temporaries."""
-    height, width, _ = image.shape
+    height, width = environment_cells(image, lookup)
     columns, rows_count = environment_sampling_grid(width, height)
     fx, fy = width // columns, height // rows_count
     sin_theta = np.sin((np.arange(height) + 0.5) / height * np.pi)
@@ -635,11 +656,14 @@ def _environment_tables(image):
     cdf[:2] = columns, rows_count
     rows = cdf[2 + rows_count + 1:].reshape(rows_count, columns + 1)
     row_sums = np.empty(rows_count)
+    mean = 0.0
     band = max(1, (1 << 20) // (width * fy))   # grid rows per band
     for first in range(0, rows_count, band):
         part = slice(first, first + band)
-        texel_rows = slice(first * fy, (first + band) * fy)
-        weights = np.maximum(image[texel_rows] @ LUMINANCE, 0) * sin_theta[texel_rows, None]
+        cell_rows = slice(first * fy, (first + band) * fy)
+        luminance, grey = _cell_values(image, cell_rows.start, band * fy, lookup)
+        mean += float(grey.sum(axis=1) @ sin_theta[cell_rows])
+        weights = luminance * sin_theta[cell_rows, None]
         weights = weights.reshape(-1, fy, columns, fx).sum(axis=(1, 3))
         row_sums[part] = weights.sum(axis=1)
         weights[~(row_sums[part] > 0)] = 1.0   # a black row: uniform (it is never chosen)
@@ -647,7 +671,6 @@ def _environment_tables(image):
         rows[part, 1:] = np.cumsum(weights, axis=1) / weights.sum(axis=1, keepdims=True)
         rows[part, -1] = 1.0
     cdf[2:2 + rows_count + 1] = _cdf(row_sums)
-    texels = np.zeros((height * width, 4), np.float32)
+    texels = np.zeros((image.shape[0] * image.shape[1], 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
-    mean = float(image.sum(axis=(1, 2), dtype=np.float64) @ sin_theta / (3 * sin_theta.sum() * width))
-    return texels, cdf, mean
+    return texels, cdf, mean / (sin_theta.sum() * width)

@@ -1,8 +1,7 @@
 """Arrays computed at start-up, kept on disk for the next process beside the kernel binaries
 (cache_dir(), in a folder per kind): tables the device computes with a program
-(plastic.py, energy.py), keyed by that program's build key, and resampled environment maps,
-keyed by their file's contents (mitsuba/emitter.py). The key covers every input, so an entry is
-never stale; an entry is its SHA-256 and its bytes, and one that is damaged (truncated, of
+(plastic.py, energy.py), keyed by that program's build key. The key covers every input, so an
+entry is never stale; an entry is its SHA-256 and its bytes, and one that is damaged (truncated, of
 another size, or failing the checksum) is computed again and rewritten."""
 import hashlib
 import os

@@ -7,6 +7,7 @@ AOVS being what the render asks for, not a property of the scene).
 """
 import numpy as np
 
+from . import meshes
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 from .scene import load_scene_dict
 
@@ -18,7 +19,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     returns). Every combination has a diffuse floor and box, two area lights (a rectangle and a
     sphere), a point, a spot and a directional light, seen through a thin lens with the gaussian
     pixel filter; each feature adds what it compiles in:
-    ENVIRONMENT constant or image (a procedural lat-long map with a bright sun); DIELECTRIC smooth
+    ENVIRONMENT constant or image (a procedural lat-long map with a bright sun, tilted, looked up
+    as Mitsuba's envmap); DIELECTRIC smooth
     glass reflecting tinted, rough Beckmann glass and a rough GGX mirror (energy tables), a
     smooth copper mirror (complex Fresnel), a thin dielectric pane, a smooth plastic and a rough
     one (coat tables), a principled sphere (every lobe, transmission included); TOON a toon sphere;
@@ -118,7 +120,10 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
             "materials": materials, "shapes": shapes, "lights": lights, "media": media, "textures": textures}
     scene = load_scene_dict(data)
     if features["ENVIRONMENT"] == ENVIRONMENT_MODES["image"]:
+        # Mitsuba's lookup (bilinear: it reads the next row and column) in a tilted frame.
         scene.environment.image = _sky(16, 8)
+        scene.environment.lookup = "mitsuba"
+        scene.environment.rotation = meshes.transform_matrix(rotate=[25, 70, 0])[:3, :3]
     method = _METHODS[features["GRID_MEDIA"]] if features["GRID_MEDIA"] else None
     return scene, method
 

@@ -33,6 +33,10 @@ WIDE_BVH_NODE = _struct(("lo_x", F8), ("hi_x", F8), ("lo_y", F8), ("hi_y", F8), 
 # Triangle geometry for Moller-Trumbore: v0 and the two edges. The triangle buffer's slots hold
 # triangles or, in leaves tagged as spheres (negative count), a SPHERE in the slot's first bytes.
 TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
+# The triangles of a BVH leaf for intersecting them four at once (clrender/triangle_blocks.py):
+# lane j of each member is the leaf's triangle j (v0, e1, e2 as in TRIANGLE, per component), slot
+# its primitive slot; lanes past the leaf's count repeat its last triangle.
+TRIANGLE_BLOCK = _struct(*[(f"{name}_{axis}", F4) for name in ("v0", "e1", "e2") for axis in "xyz"], ("slot", I4))
 # An analytic sphere: xyz the centre, w the radius, negative when flipped (front face inside).
 SPHERE = _struct(("centre_radius", F4))
 
@@ -207,6 +211,9 @@ RENDER_PARAMS = np.dtype([
     ("frame", I4),         # width, height, first sample, samples in this pass
     ("config", I4),        # max depth, roulette depth, seed, emitter count
     ("environment", I4),   # emitter index, image width, image height, hidden from camera rays (HIDDEN_FROM_CAMERA bits)
+    ("env_lookup", I4),    # x how the environment image is looked up (ENVIRONMENT_LOOKUPS)
+    ("env_to_map", ("<f4", (3, 4))),  # rows (xyz) of the rotation taking world directions into the
+                                      # environment image's frame (its transform's inverse)
     ("media", I4),         # medium at the camera (-1: none), spectral MIS on (1) / off (0)
     ("volume", F4),        # grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     ("scene_sphere", F4),  # centre, radius
@@ -228,6 +235,7 @@ AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("emission", F4), ("colour_m2
 
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,
+    "TriangleBlock": TRIANGLE_BLOCK,
     "Triangle": TRIANGLE,
     "Sphere": SPHERE,
     "TriangleShading": TRIANGLE_SHADING,
@@ -252,6 +260,9 @@ MICROFACET_DISTRIBUTIONS = {"ggx": 0, "beckmann": 1}
 MASKINGS = {"height_correlated": 0, "separable": 1}
 EMITTER_KINDS = {"triangle": 0, "environment": 1, "point": 2, "directional": 3, "sphere": 4, "spot": 5}
 ENVIRONMENT_MODES = {"none": 0, "constant": 1, "image": 2}
+# How an environment image is looked up (kernels/lights.h): constant texels, or Mitsuba's envmap
+# (bilinear between texel centres); RenderParams.env_lookup.x.
+ENVIRONMENT_LOOKUPS = {"texel": 0, "mitsuba": 1}
 MEDIUM_KINDS = {"homogeneous": 0, "grid": 1}
 # Values of the GRID_MEDIA feature: how grid media are integrated (docs/heterogeneous-media.md).
 VOLUME_METHODS = {"none": 0, "null": 1, "raymarch": 2}
@@ -347,7 +358,7 @@ def c_constants():
     lines = []
     for prefix, table in (("MATERIAL", MATERIAL_KINDS), ("MICROFACET", MICROFACET_DISTRIBUTIONS),
                           ("MASKING", MASKINGS), ("EMITTER", EMITTER_KINDS),
-                          ("ENVIRONMENT", ENVIRONMENT_MODES), ("MEDIUM", MEDIUM_KINDS),
+                          ("ENVIRONMENT", ENVIRONMENT_MODES), ("ENV_LOOKUP", ENVIRONMENT_LOOKUPS), ("MEDIUM", MEDIUM_KINDS),
                           ("VOLUME", VOLUME_METHODS), ("SAMPLER", SAMPLERS), ("TEXTURE", TEXTURE_KINDS),
                           ("TEXEL", TEXEL_ENCODINGS), ("FILTER", TEXTURE_FILTERS), ("WRAP", TEXTURE_WRAPS),
                           ("PIXEL_FILTER", PIXEL_FILTERS), ("HIDE", HIDDEN_FROM_CAMERA)):

@@ -199,6 +199,8 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     # The kernel reads the seed as uint (0..2^32-1): store its bits in the int4's slot.
     p["config"] = (max_depth, rr_depth, np.array(seed, np.uint32).view(np.int32), len(arrays.emitters))
     p["environment"] = (arrays.env_index, *arrays.env_size, hidden_from_camera(scene.render))
+    p["env_lookup"] = (arrays.env_lookup, 0, 0, 0)
+    p["env_to_map"][0, :, :3] = arrays.env_to_map
     p["media"] = (arrays.camera_medium, int(spectral_mis), 0, 0)
     settings = scene.render
     step = settings.step if step is None else step
@@ -260,6 +262,12 @@ class RenderInterrupted(KeyboardInterrupt):
 # Work-group size of the packet kernel (LANES 8) when the caller gives none: 4 x 4 work-items,
 # 128 pixels.
 PACKET_LOCAL_SIZE = (4, 4)
+# The megakernel's on CPU devices. Left to the implementation, the size follows the launch's
+# shape, which the launches' timing adapts, and PoCL compiles the kernel for each size it picks
+# (seconds for the megakernel; cached on disk): a render of the SSS bunny took 28-36 s at 16 spp
+# where it takes 2.5-3 s with one size, a compile being taken for slowness and shrinking the
+# launches to single rows (docs/performance.md).
+CPU_LOCAL_SIZE = (8, 1)
 
 
 class Renderer:
@@ -309,6 +317,8 @@ class Renderer:
         # equally fast (docs/performance.md), so packets get 4 x 4 unless told otherwise.
         if local_size is None and self.features["LANES"] > 1:
             local_size = PACKET_LOCAL_SIZE
+        elif local_size is None and self.device.type & cl.device_type.CPU:
+            local_size = CPU_LOCAL_SIZE
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
@@ -317,7 +327,7 @@ class Renderer:
         self._gather = splatting.Gather(self.context, scene.camera.filter) if splatting.splats(scene) else None
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
-    ARRAYS = ("nodes", "triangles", "shading", "info", "materials", "media", "emitters",
+    ARRAYS = ("nodes", "blocks", "triangles", "shading", "info", "materials", "media", "emitters",
               "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
               "uvs", "textures", "texels")
 
@@ -442,14 +452,14 @@ class Renderer:
                                        traced, self.sampler, state.tile if splat else None)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 # The tile's rows in bands of `rows` (a multiple of the work-group height but for
-                # the last, whose excess rows the kernel's guard skips), each band a launch
-                # offset to its first row: every pixel gets these samples once, in index order.
+                # the last, whose excess rows the kernel's guard skips), each band a launch told
+                # its first row: every pixel gets these samples once, in index order.
                 for first_row in range(0, tile_height, rows):
                     band = min(rows, tile_height - first_row)
                     start = time.perf_counter()
                     kernel(self.queue, self._global_size(tile_width, band, lanes), self.local_size, params_buffer,
                            *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer,
-                           splat.records if splat else self._no_records, global_offset=(0, first_row))
+                           splat.records if splat else self._no_records, np.int32(first_row))
                     if splat and first_row + band >= tile_height:
                         self._gather(self.queue, state.tile, params_buffer, splat.records, splat.filtered)
                     self.queue.finish()

@@ -15,7 +15,7 @@ from . import grids, limits, meshes, textures
 from .principled import Principled, read_principled
 from .errors import ArgumentError, FileError, SceneError
 from .conductor_presets import CONDUCTOR_PRESETS
-from .layout import MASKINGS, MICROFACET_DISTRIBUTIONS
+from .layout import ENVIRONMENT_LOOKUPS, MASKINGS, MICROFACET_DISTRIBUTIONS
 from .aovs import parse_aovs
 from .files import describe, not_a_file
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
@@ -195,6 +195,8 @@ class Light:
     position: np.ndarray = None
     direction: np.ndarray = None   # directional: the direction the light travels; spot: its axis
     image: np.ndarray = None       # environment: (H, W, 3) linear lat-long image, or None
+    lookup: str = "texel"          # environment image: layout.ENVIRONMENT_LOOKUPS name
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))   # environment image: its frame's axes in the world
     cutoff_angle: float = None     # spot: degrees from the axis where its light ends
     beam_width: float = None       # spot: degrees from the axis where its light starts to fall off
 
@@ -1169,6 +1171,9 @@ def _read_environment(node, base_dir):
         except FileError as e:
             raise SceneError(node.at("file"), e.message) from None
         return _environment_image(node, image, "file", scale)
+    for key in ("lookup", "transform"):
+        if key in node.data:
+            raise SceneError(node.at(key), "applies to an environment image (file or image) only")
     radiance = node.vector("radiance", [1, 1, 1], non_negative=True, allow_scalar=True)
     limits.float32_values(radiance * scale, node.at("scale"), SceneError)
     return Light("environment", radiance * scale)
@@ -1176,10 +1181,20 @@ def _read_environment(node, base_dir):
 
 def _environment_image(node, image, key, scale):
     """The environment light of a lat-long image given at `key`: finite and non-negative, and
-    times `scale` still finite in float32."""
+    times `scale` still finite in float32; looked up as `lookup` says, in the frame `transform`
+    turns."""
     limits.float32_values(image, node.at(key), SceneError)
     image = np.asarray(image, dtype=np.float32)
     if image.size and image.min() < 0:
         raise SceneError(node.at(key), "image must be non-negative")
     limits.float32_values(float(image.max()) * scale, node.at("scale"), SceneError)
-    return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale))
+    lookup = node.string("lookup", "texel", choices=ENVIRONMENT_LOOKUPS)
+    if lookup == "mitsuba" and image.shape[0] < 2:
+        raise SceneError(node.at(key), "Mitsuba's lookup needs an image of at least 2 rows")
+    rotation = np.eye(3)
+    if "transform" in node.data:
+        rotation = _read_transform(node.child("transform"))[:3, :3]
+        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-5):
+            raise SceneError(node.at("transform"), "must be a rotation (a translation changes nothing)")
+    return Light("environment", np.ones(3) * scale, image=image if scale == 1 else image * np.float32(scale),
+                 lookup=lookup, rotation=rotation)

@@ -14,6 +14,8 @@ import pyopencl as cl
 from . import filters
 from .device import build_program
 
+# The gather's work-group size on CPU devices (the kernel skips work-items beyond the tile).
+CPU_GATHER_LOCAL_SIZE = (8, 1)
 # The records of one pass are at most this many bytes (fewer samples per pass on large images).
 RECORDS_BUDGET = 64 << 20
 
@@ -75,7 +77,12 @@ class Gather:
     def __init__(self, context, f):
         self.reach = reach(f)
         self.kernel = cl.Kernel(build_program(context, {}, entry="splat.cl"), "gather_splats")
+        # One work-group size on CPUs, whatever the tile (render.CPU_LOCAL_SIZE says why).
+        self.local_size = CPU_GATHER_LOCAL_SIZE if context.devices[0].type & cl.device_type.CPU else None
 
     def __call__(self, queue, tile, params_buffer, records, filtered):
         """Add the records of the pass of `params_buffer` to the sums `filtered` of `tile`."""
-        self.kernel(queue, (tile[2], tile[3]), None, params_buffer, records, filtered)
+        size = (tile[2], tile[3])
+        if self.local_size:
+            size = tuple(-(-n // m) * m for n, m in zip(size, self.local_size))
+        self.kernel(queue, size, self.local_size, params_buffer, records, filtered)

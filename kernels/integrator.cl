@@ -15,7 +15,7 @@
 #include "splat.h"
 
 KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
-    int tx = get_global_id(0), ty = get_global_id(1);
+    int tx = get_global_id(0), ty = first_row + (int)get_global_id(1);
     if (tx >= params->tile.z || ty >= params->tile.w) return;
     int x = params->tile.x + tx, y = params->tile.y + ty;
     int width = params->frame.x;

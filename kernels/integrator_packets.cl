@@ -18,7 +18,7 @@
 #endif
 
 KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
-    int first_column = get_global_id(0) * 8, ty = get_global_id(1);
+    int first_column = get_global_id(0) * 8, ty = first_row + (int)get_global_id(1);
     int tile_width = params->tile.z;
     if (first_column >= tile_width || ty >= params->tile.w) return;
     int8 tx = first_column + (int8)(0, 1, 2, 3, 4, 5, 6, 7);

@@ -24,21 +24,56 @@ typedef struct {
 
 // ----- environment ---------------------------------------------------------------------------
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
-// Lat-long, +y up; u = 0.5 looks down -z.
-float2 direction_to_latlong(float3 d) {
-    float u = atan2(d.x, -d.z) * (0.5f * INV_PI_F) + 0.5f;
-    float v = acos(clamp(d.y, -1.0f, 1.0f)) * INV_PI_F;
-    return (float2)(u, v);
+// The image is looked up in its own frame (RenderParams.env_to_map turns world directions into
+// it) at (u, v) in [0, 1)^2: v = theta / pi from +y, u the azimuth from -z towards +x shifted by
+// environment_u_offset. ENV_LOOKUP_TEXEL: texel (u W, v H) is constant, u = 0.5 looks down -z.
+// ENV_LOOKUP_MITSUBA (Mitsuba's envmap): bilinear between texel centres, column i's centre
+// looking at azimuth (i + 0.5) / W of a turn from -z, rows at the poles (v = j / (H - 1)); u is
+// that azimuth less half a column, so (u W, v (H - 1)) is the position among the texel centres.
+// The sampling grid's cells tile the same (u, v) square.
+float3 environment_to_map(const Scene* scene, float3 d) {
+    __constant const float4* m = scene->params->env_to_map;
+    return (float3)(dot(m[0].xyz, d), dot(m[1].xyz, d), dot(m[2].xyz, d));
 }
 
-int environment_texel(const Scene* scene, float2 uv) {
+float3 environment_from_map(const Scene* scene, float3 d) {
+    __constant const float4* m = scene->params->env_to_map;
+    return m[0].xyz * d.x + m[1].xyz * d.y + m[2].xyz * d.z;
+}
+
+float environment_u_offset(const Scene* scene) {
+    return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? 0.5f : -0.5f / (float)scene->params->environment.y;
+}
+
+// (u, v) of a direction in the image's frame.
+float2 direction_to_latlong(const Scene* scene, float3 d) {
+    float u = atan2(d.x, -d.z) * (0.5f * INV_PI_F) + environment_u_offset(scene);
+    float v = acos(clamp(d.y, -1.0f, 1.0f)) * INV_PI_F;
+    return (float2)(u - floor(u), v);
+}
+
+float3 environment_texel(const Scene* scene, float2 uv) {
     int w = scene->params->environment.y, h = scene->params->environment.z;
     int i = min((int)(uv.x * (float)w), w - 1), j = min((int)(uv.y * (float)h), h - 1);
-    return j * w + max(i, 0);
+    return scene->env_texels[j * w + i].xyz;
+}
+
+// Mitsuba's bilinear lookup: periodic across u = 0 (the last column's centre blends into the
+// first's), rows clamped to the image.
+float3 environment_bilinear(const Scene* scene, float2 uv) {
+    int w = scene->params->environment.y, h = scene->params->environment.z;
+    float x = uv.x * (float)w, y = uv.y * (float)(h - 1);
+    int i = min((int)x, w - 1), j = min((int)y, h - 2);
+    float fx = x - (float)i, fy = y - (float)j;
+    int right = i + 1 < w ? i + 1 : 0;
+    __global const float4* upper = scene->env_texels + j * w;
+    __global const float4* lower = upper + w;
+    float4 top = mix(upper[i], upper[right], fx), bottom = mix(lower[i], lower[right], fx);
+    return mix(top, bottom, fy).xyz;
 }
 
 // The sampling grid's columns and rows head its tables (clrender/arrays.py, _environment_tables):
-// cells of one or more texels.
+// cells of one or more texels (ENV_LOOKUP_TEXEL) or of the squares between texel centres.
 int2 environment_sampling_grid(const Scene* scene) {
     return (int2)((int)scene->env_cdf[0], (int)scene->env_cdf[1]);
 }
@@ -46,8 +81,8 @@ int2 environment_sampling_grid(const Scene* scene) {
 float environment_pdf_w(const Scene* scene, float3 dir) {
     int2 grid = environment_sampling_grid(scene);
     int w = grid.x, h = grid.y;
-    float2 uv = direction_to_latlong(dir);
-    int i = clamp((int)(uv.x * (float)w), 0, w - 1), j = min((int)(uv.y * (float)h), h - 1);
+    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir));
+    int i = min((int)(uv.x * (float)w), w - 1), j = min((int)(uv.y * (float)h), h - 1);
     __global const float* marginal = scene->env_cdf + 2;
     __global const float* conditional = marginal + (h + 1) + j * (w + 1);
     float pdf_uv = (float)(w * h) * (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]);
@@ -56,7 +91,9 @@ float environment_pdf_w(const Scene* scene, float3 dir) {
 }
 
 float3 environment_radiance(const Scene* scene, float3 dir) {
-    return scene->env_texels[environment_texel(scene, direction_to_latlong(dir))].xyz;
+    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir));
+    return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? environment_texel(scene, uv)
+                                                           : environment_bilinear(scene, uv);
 }
 
 // Piecewise-constant inversion over the sampling grid: a row from the marginal CDF, then a
@@ -73,9 +110,9 @@ float3 sample_environment_direction(const Scene* scene, float2 u) {
     float uu = ((float)i + in_column) / (float)w;
     float theta = clamp(v, 0.0f, 1.0f) * PI_F;
     float sin_phi, cos_phi;
-    sincos_2pi(uu - 0.5f, &sin_phi, &cos_phi);
+    sincos_2pi(uu - environment_u_offset(scene), &sin_phi, &cos_phi);
     float sin_theta = sin(theta);
-    return (float3)(sin_theta * sin_phi, cos(theta), -sin_theta * cos_phi);
+    return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos(theta), -sin_theta * cos_phi));
 }
 #elif ENVIRONMENT == ENVIRONMENT_CONSTANT
 float environment_pdf_w(const Scene* scene, float3 dir) { return UNIFORM_SPHERE_PDF_W; }

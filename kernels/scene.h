@@ -9,6 +9,7 @@
 typedef struct {
     __constant RenderParams* params;
     __global const WideBvhNode* nodes;
+    __global const TriangleBlock* blocks;   // the BVH leaves' triangles (types.h)
     __global const Triangle* triangles;
     __global const TriangleShading* shading;
     __global const TriangleInfo* info;
@@ -27,18 +28,19 @@ typedef struct {
 } Scene;
 
 // The arguments of render_pass, in the order the host passes them (render.py: RenderParams,
-// Renderer.ARRAYS, then the per-pixel buffers), for both of its forms (integrator.cl,
-// integrator_packets.cl), and the Scene they make.
+// Renderer.ARRAYS, then the per-pixel buffers, and the launch's first row of the tile: an
+// argument, not a global offset, which PoCL compiles the kernel again for), for both of its
+// forms (integrator.cl, integrator_packets.cl), and the Scene they make.
 #define RENDER_PASS_ARGUMENTS __constant RenderParams* params, __global const WideBvhNode* nodes, \
-    __global const Triangle* triangles, __global const TriangleShading* shading, \
+    __global const TriangleBlock* blocks, __global const Triangle* triangles, __global const TriangleShading* shading, \
     __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media, \
     __global const Emitter* emitters, __global const float* emitter_cdf, __global const float4* env_texels, \
     __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data, \
     __global const float* majorant_data, __global const float2* uvs, __global const Texture* textures, \
     __global const uchar* texels, __global float4* accumulator, __global int* discarded_samples, \
     __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums, \
-    __global float* splat_records
-#define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, triangles, shading, info, materials, media, emitters, \
+    __global float* splat_records, int first_row
+#define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, blocks, triangles, shading, info, materials, media, emitters, \
     emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels}
 
 // Per lane (lanes.h).
@@ -63,7 +65,7 @@ typedef struct {
 bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
     hit->t = t_max;
     hit->prim = -1;
-    return traverse_bvh(scene->nodes, scene->triangles, origin, dir, false, hit);
+    return traverse_bvh(scene->nodes, scene->blocks, scene->triangles, origin, dir, false, hit);
 }
 
 // The primitive slot of some surface (any, not the nearest) between origin and t_max along dir;
@@ -72,7 +74,7 @@ int occluder(const Scene* scene, float3 origin, float3 dir, float t_max) {
     Hit hit;
     hit.t = t_max;
     hit.prim = -1;
-    return traverse_bvh(scene->nodes, scene->triangles, origin, dir, true, &hit) ? hit.prim : -1;
+    return traverse_bvh(scene->nodes, scene->blocks, scene->triangles, origin, dir, true, &hit) ? hit.prim : -1;
 }
 
 bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {

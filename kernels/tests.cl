@@ -18,7 +18,8 @@
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
-KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __global Sphere* sphere,
+KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* block, __global Triangle* tri,
+                          __global Sphere* sphere,
                           __global TriangleShading* sh, __global TriangleInfo* info,
                           __global Material* m, __global Texture* t, __global Emitter* e,
                           __global Medium* md, __global Camera* c, __global Filter* f,
@@ -28,6 +29,11 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = OFFSET(node, lo_x); out[k++] = OFFSET(node, hi_x); out[k++] = OFFSET(node, lo_y);
     out[k++] = OFFSET(node, hi_y); out[k++] = OFFSET(node, lo_z); out[k++] = OFFSET(node, hi_z);
     out[k++] = OFFSET(node, child); out[k++] = OFFSET(node, count);
+    out[k++] = sizeof(TriangleBlock);
+    out[k++] = OFFSET(block, v0_x); out[k++] = OFFSET(block, v0_y); out[k++] = OFFSET(block, v0_z);
+    out[k++] = OFFSET(block, e1_x); out[k++] = OFFSET(block, e1_y); out[k++] = OFFSET(block, e1_z);
+    out[k++] = OFFSET(block, e2_x); out[k++] = OFFSET(block, e2_y); out[k++] = OFFSET(block, e2_z);
+    out[k++] = OFFSET(block, slot);
     out[k++] = sizeof(Triangle);
     out[k++] = OFFSET(tri, v0); out[k++] = OFFSET(tri, e1); out[k++] = OFFSET(tri, e2);
     out[k++] = sizeof(Sphere);
@@ -59,8 +65,10 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
     out[k++] = OFFSET(f, edge_mass);
     out[k++] = sizeof(RenderParams);
     out[k++] = OFFSET(p, camera); out[k++] = OFFSET(p, frame); out[k++] = OFFSET(p, config);
-    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
-    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile); out[k++] = OFFSET(p, splat); out[k++] = OFFSET(p, splat_reach);
+    out[k++] = OFFSET(p, environment); out[k++] = OFFSET(p, env_lookup); out[k++] = OFFSET(p, env_to_map);
+    out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
+    out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile); out[k++] = OFFSET(p, splat);
+    out[k++] = OFFSET(p, splat_reach);
     out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
@@ -68,20 +76,21 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global Triangle* tri, __
 }
 
 // ----- BVH: closest hit per ray (over the primitive slots: triangles and spheres) -----------
-KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const Triangle* triangles,
+KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const TriangleBlock* blocks,
+                       __global const Triangle* triangles,
                        __global const float4* origins, __global const float4* directions,
                        __global float* hit_t, __global int* hit_prim, __global int* any_hit) {
     int i = get_global_id(0);
     Hit hit;
     hit.t = INFINITY;
     hit.prim = -1;
-    traverse_bvh(nodes, triangles, origins[i].xyz, directions[i].xyz, false, &hit);
+    traverse_bvh(nodes, blocks, triangles, origins[i].xyz, directions[i].xyz, false, &hit);
     hit_t[i] = hit.t;
     hit_prim[i] = hit.prim;
     Hit shadow;
     shadow.t = INFINITY;
     shadow.prim = -1;
-    any_hit[i] = traverse_bvh(nodes, triangles, origins[i].xyz, directions[i].xyz, true, &shadow);
+    any_hit[i] = traverse_bvh(nodes, blocks, triangles, origins[i].xyz, directions[i].xyz, true, &shadow);
 }
 
 // ----- camera-path samplers (rng.h): `dims` draws of sample i of pixel j --------------------
@@ -281,7 +290,8 @@ KERNEL void sample_vndf_values(float alpha, int distribution, __global const flo
 // ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
 // sign picks the side), and report both hits: (first slot, second slot, second t, front face).
-KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Triangle* triangles,
+KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const TriangleBlock* blocks,
+                            __global const Triangle* triangles,
                             __global const TriangleShading* shading,
                             __global const TriangleInfo* info, __global const float2* uvs,
                             __global const float4* origins, __global const float4* directions,
@@ -289,6 +299,7 @@ KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Tr
     int i = get_global_id(0);
     Scene scene;
     scene.nodes = nodes;
+    scene.blocks = blocks;
     scene.triangles = triangles;
     scene.shading = shading;
     scene.info = info;

@@ -5,8 +5,9 @@
 #define CLRENDER_TYPES_H
 
 // Eight-wide BVH node: the boxes of up to eight children, one child per lane. child: node index
-// (count 0) or first primitive slot of a leaf of count triangles (count > 0) or -count spheres
-// (count < 0); empty lanes: child -1, count 0, box at +inf.
+// (count 0), or the TriangleBlock of a leaf of count triangles (count 1 to 4), or the first
+// primitive slot of a leaf of -count spheres (count < 0); empty lanes: child -1, count 0, box at
+// +inf.
 typedef struct {
     float8 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
     int8 child;
@@ -18,6 +19,10 @@ typedef struct {
 // the sphere is flipped (its front face inside).
 typedef struct { float4 v0, e1, e2; } Triangle;
 typedef struct { float4 centre_radius; } Sphere;
+// The triangles of a BVH leaf, laid out for intersecting the four at once: lane j of each member
+// is triangle j's (v0, e1, e2 as in Triangle, component by component), slot.s[j] its primitive
+// slot. A leaf of fewer than four repeats its last triangle in the lanes left.
+typedef struct { float4 v0_x, v0_y, v0_z, e1_x, e1_y, e1_z, e2_x, e2_y, e2_z; int4 slot; } TriangleBlock;
 typedef struct { float4 n0, n1, n2; } TriangleShading;
 // info: x material, y object id, z emitter index (-1: none),
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
@@ -36,7 +41,7 @@ typedef struct { int4 info; int4 format; float4 to_uv_u; float4 to_uv_v; float4 
 // cosine of its cutoff angle, e2.x the cosine of its beam width, e2.y the cutoff angle (radians),
 // e2.z 1 / (cutoff - beam width) (0: no transition; lights.h, spot_falloff).
 // Directional: p0 = unit direction towards the light, radiance = irradiance.
-// Environment: radiance = constant radiance (or scale), e1.xyz = mean radiance over the sphere.
+// Environment: radiance = constant radiance (or scale; an image is looked up as RenderParams says).
 // Every kind: e2.w = its share of the scene's light power (toon shading's p_j; next-event
 // estimation picks by emitter_cdf, clrender/light_selection.py).
 typedef struct { int4 kind; float4 radiance; float4 p0; float4 e1; float4 e2; } Emitter;
@@ -65,6 +70,8 @@ typedef struct {
     int4 config;       // x max depth, y roulette depth, z seed, w emitter count
     int4 environment;  // x emitter index (-1: none), y image width, z image height,
                        // w what camera rays do not see (HIDE_* bits: path.h)
+    int4 env_lookup;   // x how the environment image is looked up (ENV_LOOKUP_*: lights.h)
+    float4 env_to_map[3];  // rows (xyz) of the rotation from world directions into the image's frame
     int4 media;        // x medium at the camera (-1: none), y spectral MIS on (1) / off (0)
     float4 volume;     // grid media: x ray-marching step (voxels), y multiple scattering when marching (1/0)
     float4 scene_sphere;  // xyz centre, w radius: bounds of the geometry

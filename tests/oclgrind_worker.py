@@ -31,6 +31,7 @@ from clrender.energy import fill_albedo_tables
 from clrender.feature_scenes import feature_scene
 from clrender.features import FEATURE_VALUES
 from clrender.render import render_params
+from clrender.triangle_blocks import triangle_blocks
 from test_layout import ORDER as STRUCT_ORDER
 
 MARK = "@@oclgrind-case"
@@ -136,7 +137,8 @@ def run_test_kernels(case, device):
     triangles["v0"][:, :3], triangles["e1"][:, :3], triangles["e2"][:, :3] = v0[order], (v1 - v0)[order], (v2 - v0)[order]
     origins, directions = float4(rng.uniform(-3, 3, (n, 3))), float4(-rng.uniform(-3, 3, (n, 3)))
     directions[:, :3] /= np.linalg.norm(directions[:, :3], axis=1, keepdims=True)
-    kernel("trace_rays")(queue, (n,), None, upload(context, nodes), upload(context, triangles),
+    nodes, blocks = triangle_blocks(nodes, triangles)
+    kernel("trace_rays")(queue, (n,), None, upload(context, nodes), upload(context, blocks), upload(context, triangles),
                          upload(context, origins), upload(context, directions), *outputs(context, n, n, n))
     for routine, g in ((0, 0.0), (1, 0.0), (2, 0.7), (2, -0.99)):
         kernel("sample_directions")(queue, (n,), None, np.int32(routine), np.float32(g), np.uint32(3),
@@ -180,7 +182,7 @@ def run_test_kernels(case, device):
     cam_dirs = float4(np.array([[0.0, -0.3, -1.0], [0.1, -0.2, -1.0], [-0.2, -0.25, -1.0], [0.3, -0.4, -1.0]]))
     cam_dirs[:, :3] /= np.linalg.norm(cam_dirs[:, :3], axis=1, keepdims=True)
     kernel("spawn_from_hits")(queue, (n,), None, *(upload(context, a) for a in
-                              (arrays.nodes, arrays.triangles, arrays.shading, arrays.info, arrays.uvs, cam_origins,
+                              (arrays.nodes, arrays.blocks, arrays.triangles, arrays.shading, arrays.info, arrays.uvs, cam_origins,
                                cam_dirs, leave)),
                               *outputs(context, (n, 4)))
     params = upload(context, render_params(scene, arrays, 0, 1, 4, 2, 0))
@@ -193,8 +195,12 @@ def run_test_kernels(case, device):
     kernel("delta_light_values")(queue, (n,), None, upload(context, arrays.emitters[spot:spot + 1]),
                                  upload(context, float4(rng.uniform(-1, 1, (n, 3)))), *outputs(context, (n, 4)))
     if features["ENVIRONMENT"] == layout.ENVIRONMENT_MODES["image"]:
-        kernel("sample_environment")(queue, (n,), None, params, upload(context, arrays.env_texels),
-                                     upload(context, arrays.env_cdf), np.uint32(9), *outputs(context, (n, 4), (n, 4)))
+        for lookup in layout.ENVIRONMENT_LOOKUPS:   # the scene's is Mitsuba's; the texel one too
+            scene.environment.lookup = lookup
+            env = build_scene_arrays(scene)
+            kernel("sample_environment")(queue, (n,), None, upload(context, render_params(scene, env, 0, 1, 4, 2, 0)),
+                                         upload(context, env.env_texels), upload(context, env.env_cdf), np.uint32(9),
+                                         *outputs(context, (n, 4), (n, 4)))
     if features["GRID_MEDIA"]:
         media = [upload(context, a) for a in (arrays.media, arrays.grid_data, arrays.majorant_data)]
         cloud = [m.name for m in scene.media].index("cloud")

@@ -5,6 +5,7 @@ import pytest
 
 import clrender
 from clrender import layout, wide_bvh
+from clrender.triangle_blocks import triangle_blocks
 from clrender.bvh import build_bvh, intersect_brute_force
 from conftest import build_test_kernels, camera
 
@@ -29,11 +30,12 @@ def trace_on_device(context, queue, v0, v1, v2, origins, directions):
     triangles["v0"][:len(v0), :3] = v0[order]
     triangles["e1"][:len(v0), :3] = (v1 - v0)[order]
     triangles["e2"][:len(v0), :3] = (v2 - v0)[order]
+    nodes, blocks = triangle_blocks(nodes, triangles)
     rays = [np.zeros((len(origins), 4), np.float32) for _ in range(2)]
     rays[0][:, :3], rays[1][:, :3] = origins, directions
     mf = cl.mem_flags
     inputs = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
-              for x in (nodes, triangles, *rays)]
+              for x in (nodes, blocks, triangles, *rays)]
     t = np.empty(len(origins), np.float32)
     slot = np.empty(len(origins), np.int32)
     any_hit = np.empty(len(origins), np.int32)

@@ -11,7 +11,7 @@ from clrender.features import all_feature_combinations, describe, scene_features
 @pytest.mark.parametrize("features", list(all_feature_combinations()), ids=describe)
 def test_every_feature_combination_builds(context, features):
     program = build_program(context, features)
-    assert cl.Kernel(program, "render_pass").num_args == 23
+    assert cl.Kernel(program, "render_pass").num_args == 25
 
 
 def test_test_kernels_build_with_every_environment(context):
@@ -21,7 +21,7 @@ def test_test_kernels_build_with_every_environment(context):
     for features in all_feature_combinations():
         if features["AOVS"] or features["LANES"] > 1:   # the test kernels run one lane
             continue
-        assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 7
+        assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 8
 
 
 def test_build_error_carries_the_compiler_log(context, tmp_path, monkeypatch):

@@ -16,15 +16,18 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pyopencl as cl
 import pytest
 
 import clrender
 from clrender import cie, filters, grids, metrics, textures
 from clrender.conductor_presets import CONDUCTOR_PRESETS
-from clrender.mitsuba import (IOR_PRESETS, MitsubaXmlWarning, mitsuba_envmap_lookup,
-                              read_scene, resample_envmap)
+from clrender.arrays import build_scene_arrays
+from clrender.mitsuba import IOR_PRESETS, MitsubaXmlWarning, read_scene
+from clrender.render import render_params
 from clrender.scene import Filter
-from conftest import camera_rays, delta_light_values, use_mitsuba_llvm
+from conftest import build_test_kernels, camera_rays, delta_light_values, use_mitsuba_llvm
+from mitsuba_envmap import mitsuba_envmap_lookup
 import mitsuba_scenes
 
 try:
@@ -346,8 +349,23 @@ def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
         assert abs(theirs.eval_1(interaction) - value) < 2e-5 * max(1.0, value), point
 
 
+def environment_samples(context, queue, scene, count):
+    """(directions, radiance) of `count` environment light samples drawn by the kernel
+    (tests.cl sample_environment) in the world of `scene`."""
+    arrays = build_scene_arrays(scene)
+    mf = cl.mem_flags
+    inputs = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+              for x in (render_params(scene, arrays, 0, 1, 1, 1, 0), arrays.env_texels, arrays.env_cdf)]
+    out, radiance = np.empty((count, 4), np.float32), np.empty((count, 4), np.float32)
+    outputs = [cl.Buffer(context, mf.WRITE_ONLY, a.nbytes) for a in (out, radiance)]
+    build_test_kernels(context, ENVIRONMENT=2).sample_environment(queue, (count,), None, *inputs, np.uint32(3), *outputs)
+    cl.enqueue_copy(queue, out, outputs[0])
+    cl.enqueue_copy(queue, radiance, outputs[1])
+    return out[:, :3], radiance[:, :3]
+
+
 @pytest.mark.parametrize("suffix", [".exr", ".hdr"])
-def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path, suffix):
+def test_envmap_lookup_matches_mitsuba_in_numpy_and_in_the_kernel(context, queue, tmp_path, suffix):
     image = mitsuba_scenes.sky_image(12, 7)
     image[3, 5] = (9.0, 0.1, 2.0)   # a sharp texel shows any misplacement
     path = tmp_path / f"sky{suffix}"
@@ -358,24 +376,27 @@ def test_envmap_lookup_matches_mitsuba_and_the_resampled_map_follows_it(tmp_path
            f'<transform name="to_world">{rotation}</transform></emitter>')
     emitter = mi.load_string(xml)
     matrix = np.array(mi.traverse(emitter)["to_world"].matrix)
+
+    def theirs(directions):
+        values = []
+        for d in directions:
+            si = mi.SurfaceInteraction3f()
+            si.wi = mi.Vector3f(*(-d))
+            values.append(np.array(emitter.eval(si)))
+        return np.array(values)
+
     rng = np.random.default_rng(2)
     directions = rng.normal(size=(300, 3))
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    theirs = []
-    for d in directions:
-        si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(*(-d))
-        theirs.append(np.array(emitter.eval(si)))
-    theirs = np.array(theirs)
-    assert np.allclose(mitsuba_envmap_lookup(image, directions @ matrix[:3, :3]), theirs, rtol=1e-5, atol=1e-6)
-    # clrender's texel lookup (lights.h) in the resampled map: close to Mitsuba's, except next to
-    # the sharp texel, where constant texels cannot follow the bilinear ramp.
-    resampled = resample_envmap(image, matrix[:3, :3], 96, 56)
-    u = np.arctan2(directions[:, 0], -directions[:, 2]) / (2 * np.pi) + 0.5
-    v = np.arccos(directions[:, 1]) / np.pi
-    ours = resampled[np.minimum((v * 56).astype(int), 55), np.minimum((u * 96).astype(int), 95)]
-    error = np.abs(ours - theirs).max(axis=1) / theirs.max(axis=1)
-    assert np.median(error) < 0.02
+    assert np.allclose(mitsuba_envmap_lookup(image, directions @ matrix[:3, :3]), theirs(directions), rtol=1e-5, atol=1e-6)
+    # The kernel's lookup "mitsuba" (kernels/lights.h) of the scene the XML reader makes, at the
+    # directions its light sampling draws (many by the sharp texel): float32 angles.
+    scene_file = tmp_path / "scene.xml"
+    emitter_xml = xml.replace(' version="3.0.0"', "")
+    scene_file.write_text(f'<scene version="3.0.0"><sensor type="perspective"/>{emitter_xml}</scene>')
+    scene = load_quietly(scene_file)
+    directions, ours = environment_samples(context, queue, scene, 300)
+    np.testing.assert_allclose(ours, theirs(directions.astype(float)), rtol=1e-4, atol=1e-4)
 
 
 @pytest.mark.parametrize("plugin", [{"type": "gaussian"}, {"type": "gaussian", "stddev": 1.3}, {"type": "tent"},

@@ -13,6 +13,7 @@ import clrender
 from clrender import cie, grids, layout, limits, meshes, mitsuba
 from clrender.arrays import build_scene_arrays
 from clrender.mitsuba import MitsubaXmlError, MitsubaXmlWarning
+from mitsuba_envmap import mitsuba_envmap_lookup
 
 SENSOR = """<sensor type="perspective">
         <float name="fov" value="40"/>
@@ -728,80 +729,22 @@ def test_spot_lights(tmp_path):
     assert (lights[1]["intensity"], lights[1]["cutoff_angle"], lights[1]["beam_width"]) == ([1.0, 2.0, 3.0], 40.0, 5.0)
 
 
-def test_envmap_is_resampled_with_a_warning(tmp_path):
+def test_envmap_keeps_its_image_and_mitsubas_lookup(tmp_path):
+    """The map as read (no resampling, no warning), with its scale, Mitsuba's lookup and
+    to_world's rotation (a translation dropped: directions only)."""
     image = np.random.default_rng(3).uniform(0.5, 2.0, (6, 10, 3)).astype(np.float32)
     clrender.save_image(image, tmp_path / "env.exr")
-    scene, warned = translate(tmp_path, '<emitter type="envmap"><string name="filename" value="env.exr"/>'
-                                        '<float name="scale" value="2"/></emitter>')
-    light = scene["lights"][0]
-    assert light["image"].shape == (48, 80, 3)   # 8 times the resolution
-    assert "bilinearly; resampled to 80 x 48" in warned[0]
-    # Without rotation the map is Mitsuba's half a turn around +y (Mitsuba's centre looks
-    # down +z, clrender's down -z), times the scale, and keeps the mean radiance.
-    assert np.isclose(light["image"].mean(), 2 * image.mean(), rtol=0.05)
-    column = light["image"][24, 40 + 4]     # clrender's u = 0.5 + 0.5 / 10 looks down +z (Mitsuba's u 0.05 ...)
-    assert np.all(column > 0)
-
-
-def test_a_resampled_envmap_is_kept_on_disk(tmp_path, monkeypatch):
-    """The resampled map is stored (clrender/disk_cache.py) under the image, the rotation and the
-    size: read again it is the map resampled, bit for bit, without resampling; another rotation
-    or another image is resampled."""
-    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path / "cache"))
-    image = np.random.default_rng(4).uniform(0.5, 2.0, (6, 10, 3)).astype(np.float32)
-    clrender.save_image(image, tmp_path / "env.exr")
-
-    def envmap(rotation=""):
-        body = ('<emitter type="envmap"><string name="filename" value="env.exr"/><float name="scale" value="2"/>'
-                f'{rotation}</emitter>')
-        return translate(tmp_path, body)[0]["lights"][0]["image"]
-
-    first = envmap()
-    decoded = clrender.load_image(tmp_path / "env.exr")
-    assert np.array_equal(first, mitsuba.resample_envmap(decoded, np.eye(3), 80, 48) * np.float32(2))
-    monkeypatch.setattr(mitsuba.emitter, "resample_envmap", lambda *a: pytest.fail("resampled again"))
-    assert np.array_equal(envmap(), first)
-    turned = '<transform name="to_world"><rotate x="1" angle="90"/></transform>'
-    with pytest.raises(pytest.fail.Exception, match="resampled again"):
-        envmap(turned)
-    clrender.save_image(image[::-1], tmp_path / "env.exr")
-    with pytest.raises(pytest.fail.Exception, match="resampled again"):
-        envmap()
-
-
-def direct_resample(image, rotation, width, height):
-    """resample_envmap's definition computed texel by texel in float64: the sin(theta)-weighted
-    mean of Mitsuba's lookups at the centres of the texel's quarters."""
-    out = np.zeros((height, width, image.shape[2]))
-    for j in range(height):
-        for i in range(width):
-            total = weight = 0.0
-            for dv in (0.25, 0.75):
-                theta = (j + dv) / height * np.pi
-                for du in (0.25, 0.75):
-                    phi = 2 * np.pi * ((i + du) / width - 0.5)
-                    world = np.array([[np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)]])
-                    total = total + mitsuba.mitsuba_envmap_lookup(image, world @ rotation)[0] * np.sin(theta)
-                    weight += np.sin(theta)
-            out[j, i] = total / weight
-    return out
-
-
-@pytest.mark.parametrize("rotation", [
-    meshes.transform_matrix(), meshes.transform_matrix(rotate=[0, 70, 0]), meshes.transform_matrix(rotate=[0, -200, 0]),
-    meshes.transform_matrix(rotate=[180, 30, 0]), meshes.transform_matrix(scale=[-1, 1, 1]),
-    meshes.transform_matrix(rotate=[25, 70, 0]), meshes.transform_matrix(rotate=[-90, 0, 10])],
-    ids=["identity", "about y", "about y beyond a turn", "y down", "mirror", "tilted", "z up"])
-@pytest.mark.parametrize("factor", [1, 2, 3])
-def test_envmap_resampling_is_its_definition(rotation, factor):
-    """The separable filter (rotations about y) and the banded float32 lookups (any rotation)
-    give the texel-by-texel definition, at the resolution of the image and finer."""
-    image = np.random.default_rng(4).uniform(0, 3, (7, 12, 3)).astype(np.float32)
-    image[3, 5] = (40.0, 0.1, 9.0)   # a sharp texel shows any misplaced tap
-    ours = mitsuba.resample_envmap(image, rotation[:3, :3], 12 * factor, 7 * factor)
-    assert ours.dtype == np.float32 and ours.shape == (7 * factor, 12 * factor, 3)
-    np.testing.assert_allclose(ours, direct_resample(image.astype(float), rotation[:3, :3], 12 * factor, 7 * factor),
-                               rtol=0, atol=1e-5 * 40)
+    turned = '<transform name="to_world"><rotate x="1" angle="90"/><translate x="5"/></transform>'
+    for rotation in ("", turned):
+        scene, warned = translate(tmp_path, '<emitter type="envmap"><string name="filename" value="env.exr"/>'
+                                            f'<float name="scale" value="2"/>{rotation}</emitter>')
+        light = scene["lights"][0]
+        assert not warned and light["lookup"] == "mitsuba" and light["scale"] == 2.0
+        assert np.array_equal(light["image"], clrender.load_image(tmp_path / "env.exr"))
+        loaded = clrender.load_scene_dict(scene).environment
+        assert np.array_equal(loaded.image, light["image"] * np.float32(2)) and loaded.lookup == "mitsuba"
+        expected = meshes.transform_matrix(rotate=[90, 0, 0])[:3, :3] if rotation else np.eye(3)
+        np.testing.assert_allclose(loaded.rotation, expected, atol=1e-12)
 
 
 def test_envmap_lookup_convention():
@@ -811,8 +754,8 @@ def test_envmap_lookup_convention():
     u, v = (2 + 0.5) / 4, 0.5
     phi, theta = 2 * np.pi * u, np.pi * v
     direction = np.array([[np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta)]])
-    assert np.allclose(mitsuba.mitsuba_envmap_lookup(image, direction), 1.0)
-    assert np.allclose(mitsuba.mitsuba_envmap_lookup(image, direction * [[1, 1, -1]]), 0.0)
+    assert np.allclose(mitsuba_envmap_lookup(image, direction), 1.0)
+    assert np.allclose(mitsuba_envmap_lookup(image, direction * [[1, 1, -1]]), 0.0)
 
 
 @pytest.mark.parametrize("body,message", [

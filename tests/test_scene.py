@@ -73,6 +73,14 @@ def test_example_scenes_load():
     (lambda s: s.update(lights=[{"type": "point", "position": [0, 1, 0], "intensity": -2}]),
      "lights[0].intensity", "non-negative"),
     (lambda s: s.update(lights=[{"type": "environment"}, {"type": "environment"}]), "lights", "at most one"),
+    (lambda s: s.update(lights=[{"type": "environment", "lookup": "mitsuba"}]), "lights[0].lookup",
+     "applies to an environment image"),
+    (lambda s: s.update(lights=[{"type": "environment", "image": np.ones((2, 4, 3)), "lookup": "bilinear"}]),
+     "lights[0].lookup", "valid: texel, mitsuba"),
+    (lambda s: s.update(lights=[{"type": "environment", "image": np.ones((1, 4, 3)), "lookup": "mitsuba"}]),
+     "lights[0].image", "at least 2 rows"),
+    (lambda s: s.update(lights=[{"type": "environment", "image": np.ones((2, 4, 3)), "transform": {"scale": 2}}]),
+     "lights[0].transform", "must be a rotation"),
     (lambda s: s.pop("camera"), "camera", "is required"),
 ])
 def test_invalid_fields_are_reported_with_their_place(patch, where, message):

@@ -15,6 +15,7 @@ import clrender
 from clrender import arrays as scene_arrays
 from clrender import layout, meshes, wide_bvh
 from clrender.bvh import build_bvh, intersect_brute_force
+from clrender.triangle_blocks import triangle_blocks
 from clrender.render import render_params
 from conftest import build_test_kernels, camera, z_bound
 
@@ -43,7 +44,8 @@ def trace(context, queue, v0, v1, v2, centres, radii, origins, directions):
     nodes, _ = wide_bvh.collapse(tree, is_sphere)
     if len(triangles) == 0:
         triangles = np.zeros(1, layout.TRIANGLE)
-    buffers = [upload(context, x) for x in (nodes, triangles, float4(origins), float4(directions))]
+    nodes, blocks = triangle_blocks(nodes, triangles)
+    buffers = [upload(context, x) for x in (nodes, blocks, triangles, float4(origins), float4(directions))]
     n = len(origins)
     t, slot, any_hit = np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.int32)
     outputs = [cl.Buffer(context, mf.WRITE_ONLY, x.nbytes) for x in (t, slot, any_hit)]

@@ -1,7 +1,7 @@
-"""Set-up cost of an environment map: `clrender info` (load, resample, sampling tables, BVH) of a
-scene whose only heavy part is a W x H lat-long map, timed whole in fresh processes, with the
+"""Set-up cost of an environment map: `clrender info` (load, sampling tables, BVH) of a scene
+whose only heavy part is a W x H lat-long map, timed whole in fresh processes, with the
 process's peak memory. Three scenes: a Mitsuba envmap turned about y (the usual case), one
-tilted (z up: every texel looked up on its own), and a JSON environment (no resampling).
+tilted (z up), and a JSON environment (the texel lookup).
 
     python tools/bench_envmap.py [--map sky.exr | --size 2048 1024] [--runs 5] [--roots DIR ...]
 

@@ -257,7 +257,7 @@ def child_traversal_clrender(folder, rays_path, runs, out):
     kernel = cl.Kernel(build_program(context, no_features, entry="tests.cl"), "trace_rays")
     flags = cl.mem_flags
     inputs = [cl.Buffer(context, flags.READ_ONLY | flags.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(x))
-              for x in (arrays.nodes, arrays.triangles, origins, directions)]
+              for x in (arrays.nodes, arrays.blocks, arrays.triangles, origins, directions)]
     outputs = [cl.Buffer(context, flags.WRITE_ONLY, 4 * len(rays)) for _ in range(3)]
 
     def launch():

@@ -15,9 +15,8 @@ naming the element, its type and its line; the few unavoidable approximations
     scene = clrender.load_scene("scene.xml", parameters={"spp": "64"})
 """
 from .bsdf import IOR_PRESETS
-from .emitter import mitsuba_envmap_lookup, resample_envmap
 from .translation import Translation, read_scene, read_scene_file
 from .xml import PARAMETER_NAME, MitsubaXmlError, MitsubaXmlWarning
 
 __all__ = ["IOR_PRESETS", "PARAMETER_NAME", "MitsubaXmlError", "MitsubaXmlWarning",
-           "Translation", "mitsuba_envmap_lookup", "read_scene", "read_scene_file", "resample_envmap"]
+           "Translation", "read_scene", "read_scene_file"]

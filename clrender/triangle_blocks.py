@@ -1,0 +1,28 @@
+"""The BVH leaves' triangles as the kernel intersects them: four at once, from one
+layout.TRIANGLE_BLOCK per leaf (kernels/bvh.h, intersect_triangle_block)."""
+import numpy as np
+
+from . import layout
+
+LANES = 4
+
+
+def triangle_blocks(nodes, triangles):
+    """(nodes, blocks): the wide tree (layout.WIDE_BVH_NODE) with each triangle leaf's `child`
+    turned from its first primitive slot into the index of its block, and the blocks, in the
+    order of the leaves' lanes. A block's lanes past the leaf's count repeat its last triangle.
+    `triangles`: the primitive slots (layout.TRIANGLE). There is always at least one block (an
+    empty buffer cannot be passed to a kernel)."""
+    nodes = nodes.copy()
+    leaf = nodes["count"] > 0
+    first, count = nodes["child"][leaf], nodes["count"][leaf]
+    if np.any(count > LANES):
+        raise ValueError(f"a leaf of {int(count.max())} triangles; a block holds {LANES}")
+    blocks = np.zeros(max(len(first), 1), layout.TRIANGLE_BLOCK)
+    slots = first[:, None] + np.minimum(np.arange(LANES), count[:, None] - 1)   # (leaves, LANES)
+    blocks["slot"][:len(first)] = slots
+    for name in ("v0", "e1", "e2"):
+        for axis, component in enumerate("xyz"):
+            blocks[f"{name}_{component}"][:len(first)] = triangles[name][slots, axis]
+    nodes["child"][leaf] = np.arange(len(first))
+    return nodes, blocks
