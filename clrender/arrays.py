@@ -150,7 +150,7 @@ def build_scene_arrays(scene):
     emitters = np.concatenate([emitters] + light_emitters) if light_emitters else emitters
     # Each light a group of its own, after the shapes.
     groups += list(len(scene.shapes) + np.arange(len(light_emitters)))
-    selection = light_selection.selection_weights(powers, areas + [1.0] * len(light_emitters), groups)
+    selection = light_selection.selection_weights(powers, areas + [1.0] * len(light_emitters), groups, env_index)
     if len(emitters):
         emitters["e2"][:, 3] = light_selection.power_shares(powers)
     materials = _material_array(scene.materials, scene.textures, scale)

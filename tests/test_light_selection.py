@@ -1,5 +1,6 @@
-"""Which emitter next-event estimation picks (clrender/light_selection.py): half by power, half
-as Mitsuba 3 (each emitting shape and each light alike, a mesh's triangles by area)."""
+"""Which emitter next-event estimation picks (clrender/light_selection.py): half by power (the
+environment's a quarter of it), half as Mitsuba 3 (each emitting shape and each light alike, a
+mesh's triangles by area)."""
 import warnings
 
 import numpy as np
@@ -41,3 +42,22 @@ def test_the_scene_arrays_pick_emitters_by_these_weights(tmp_path):
     by_power = powers / powers.sum()
     expected = 0.5 * np.array([by_power[0] / 2, by_power[0] / 2, by_power[1], by_power[2]]) + 0.5 * np.array([1 / 6, 1 / 6, 1 / 3, 1 / 3])
     np.testing.assert_allclose(np.diff(arrays.emitter_cdf), expected, rtol=1e-5)
+
+
+def test_the_environment_counts_a_quarter_of_its_power_beside_a_sun(tmp_path):
+    # A constant sky of radiance 0.4 and a sun of irradiance 2 in a scene of bounding radius r:
+    # powers 4 pi^2 r^2 0.4 (toon's shares) and pi r^2 2; for picking, the sky's counts a quarter,
+    # the irradiance pi L of the half of it a surface sees against the sun's E.
+    path = tmp_path / "sun_and_sky.xml"
+    path.write_text("""<scene version="3.0.0">
+        <shape type="rectangle"><bsdf type="diffuse"/></shape>
+        <emitter type="constant"><rgb name="radiance" value="0.4"/></emitter>
+        <emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><rgb name="irradiance" value="2"/></emitter>
+        <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+    </scene>""")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)   # the default filter
+        arrays = build_scene_arrays(clrender.load_scene(path))
+    sky, sun = np.pi * np.pi * 0.4, np.pi * 2.0   # over r^2
+    np.testing.assert_allclose(np.diff(arrays.emitter_cdf), 0.5 * np.array([sky, sun]) / (sky + sun) + 0.25, rtol=1e-5)
+    np.testing.assert_allclose(arrays.emitters["e2"][:, 3], np.array([4 * sky, sun]) / (4 * sky + sun), rtol=1e-5)

@@ -67,3 +67,16 @@ def test_the_mirror_edits_the_film_and_sampler_only(scenes, tmp_path_factory):
     assert (out / "include" / "walls.xml").is_symlink()
     again = real_scenes.mirror(scenes / "room" / "scene.xml", out, (64, 40), "independent")
     assert 'value="64"' in again.read_text() and "type='independent'" in again.read_text()
+
+
+@pytest.mark.parametrize("rfilter", ['<rfilter type="tent" />',
+                                     '<rfilter type="gaussian">\n<float name="stddev" value="0.3"/>\n</rfilter>', ""])
+def test_the_mirror_can_replace_the_reconstruction_filter(scenes, tmp_path_factory, rfilter):
+    """tools/variance.py renders both renderers with the same filter: one given in the film, in
+    either form, is replaced, and a film without one (Mitsuba's default gaussian) gets it."""
+    scene = scenes / "room" / "scene.xml"
+    scene.write_text(SCENE.replace("</film>", rfilter + "</film>"))
+    xml = real_scenes.mirror(scene, tmp_path_factory.mktemp("mirror"), (64, 36), "independent", rfilter="box")
+    text = xml.read_text()
+    assert text.count("<rfilter") == 1 and '<rfilter type="box"/></film>' in text
+    assert 'value="64"' in text and 'value="36"' in text and "stddev" not in text

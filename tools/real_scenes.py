@@ -1,6 +1,7 @@
-"""Real Mitsuba 3 scenes for tools/peers.py (--real-scenes): each scene's XML as shipped, in an
-edited copy whose only changes are the film's size and the sampler's type, rendered by both
-renderers from the same files; and the timed processes, which time their phases.
+"""Real Mitsuba 3 scenes for tools/peers.py (--real-scenes) and tools/variance.py: each scene's XML
+as shipped, in an edited copy whose only changes are the film's size and the sampler's type (and,
+for tools/variance.py, the film's reconstruction filter), rendered by both renderers from the same
+files; and the timed processes, which time their phases.
 
 The copy is a mirror of the scene's folder in the cache: every file a symbolic link to the
 original except the XML files holding a <film> or a <sampler>, written with the edit, so every
@@ -22,6 +23,7 @@ _DEFAULT_INTEGRATOR = re.compile(r"""<default\s+name=["']integrator["']\s+value=
 _INCLUDE = re.compile(r"""<include\s+filename=["']([^"']*)["']""")
 _FILM = re.compile(r"<film\b.*?</film>", re.S)
 _SAMPLER_TYPE = re.compile(r"""(<sampler\s+type=)(["'])[^"']*\2""")
+_RFILTER = re.compile(r"<rfilter\b[^>]*/>|<rfilter\b[^>]*>.*?</rfilter>", re.S)
 
 
 def scene_files(paths):
@@ -62,9 +64,12 @@ def film_size(resolution, longest):
     return tuple(max(8, 8 * round(side * scale / 8)) for side in (width, height))
 
 
-def mirror(xml, folder, size, sampler):
+def mirror(xml, folder, size, sampler, rfilter=None):
     """The scene file `xml` mirrored into `folder` (see the module's docstring) with its film
-    `size` (width, height) and every sampler of type `sampler`. Returns the mirrored XML's path."""
+    `size` (width, height) and every sampler of type `sampler`; with `rfilter` (a filter type), every
+    film's reconstruction filter becomes one of that type with its default parameters (a film
+    without one, whose filter is Mitsuba's default gaussian, gets it too). Returns the mirrored
+    XML's path."""
     root = _scene_root(xml)
     for source in root.rglob("*"):
         target = folder / source.relative_to(root)
@@ -74,7 +79,7 @@ def mirror(xml, folder, size, sampler):
         target.parent.mkdir(parents=True, exist_ok=True)
         text = source.read_text(errors="replace") if source.suffix == ".xml" else None
         if text is not None and ("<film" in text or "<sampler" in text):
-            edited = _edit(text, size, sampler)
+            edited = _edit(text, size, sampler, rfilter)
             if not target.is_file() or target.is_symlink() or target.read_text() != edited:
                 target.unlink(missing_ok=True)
                 target.write_text(edited)
@@ -93,12 +98,14 @@ def _scene_root(xml):
     return xml.parent
 
 
-def _edit(text, size, sampler):
+def _edit(text, size, sampler, rfilter=None):
     def film(match):
         block = match.group(0)
         for name, value in zip(("width", "height"), size):
             block = re.sub(rf"""(<integer\s+name=["']{name}["']\s+value=)(["'])[^"']*\2""",
                            rf"\g<1>\g<2>{value}\g<2>", block)
+        if rfilter is not None:
+            block = _RFILTER.sub("", block).replace("</film>", f'<rfilter type="{rfilter}"/></film>')
         return block
     return _SAMPLER_TYPE.sub(rf"\g<1>\g<2>{sampler}\g<2>", _FILM.sub(film, text))
 
