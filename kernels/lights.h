@@ -45,10 +45,12 @@ float environment_u_offset(const Scene* scene) {
     return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? 0.5f : -0.5f / (float)scene->params->environment.y;
 }
 
-// (u, v) of a direction in the image's frame.
-float2 direction_to_latlong(const Scene* scene, float3 d) {
-    float u = atan2(d.x, -d.z) * (0.5f * INV_PI_F) + environment_u_offset(scene);
-    float v = acos(clamp(d.y, -1.0f, 1.0f)) * INV_PI_F;
+// (u, v) of a direction in the image's frame, and sin(theta) (the pdf's Jacobian). theta by
+// atan2 of (sin, cos) rather than acos: one routine (math.h), and no loss near the poles.
+float2 direction_to_latlong(const Scene* scene, float3 d, float* sin_theta) {
+    *sin_theta = sqrt(d.x * d.x + d.z * d.z);
+    float u = atan2_turns(d.x, -d.z) + environment_u_offset(scene);
+    float v = 2.0f * atan2_turns(*sin_theta, d.y);
     return (float2)(u - floor(u), v);
 }
 
@@ -72,47 +74,74 @@ float3 environment_bilinear(const Scene* scene, float2 uv) {
     return mix(top, bottom, fy).xyz;
 }
 
+float3 environment_radiance_at(const Scene* scene, float2 uv) {
+    return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? environment_texel(scene, uv)
+                                                           : environment_bilinear(scene, uv);
+}
+
 // The sampling grid's columns and rows head its tables (clrender/arrays.py, _environment_tables):
 // cells of one or more texels (ENV_LOOKUP_TEXEL) or of the squares between texel centres.
 int2 environment_sampling_grid(const Scene* scene) {
     return (int2)((int)scene->env_cdf[0], (int)scene->env_cdf[1]);
 }
 
-float environment_pdf_w(const Scene* scene, float3 dir) {
-    int2 grid = environment_sampling_grid(scene);
-    int w = grid.x, h = grid.y;
-    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir));
-    int i = min((int)(uv.x * (float)w), w - 1), j = min((int)(uv.y * (float)h), h - 1);
-    __global const float* marginal = scene->env_cdf + 2;
-    __global const float* conditional = marginal + (h + 1) + j * (w + 1);
-    float pdf_uv = (float)(w * h) * (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]);
-    float sin_theta = sin(uv.y * PI_F);
+__global const float* environment_marginal(const Scene* scene) { return scene->env_cdf + 2; }
+
+__global const float* environment_conditional(const Scene* scene, int2 grid, int row) {
+    return environment_marginal(scene) + (grid.y + 1) + row * (grid.x + 1);
+}
+
+// Solid-angle density of grid cell (i, j) at a direction sin_theta from the pole: the cell's
+// probability times the grid's cell count is its (u, v) density, and d(u, v) / d(omega) is
+// 1 / (2 pi^2 sin theta).
+float environment_cell_pdf_w(const Scene* scene, int2 grid, int i, int j, float sin_theta) {
+    __global const float* marginal = environment_marginal(scene);
+    __global const float* conditional = environment_conditional(scene, grid, j);
+    float pdf_uv = (float)(grid.x * grid.y) * (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]);
     return sin_theta > 0.0f ? pdf_uv / (2.0f * PI_F * PI_F * sin_theta) : 0.0f;
 }
 
+float environment_pdf_uv_w(const Scene* scene, float2 uv, float sin_theta) {
+    int2 grid = environment_sampling_grid(scene);
+    int i = min((int)(uv.x * (float)grid.x), grid.x - 1), j = min((int)(uv.y * (float)grid.y), grid.y - 1);
+    return environment_cell_pdf_w(scene, grid, i, j, sin_theta);
+}
+
+float environment_pdf_w(const Scene* scene, float3 dir) {
+    float sin_theta;
+    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta);
+    return environment_pdf_uv_w(scene, uv, sin_theta);
+}
+
 float3 environment_radiance(const Scene* scene, float3 dir) {
-    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir));
-    return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? environment_texel(scene, uv)
-                                                           : environment_bilinear(scene, uv);
+    float sin_theta;
+    return environment_radiance_at(scene, direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta));
+}
+
+// Both along one direction (an escaped ray under MIS): its (u, v) found once.
+float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) {
+    float sin_theta;
+    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta);
+    *pdf_w = environment_pdf_uv_w(scene, uv, sin_theta);
+    return environment_radiance_at(scene, uv);
 }
 
 // Piecewise-constant inversion over the sampling grid: a row from the marginal CDF, then a
-// column in that row.
-float3 sample_environment_direction(const Scene* scene, float2 u) {
+// column in that row. The drawn cell gives the pdf and the drawn (u, v) the radiance, with no
+// way back from the direction.
+float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float3* radiance) {
     int2 grid = environment_sampling_grid(scene);
-    int w = grid.x, h = grid.y;
-    __global const float* marginal = scene->env_cdf + 2;
     float in_row, in_column;
-    int j = sample_discrete_cdf_reuse(marginal, h, u.x, &in_row);
-    float v = ((float)j + in_row) / (float)h;
-    __global const float* conditional = marginal + (h + 1) + j * (w + 1);
-    int i = sample_discrete_cdf_reuse(conditional, w, u.y, &in_column);
-    float uu = ((float)i + in_column) / (float)w;
-    float theta = clamp(v, 0.0f, 1.0f) * PI_F;
-    float sin_phi, cos_phi;
-    sincos_2pi(uu - environment_u_offset(scene), &sin_phi, &cos_phi);
-    float sin_theta = sin(theta);
-    return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos(theta), -sin_theta * cos_phi));
+    int j = sample_discrete_cdf_reuse(environment_marginal(scene), grid.y, u.x, &in_row);
+    int i = sample_discrete_cdf_reuse(environment_conditional(scene, grid, j), grid.x, u.y, &in_column);
+    float2 uv = (float2)(((float)i + in_column) / (float)grid.x, clamp(((float)j + in_row) / (float)grid.y, 0.0f, 1.0f));
+    float sin_theta, cos_theta, sin_phi, cos_phi;
+    sincos_2pi(0.5f * uv.y, &sin_theta, &cos_theta);   // theta = v pi: half a turn
+    sincos_2pi(uv.x - environment_u_offset(scene), &sin_phi, &cos_phi);
+    sin_theta = fmax(sin_theta, 0.0f);
+    *pdf_w = environment_cell_pdf_w(scene, grid, i, j, sin_theta);
+    *radiance = environment_radiance_at(scene, uv);
+    return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi));
 }
 #elif ENVIRONMENT == ENVIRONMENT_CONSTANT
 float environment_pdf_w(const Scene* scene, float3 dir) { return UNIFORM_SPHERE_PDF_W; }
@@ -121,7 +150,16 @@ float3 environment_radiance(const Scene* scene, float3 dir) {
     return scene->emitters[scene->params->environment.x].radiance.xyz;
 }
 
-float3 sample_environment_direction(const Scene* scene, float2 u) { return sample_uniform_sphere(u); }
+float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) {
+    *pdf_w = UNIFORM_SPHERE_PDF_W;
+    return environment_radiance(scene, dir);
+}
+
+float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float3* radiance) {
+    *pdf_w = UNIFORM_SPHERE_PDF_W;
+    *radiance = scene->emitters[scene->params->environment.x].radiance.xyz;
+    return sample_uniform_sphere(u);
+}
 #endif
 
 // ----- area lights: spheres ------------------------------------------------------------------
@@ -295,9 +333,9 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     }
 #if ENVIRONMENT != ENVIRONMENT_NONE
     else if (kind == EMITTER_ENVIRONMENT) {
-        ls.wi = sample_environment_direction(scene, u);
-        ls.pdf_w = pmf * environment_pdf_w(scene, ls.wi);
-        ls.radiance = environment_radiance(scene, ls.wi);
+        float pdf_w;
+        ls.wi = sample_environment_direction(scene, u, &pdf_w, &ls.radiance);
+        ls.pdf_w = pmf * pdf_w;
     }
 #endif
     else if (kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL) {

@@ -125,13 +125,11 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypa
     mf = cl.mem_flags
     buffers = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
                for x in (params, arrays.env_texels, arrays.env_cdf)]
-    out = np.empty((count, 4), np.float32)
-    radiance = np.empty((count, 4), np.float32)
-    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
-    radiance_buffer = cl.Buffer(context, mf.WRITE_ONLY, radiance.nbytes)
-    program.sample_environment(queue, (count,), None, *buffers, np.uint32(9), out_buffer, radiance_buffer)
-    cl.enqueue_copy(queue, out, out_buffer)
-    cl.enqueue_copy(queue, radiance, radiance_buffer)
+    out, radiance, looked_up = (np.empty((count, 4), np.float32) for _ in range(3))
+    out_buffers = [cl.Buffer(context, mf.WRITE_ONLY, x.nbytes) for x in (out, radiance, looked_up)]
+    program.sample_environment(queue, (count,), None, *buffers, np.uint32(9), *out_buffers)
+    for host, buffer in zip((out, radiance, looked_up), out_buffers):
+        cl.enqueue_copy(queue, host, buffer)
 
     weights = reference_cells(image, lookup)
     height, width = weights.shape
@@ -165,10 +163,14 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypa
     assert settled.mean() > 0.99, settled.mean()
     pdf_uv = out[:, 3] * 2 * np.pi ** 2 * np.sqrt(np.maximum(0, 1 - local[:, 1] ** 2))
     np.testing.assert_allclose(pdf_uv[settled], pmf[cell[settled]] * height * width, rtol=2e-3)
-    if lookup == "texel":
-        np.testing.assert_allclose(radiance[settled, :3], image.reshape(-1, 3)[cell[settled]], rtol=1e-6)
-    else:   # continuous: a rounding of the direction moves it by 1e-6 of the sun's 400
-        np.testing.assert_allclose(radiance[:, :3], mitsuba_envmap_lookup(image, local), rtol=1e-4, atol=1e-3)
+    # The sampler's pdf and radiance come from the (u, v) it drew; a BSDF sample along the same
+    # direction finds them again from the direction (the MIS weights need the same pdf).
+    np.testing.assert_allclose(looked_up[settled, 3], out[settled, 3], rtol=1e-4)
+    for seen in (radiance, looked_up):
+        if lookup == "texel":
+            np.testing.assert_allclose(seen[settled, :3], image.reshape(-1, 3)[cell[settled]], rtol=1e-6)
+        else:   # continuous: a rounding of the direction moves it by 1e-6 of the sun's 400
+            np.testing.assert_allclose(seen[:, :3], mitsuba_envmap_lookup(image, local), rtol=1e-4, atol=1e-3)
 
 
 def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():

@@ -129,11 +129,11 @@ void toon_environment(const Scene* scene, const Material* m, const SurfacePoint*
     toon_add_light(scene, m, sp, wo, wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
     toon_add_light(scene, m, sp, wo, -wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
 #else
-    float3 wi = sample_environment_direction(scene, u);
-    float pdf_w = environment_pdf_w(scene, wi);
+    float pdf_w;
+    float3 radiance;
+    float3 wi = sample_environment_direction(scene, u, &pdf_w, &radiance);
     if (pdf_w > 0.0f)
-        toon_add_light(scene, m, sp, wo, wi, INFINITY, environment_radiance(scene, wi) / pdf_w, share,
-                       medium, rng, lighting);
+        toon_add_light(scene, m, sp, wo, wi, INFINITY, radiance / pdf_w, share, medium, rng, lighting);
 #endif
 }
 #endif
