@@ -16,7 +16,9 @@
 typedef struct {
     float3 wi;        // unit direction towards the light
     float dist;       // distance to the sampled point (INFINITY for the environment/directional)
-    float3 radiance;  // arriving radiance (irradiance-like for delta lights), before the pdf
+    float3 radiance;  // arriving radiance (irradiance-like for delta lights), before the pdf;
+                      // the environment image's: 1 until light_sample_radiance looks it up
+    float2 env_uv;    // the environment image's (u, v) drawn
     float pdf_w;      // solid-angle pdf including the selection probability; 1 * pmf for delta
     bool delta;
     int emitter;      // the emitter picked
@@ -127,20 +129,19 @@ float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) 
 }
 
 // Piecewise-constant inversion over the sampling grid: a row from the marginal CDF, then a
-// column in that row. The drawn cell gives the pdf and the drawn (u, v) the radiance, with no
-// way back from the direction.
-float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float3* radiance) {
+// column in that row. The drawn cell gives the pdf and *uv the radiance
+// (environment_radiance_at), with no way back from the direction.
+float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float2* uv) {
     int2 grid = environment_sampling_grid(scene);
     float in_row, in_column;
     int j = sample_discrete_cdf_reuse(environment_marginal(scene), grid.y, u.x, &in_row);
     int i = sample_discrete_cdf_reuse(environment_conditional(scene, grid, j), grid.x, u.y, &in_column);
-    float2 uv = (float2)(((float)i + in_column) / (float)grid.x, clamp(((float)j + in_row) / (float)grid.y, 0.0f, 1.0f));
+    *uv = (float2)(((float)i + in_column) / (float)grid.x, clamp(((float)j + in_row) / (float)grid.y, 0.0f, 1.0f));
     float sin_theta, cos_theta, sin_phi, cos_phi;
-    sincos_2pi(0.5f * uv.y, &sin_theta, &cos_theta);   // theta = v pi: half a turn
-    sincos_2pi(uv.x - environment_u_offset(scene), &sin_phi, &cos_phi);
+    sincos_2pi(0.5f * uv->y, &sin_theta, &cos_theta);   // theta = v pi: half a turn
+    sincos_2pi(uv->x - environment_u_offset(scene), &sin_phi, &cos_phi);
     sin_theta = fmax(sin_theta, 0.0f);
     *pdf_w = environment_cell_pdf_w(scene, grid, i, j, sin_theta);
-    *radiance = environment_radiance_at(scene, uv);
     return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi));
 }
 #elif ENVIRONMENT == ENVIRONMENT_CONSTANT
@@ -155,9 +156,13 @@ float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) 
     return environment_radiance(scene, dir);
 }
 
-float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float3* radiance) {
+float3 environment_radiance_at(const Scene* scene, float2 uv) {
+    return scene->emitters[scene->params->environment.x].radiance.xyz;
+}
+
+float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float2* uv) {
     *pdf_w = UNIFORM_SPHERE_PDF_W;
-    *radiance = scene->emitters[scene->params->environment.x].radiance.xyz;
+    *uv = u;
     return sample_uniform_sphere(u);
 }
 #endif
@@ -334,14 +339,25 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
 #if ENVIRONMENT != ENVIRONMENT_NONE
     else if (kind == EMITTER_ENVIRONMENT) {
         float pdf_w;
-        ls.wi = sample_environment_direction(scene, u, &pdf_w, &ls.radiance);
+        ls.wi = sample_environment_direction(scene, u, &pdf_w, &ls.env_uv);
         ls.pdf_w = pmf * pdf_w;
+        ls.radiance = (float3)(1.0f);
     }
 #endif
     else if (kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL) {
         delta_light_sample(e, p, pmf, &ls);
     }
     return ls;
+}
+
+// The radiance a light sample brings. The environment image's is looked up only here, which
+// callers reach once the shadow ray has passed: blocked samples skip its texels, whose cache
+// misses were a fifth of the living room's render (docs/performance.md).
+float3 light_sample_radiance(const Scene* scene, const LightSample* ls) {
+#if ENVIRONMENT != ENVIRONMENT_NONE
+    if (ls->emitter >= 0 && ls->emitter == scene->params->environment.x) return environment_radiance_at(scene, ls->env_uv);
+#endif
+    return ls->radiance;
 }
 
 #endif

@@ -71,7 +71,7 @@ INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfaceP
     float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
     float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(scene, m, sp, wo, ls.wi) * pdf_ratio * bsdf_share);
-    return f * tr * ls.radiance * (weight / ls.pdf_w);
+    return f * tr * light_sample_radiance(scene, &ls) * (weight / ls.pdf_w);
 }
 
 // Mitsuba's hide_emitters (RenderParams.environment.w & HIDE_EMITTING_SHAPES): camera rays pass

@@ -196,10 +196,10 @@ KERNEL void sample_environment(__constant RenderParams* params, __global const f
     scene.env_cdf = env_cdf;
     Rng rng = rng_for_sample((uint)i, 0u, seed);
     float pdf_w;
-    float3 le;
-    float3 d = sample_environment_direction(&scene, rng_float2(&rng), &pdf_w, &le);
+    float2 uv;
+    float3 d = sample_environment_direction(&scene, rng_float2(&rng), &pdf_w, &uv);
     out[i] = (float4)(d, pdf_w);
-    radiance[i] = (float4)(le, 0.0f);
+    radiance[i] = (float4)(environment_radiance_at(&scene, uv), 0.0f);
     // what a BSDF sample finding d would see: the MIS weight needs the same pdf
     float looked_up_pdf_w;
     looked_up[i] = (float4)(environment_radiance_pdf_w(&scene, d, &looked_up_pdf_w), looked_up_pdf_w);

@@ -130,10 +130,11 @@ void toon_environment(const Scene* scene, const Material* m, const SurfacePoint*
     toon_add_light(scene, m, sp, wo, -wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
 #else
     float pdf_w;
-    float3 radiance;
-    float3 wi = sample_environment_direction(scene, u, &pdf_w, &radiance);
+    float2 uv;
+    float3 wi = sample_environment_direction(scene, u, &pdf_w, &uv);
     if (pdf_w > 0.0f)
-        toon_add_light(scene, m, sp, wo, wi, INFINITY, radiance / pdf_w, share, medium, rng, lighting);
+        toon_add_light(scene, m, sp, wo, wi, INFINITY, environment_radiance_at(scene, uv) / pdf_w, share, medium,
+                       rng, lighting);
 #endif
 }
 #endif
