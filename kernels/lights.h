@@ -140,18 +140,13 @@ float environment_pdf_uv_w(const Scene* scene, float2 uv, float sin_theta) {
     return environment_cell_pdf_w(scene, grid, i, j, sin_theta);
 }
 
-float environment_pdf_w(const Scene* scene, float3 dir) {
-    float sin_theta;
-    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta);
-    return environment_pdf_uv_w(scene, uv, sin_theta);
-}
-
 float3 environment_radiance(const Scene* scene, float3 dir) {
     float sin_theta;
     return environment_radiance_at(scene, direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta));
 }
 
-// Both along one direction (an escaped ray under MIS): its (u, v) found once.
+// The radiance along a direction and the solid-angle pdf of sampling it (an escaped ray under
+// MIS): its (u, v) found once.
 float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) {
     float sin_theta;
     float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta);
@@ -178,8 +173,6 @@ float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, 
     return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi));
 }
 #elif ENVIRONMENT == ENVIRONMENT_CONSTANT
-float environment_pdf_w(const Scene* scene, float3 dir) { return UNIFORM_SPHERE_PDF_W; }
-
 float3 environment_radiance(const Scene* scene, float3 dir) {
     return scene->emitters[scene->params->environment.x].radiance.xyz;
 }
