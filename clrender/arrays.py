@@ -605,6 +605,10 @@ def _cdf(weights):
 # Mitsuba reader resampled to 4096 across (docs/performance.md, issue 24).
 ENV_SAMPLING_COLUMNS = 1024
 
+# Every this many entries of each sampling CDF are copied after the CDFs, for a search in two
+# levels (kernels/lights.h, ENV_CDF_BLOCK: the same number).
+ENV_CDF_BLOCK = 16
+
 
 def environment_sampling_grid(width, height):
     """(columns, rows) of the sampling grid over width x height cells: columns halved while more
@@ -645,9 +649,10 @@ def _environment_tables(image, lookup="texel"):
     of the (u, v) square (environment_cells) summed over each cell of its sampling grid
     (environment_sampling_grid), uniform in (u, v) within a grid cell.
 
-    Returns (texels, [grid columns, grid rows, marginal | conditional rows], mean radiance over
-    the sphere). Computed a band of rows at a time, in float64, stored in float32: a large map
-    needs no full-size float64 temporaries."""
+    Returns (texels, [grid columns, grid rows, marginal | conditional rows | every
+    ENV_CDF_BLOCK-th entry of the marginal | of each row], mean radiance over the sphere).
+    Computed a band of rows at a time, in float64, stored in float32: a large map needs no
+    full-size float64 temporaries."""
     height, width = environment_cells(image, lookup)
     columns, rows_count = environment_sampling_grid(width, height)
     fx, fy = width // columns, height // rows_count
@@ -671,6 +676,7 @@ def _environment_tables(image, lookup="texel"):
         rows[part, 1:] = np.cumsum(weights, axis=1) / weights.sum(axis=1, keepdims=True)
         rows[part, -1] = 1.0
     cdf[2:2 + rows_count + 1] = _cdf(row_sums)
+    block_starts = [cdf[2:2 + rows_count:ENV_CDF_BLOCK], rows[:, :columns:ENV_CDF_BLOCK].ravel()]
     texels = np.zeros((image.shape[0] * image.shape[1], 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
-    return texels, cdf, mean / (sin_theta.sum() * width)
+    return texels, np.concatenate([cdf, *block_starts]), mean / (sin_theta.sum() * width)

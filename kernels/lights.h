@@ -16,7 +16,9 @@
 typedef struct {
     float3 wi;        // unit direction towards the light
     float dist;       // distance to the sampled point (INFINITY for the environment/directional)
-    float3 radiance;  // arriving radiance (irradiance-like for delta lights), before the pdf
+    float3 radiance;  // arriving radiance (irradiance-like for delta lights), before the pdf;
+                      // the environment image's: 1 until light_sample_radiance looks it up
+    float2 env_uv;    // the environment image's (u, v) drawn
     float pdf_w;      // solid-angle pdf including the selection probability; 1 * pmf for delta
     bool delta;
     int emitter;      // the emitter picked
@@ -45,10 +47,12 @@ float environment_u_offset(const Scene* scene) {
     return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? 0.5f : -0.5f / (float)scene->params->environment.y;
 }
 
-// (u, v) of a direction in the image's frame.
-float2 direction_to_latlong(const Scene* scene, float3 d) {
-    float u = atan2(d.x, -d.z) * (0.5f * INV_PI_F) + environment_u_offset(scene);
-    float v = acos(clamp(d.y, -1.0f, 1.0f)) * INV_PI_F;
+// (u, v) of a direction in the image's frame, and sin(theta) (the pdf's Jacobian). theta by
+// atan2 of (sin, cos) rather than acos: one routine (math.h), and no loss near the poles.
+float2 direction_to_latlong(const Scene* scene, float3 d, float* sin_theta) {
+    *sin_theta = sqrt(d.x * d.x + d.z * d.z);
+    float u = atan2_turns(d.x, -d.z) + environment_u_offset(scene);
+    float v = 2.0f * atan2_turns(*sin_theta, d.y);
     return (float2)(u - floor(u), v);
 }
 
@@ -72,56 +76,121 @@ float3 environment_bilinear(const Scene* scene, float2 uv) {
     return mix(top, bottom, fy).xyz;
 }
 
+float3 environment_radiance_at(const Scene* scene, float2 uv) {
+    return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? environment_texel(scene, uv)
+                                                           : environment_bilinear(scene, uv);
+}
+
 // The sampling grid's columns and rows head its tables (clrender/arrays.py, _environment_tables):
 // cells of one or more texels (ENV_LOOKUP_TEXEL) or of the squares between texel centres.
 int2 environment_sampling_grid(const Scene* scene) {
     return (int2)((int)scene->env_cdf[0], (int)scene->env_cdf[1]);
 }
 
-float environment_pdf_w(const Scene* scene, float3 dir) {
-    int2 grid = environment_sampling_grid(scene);
-    int w = grid.x, h = grid.y;
-    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir));
-    int i = min((int)(uv.x * (float)w), w - 1), j = min((int)(uv.y * (float)h), h - 1);
-    __global const float* marginal = scene->env_cdf + 2;
-    __global const float* conditional = marginal + (h + 1) + j * (w + 1);
-    float pdf_uv = (float)(w * h) * (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]);
-    float sin_theta = sin(uv.y * PI_F);
+__global const float* environment_marginal(const Scene* scene) { return scene->env_cdf + 2; }
+
+__global const float* environment_conditional(const Scene* scene, int2 grid, int row) {
+    return environment_marginal(scene) + (grid.y + 1) + row * (grid.x + 1);
+}
+
+// After the CDFs, each one's every ENV_CDF_BLOCK-th entry (clrender/arrays.py, ENV_CDF_BLOCK):
+// the marginal's, then each row's. A search finds its block among these (a few cache lines, a
+// quarter megabyte for all rows of the living room's map, which stay cached) and then its entry
+// among the block's 16 in the full CDF (one or two lines). The same entry as one binary search
+// over the CDF (the last cdf[i] <= u), which touched one line per halving of a 4 KiB row.
+#define ENV_CDF_BLOCK 16
+
+int env_cdf_blocks(int n) { return (n + ENV_CDF_BLOCK - 1) / ENV_CDF_BLOCK; }
+
+__global const float* environment_block_starts(const Scene* scene, int2 grid, int row) {
+    __global const float* marginal = environment_conditional(scene, grid, grid.y);
+    return row < 0 ? marginal : marginal + env_cdf_blocks(grid.y) + row * env_cdf_blocks(grid.x);
+}
+
+// The last i < n with cdf[i] <= u, for a non-decreasing cdf with cdf[0] <= u: how many of
+// cdf[1 .. n - 1] are <= u. Counted without branches: PoCL compiled a binary search's
+// compare-and-select to a branch (LLVM's x86 cmov conversion), mispredicted half the time.
+int count_cdf_at_most(__global const float* cdf, int n, float u) {
+    int count = 0;
+    for (int i = 1; i < n; i++) count += cdf[i] <= u;
+    return count;
+}
+
+int sample_blocked_cdf_reuse(__global const float* cdf, __global const float* block_starts, int n, float u,
+                             float* rescaled) {
+    int first = count_cdf_at_most(block_starts, env_cdf_blocks(n), u) * ENV_CDF_BLOCK;
+    int i = first + count_cdf_at_most(cdf + first, min(ENV_CDF_BLOCK, n - first), u);
+    *rescaled = cdf_rescaled(u, cdf[i], cdf[i + 1]);
+    return i;
+}
+
+// Solid-angle density of grid cell (i, j) at a direction sin_theta from the pole: the cell's
+// probability times the grid's cell count is its (u, v) density, and d(u, v) / d(omega) is
+// 1 / (2 pi^2 sin theta).
+float environment_cell_pdf_w(const Scene* scene, int2 grid, int i, int j, float sin_theta) {
+    __global const float* marginal = environment_marginal(scene);
+    __global const float* conditional = environment_conditional(scene, grid, j);
+    float pdf_uv = (float)(grid.x * grid.y) * (marginal[j + 1] - marginal[j]) * (conditional[i + 1] - conditional[i]);
     return sin_theta > 0.0f ? pdf_uv / (2.0f * PI_F * PI_F * sin_theta) : 0.0f;
 }
 
+float environment_pdf_uv_w(const Scene* scene, float2 uv, float sin_theta) {
+    int2 grid = environment_sampling_grid(scene);
+    int i = min((int)(uv.x * (float)grid.x), grid.x - 1), j = min((int)(uv.y * (float)grid.y), grid.y - 1);
+    return environment_cell_pdf_w(scene, grid, i, j, sin_theta);
+}
+
 float3 environment_radiance(const Scene* scene, float3 dir) {
-    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir));
-    return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? environment_texel(scene, uv)
-                                                           : environment_bilinear(scene, uv);
+    float sin_theta;
+    return environment_radiance_at(scene, direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta));
+}
+
+// The radiance along a direction and the solid-angle pdf of sampling it (an escaped ray under
+// MIS): its (u, v) found once.
+float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) {
+    float sin_theta;
+    float2 uv = direction_to_latlong(scene, environment_to_map(scene, dir), &sin_theta);
+    *pdf_w = environment_pdf_uv_w(scene, uv, sin_theta);
+    return environment_radiance_at(scene, uv);
 }
 
 // Piecewise-constant inversion over the sampling grid: a row from the marginal CDF, then a
-// column in that row.
-float3 sample_environment_direction(const Scene* scene, float2 u) {
+// column in that row. The drawn cell gives the pdf and *uv the radiance
+// (environment_radiance_at), with no way back from the direction.
+float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float2* uv) {
     int2 grid = environment_sampling_grid(scene);
-    int w = grid.x, h = grid.y;
-    __global const float* marginal = scene->env_cdf + 2;
     float in_row, in_column;
-    int j = sample_discrete_cdf_reuse(marginal, h, u.x, &in_row);
-    float v = ((float)j + in_row) / (float)h;
-    __global const float* conditional = marginal + (h + 1) + j * (w + 1);
-    int i = sample_discrete_cdf_reuse(conditional, w, u.y, &in_column);
-    float uu = ((float)i + in_column) / (float)w;
-    float theta = clamp(v, 0.0f, 1.0f) * PI_F;
-    float sin_phi, cos_phi;
-    sincos_2pi(uu - environment_u_offset(scene), &sin_phi, &cos_phi);
-    float sin_theta = sin(theta);
-    return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos(theta), -sin_theta * cos_phi));
+    int j = sample_blocked_cdf_reuse(environment_marginal(scene), environment_block_starts(scene, grid, -1), grid.y,
+                                     u.x, &in_row);
+    int i = sample_blocked_cdf_reuse(environment_conditional(scene, grid, j), environment_block_starts(scene, grid, j),
+                                     grid.x, u.y, &in_column);
+    *uv = (float2)(((float)i + in_column) / (float)grid.x, clamp(((float)j + in_row) / (float)grid.y, 0.0f, 1.0f));
+    float sin_theta, cos_theta, sin_phi, cos_phi;
+    sincos_2pi(0.5f * uv->y, &sin_theta, &cos_theta);   // theta = v pi: half a turn
+    sincos_2pi(uv->x - environment_u_offset(scene), &sin_phi, &cos_phi);
+    sin_theta = fmax(sin_theta, 0.0f);
+    *pdf_w = environment_cell_pdf_w(scene, grid, i, j, sin_theta);
+    return environment_from_map(scene, (float3)(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi));
 }
 #elif ENVIRONMENT == ENVIRONMENT_CONSTANT
-float environment_pdf_w(const Scene* scene, float3 dir) { return UNIFORM_SPHERE_PDF_W; }
-
 float3 environment_radiance(const Scene* scene, float3 dir) {
     return scene->emitters[scene->params->environment.x].radiance.xyz;
 }
 
-float3 sample_environment_direction(const Scene* scene, float2 u) { return sample_uniform_sphere(u); }
+float3 environment_radiance_pdf_w(const Scene* scene, float3 dir, float* pdf_w) {
+    *pdf_w = UNIFORM_SPHERE_PDF_W;
+    return environment_radiance(scene, dir);
+}
+
+float3 environment_radiance_at(const Scene* scene, float2 uv) {
+    return scene->emitters[scene->params->environment.x].radiance.xyz;
+}
+
+float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, float2* uv) {
+    *pdf_w = UNIFORM_SPHERE_PDF_W;
+    *uv = u;
+    return sample_uniform_sphere(u);
+}
 #endif
 
 // ----- area lights: spheres ------------------------------------------------------------------
@@ -295,15 +364,26 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     }
 #if ENVIRONMENT != ENVIRONMENT_NONE
     else if (kind == EMITTER_ENVIRONMENT) {
-        ls.wi = sample_environment_direction(scene, u);
-        ls.pdf_w = pmf * environment_pdf_w(scene, ls.wi);
-        ls.radiance = environment_radiance(scene, ls.wi);
+        float pdf_w;
+        ls.wi = sample_environment_direction(scene, u, &pdf_w, &ls.env_uv);
+        ls.pdf_w = pmf * pdf_w;
+        ls.radiance = (float3)(1.0f);
     }
 #endif
     else if (kind == EMITTER_POINT || kind == EMITTER_SPOT || kind == EMITTER_DIRECTIONAL) {
         delta_light_sample(e, p, pmf, &ls);
     }
     return ls;
+}
+
+// The radiance a light sample brings. The environment image's is looked up only here, which
+// callers reach once the shadow ray has passed: blocked samples skip its texels, whose cache
+// misses were a fifth of the living room's render (docs/performance.md).
+float3 light_sample_radiance(const Scene* scene, const LightSample* ls) {
+#if ENVIRONMENT != ENVIRONMENT_NONE
+    if (ls->emitter >= 0 && ls->emitter == scene->params->environment.x) return environment_radiance_at(scene, ls->env_uv);
+#endif
+    return ls->radiance;
 }
 
 #endif

@@ -64,6 +64,24 @@ void sincos_2pi(lane_float u, lane_float* s, lane_float* c) {
     *c = select(cv, -cv, ((quadrant + 1) & 2) != 0);
 }
 
+// atan2(y, x) in turns (radians / 2 pi), in [-1/2, 1/2]; 0 at (0, 0). PoCL's atan2 and acos are
+// library calls with their own argument reduction; this is Cephes' atanf (about 1 ulp): the
+// ratio of the smaller to the larger magnitude, in [0, 1], taken past tan(pi/8) to
+// (t - 1) / (t + 1) (an eighth of a turn on), then an odd polynomial, then the octant.
+float atan2_turns(float y, float x) {
+    float ax = fabs(x), ay = fabs(y);
+    float big = fmax(ax, ay), small = fmin(ax, ay);
+    float t = big > 0.0f ? small / big : 0.0f;
+    bool past = t > 0.41421356f;
+    float z = past ? (t - 1.0f) / (t + 1.0f) : t;
+    float z2 = z * z;
+    float a = z + z * z2 * (-3.33329491539e-1f + z2 * (1.99777106478e-1f + z2 * (-1.38776856032e-1f + z2 * 8.05374449538e-2f)));
+    a = a * (0.5f * INV_PI_F) + (past ? 0.125f : 0.0f);
+    a = ay > ax ? 0.25f - a : a;
+    a = x < 0.0f ? 0.5f - a : a;
+    return y < 0.0f ? -a : a;
+}
+
 // exp(x) for x in [-87, 0] as a polynomial (PoCL's exp is as slow as its sin; floor, unlike
 // rint, is one instruction): x / ln 2 = n + f with f in [-1/2, 1/2], 2^f by a degree-6
 // Chebyshev fit (1e-7 relative in float32), 2^n by the exponent bits. The rounding of x / ln 2

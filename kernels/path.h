@@ -33,10 +33,10 @@
 // the previous vertex sampled this direction.
 float3 escaped_radiance(const Scene* scene, float3 dir, float prev_pdf_w, bool prev_delta) {
 #if ENVIRONMENT != ENVIRONMENT_NONE
-    float3 le = environment_radiance(scene, dir);
-    if (prev_delta) return le;
-    int env = scene->params->environment.x;
-    float light_pdf_w = emitter_selection_pmf(scene, env) * environment_pdf_w(scene, dir);
+    if (prev_delta) return environment_radiance(scene, dir);
+    float pdf_w;
+    float3 le = environment_radiance_pdf_w(scene, dir, &pdf_w);
+    float light_pdf_w = emitter_selection_pmf(scene, scene->params->environment.x) * pdf_w;
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 #else
     return (float3)(0.0f);
@@ -71,7 +71,7 @@ INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfaceP
     float3 tr = shadow_ray(scene, origin, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
     float weight = ls.delta ? 1.0f : power_heuristic(ls.pdf_w, sample_bsdf_pdf(scene, m, sp, wo, ls.wi) * pdf_ratio * bsdf_share);
-    return f * tr * ls.radiance * (weight / ls.pdf_w);
+    return f * tr * light_sample_radiance(scene, &ls) * (weight / ls.pdf_w);
 }
 
 // Mitsuba's hide_emitters (RenderParams.environment.w & HIDE_EMITTING_SHAPES): camera rays pass

@@ -63,11 +63,14 @@ lane_int sample_discrete_cdf(__global const float* cdf, int n, lane_float u) {
 // places a sample. It keeps log2(p * 2^24) of u's 24 bits for an item of probability p: an item
 // chosen less than once in 10^5 gets its numbers on a grid of under 170 steps (as in Mitsuba's
 // sample reuse); such items are tiny emitters among very many.
+lane_float cdf_rescaled(lane_float u, lane_float low, lane_float high) {
+    // clamped: rounding can reach 1, and so can a u beyond a cdf[n] rounded below 1
+    return clamp((u - low) / fmax(high - low, 1e-30f), 0.0f, 0x1.fffffep-1f);
+}
+
 lane_int sample_discrete_cdf_reuse(__global const float* cdf, int n, lane_float u, lane_float* rescaled) {
     lane_int i = sample_discrete_cdf(cdf, n, u);
-    lane_float low = LANE_LOAD(cdf, i, ), high = LANE_LOAD(cdf, i + 1, );
-    // clamped: rounding can reach 1, and so can a u beyond a cdf[n] rounded below 1
-    *rescaled = clamp((u - low) / fmax(high - low, 1e-30f), 0.0f, 0x1.fffffep-1f);
+    *rescaled = cdf_rescaled(u, LANE_LOAD(cdf, i, ), LANE_LOAD(cdf, i + 1, ));
     return i;
 }
 

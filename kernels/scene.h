@@ -18,7 +18,8 @@ typedef struct {
     __global const Emitter* emitters;
     __global const float* emitter_cdf;   // emitter count + 1 entries
     __global const float4* env_texels;   // environment image, row-major, top row first
-    __global const float* env_cdf;       // marginal (height + 1) then conditional rows (width + 1)
+    __global const float* env_cdf;       // marginal (height + 1), conditional rows (width + 1), their
+                                         // every 16th entries (lights.h, ENV_CDF_BLOCK)
     __global const float* specular_albedo;  // energy-compensation tables (materials/energy.h)
     __global const float* grid_data;     // voxels of all grid media (medium_voxel_offset: first voxel)
     __global const float* majorant_data; // (max, min) per majorant block (medium_majorant_offset)

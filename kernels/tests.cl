@@ -188,16 +188,21 @@ KERNEL void sample_area_emitter(__global const Emitter* emitters, __global const
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
 KERNEL void sample_environment(__constant RenderParams* params, __global const float4* texels,
                                __global const float* env_cdf, uint seed,
-                               __global float4* out, __global float4* radiance) {
+                               __global float4* out, __global float4* radiance, __global float4* looked_up) {
     int i = get_global_id(0);
     Scene scene;
     scene.params = params;
     scene.env_texels = texels;
     scene.env_cdf = env_cdf;
     Rng rng = rng_for_sample((uint)i, 0u, seed);
-    float3 d = sample_environment_direction(&scene, rng_float2(&rng));
-    out[i] = (float4)(d, environment_pdf_w(&scene, d));
-    radiance[i] = (float4)(environment_radiance(&scene, d), 0.0f);
+    float pdf_w;
+    float2 uv;
+    float3 d = sample_environment_direction(&scene, rng_float2(&rng), &pdf_w, &uv);
+    out[i] = (float4)(d, pdf_w);
+    radiance[i] = (float4)(environment_radiance_at(&scene, uv), 0.0f);
+    // what a BSDF sample finding d would see: the MIS weight needs the same pdf
+    float looked_up_pdf_w;
+    looked_up[i] = (float4)(environment_radiance_pdf_w(&scene, d, &looked_up_pdf_w), looked_up_pdf_w);
 }
 #endif
 

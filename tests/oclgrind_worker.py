@@ -200,7 +200,7 @@ def run_test_kernels(case, device):
             env = build_scene_arrays(scene)
             kernel("sample_environment")(queue, (n,), None, upload(context, render_params(scene, env, 0, 1, 4, 2, 0)),
                                          upload(context, env.env_texels), upload(context, env.env_cdf), np.uint32(9),
-                                         *outputs(context, (n, 4), (n, 4)))
+                                         *outputs(context, (n, 4), (n, 4), (n, 4)))
     if features["GRID_MEDIA"]:
         media = [upload(context, a) for a in (arrays.media, arrays.grid_data, arrays.majorant_data)]
         cloud = [m.name for m in scene.media].index("cloud")

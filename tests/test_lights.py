@@ -115,7 +115,9 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypa
     # the returned solid-angle pdf against the table at every sample, and the radiance the
     # texel's or Mitsuba's lookup (tests/mitsuba_envmap.py, checked against Mitsuba).
     sampling_grid(monkeypatch, columns)
-    image = environment_image()
+    # 40 columns on the texels' grid: the searches' blocks of 16 CDF entries (kernels/lights.h)
+    # end in a part-filled one, as the rows do (15 or 16 in one block)
+    image = environment_image(width=40 if columns is None else 32)
     clrender.save_image(image, tmp_path / "sky.exr")
     scene = clrender.load_scene_dict(floor_scene([environment_light(lookup, transform)]), base_dir=tmp_path)
     arrays = build_scene_arrays(scene)
@@ -125,13 +127,11 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypa
     mf = cl.mem_flags
     buffers = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
                for x in (params, arrays.env_texels, arrays.env_cdf)]
-    out = np.empty((count, 4), np.float32)
-    radiance = np.empty((count, 4), np.float32)
-    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
-    radiance_buffer = cl.Buffer(context, mf.WRITE_ONLY, radiance.nbytes)
-    program.sample_environment(queue, (count,), None, *buffers, np.uint32(9), out_buffer, radiance_buffer)
-    cl.enqueue_copy(queue, out, out_buffer)
-    cl.enqueue_copy(queue, radiance, radiance_buffer)
+    out, radiance, looked_up = (np.empty((count, 4), np.float32) for _ in range(3))
+    out_buffers = [cl.Buffer(context, mf.WRITE_ONLY, x.nbytes) for x in (out, radiance, looked_up)]
+    program.sample_environment(queue, (count,), None, *buffers, np.uint32(9), *out_buffers)
+    for host, buffer in zip((out, radiance, looked_up), out_buffers):
+        cl.enqueue_copy(queue, host, buffer)
 
     weights = reference_cells(image, lookup)
     height, width = weights.shape
@@ -165,16 +165,20 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypa
     assert settled.mean() > 0.99, settled.mean()
     pdf_uv = out[:, 3] * 2 * np.pi ** 2 * np.sqrt(np.maximum(0, 1 - local[:, 1] ** 2))
     np.testing.assert_allclose(pdf_uv[settled], pmf[cell[settled]] * height * width, rtol=2e-3)
-    if lookup == "texel":
-        np.testing.assert_allclose(radiance[settled, :3], image.reshape(-1, 3)[cell[settled]], rtol=1e-6)
-    else:   # continuous: a rounding of the direction moves it by 1e-6 of the sun's 400
-        np.testing.assert_allclose(radiance[:, :3], mitsuba_envmap_lookup(image, local), rtol=1e-4, atol=1e-3)
+    # The sampler's pdf and radiance come from the (u, v) it drew; a BSDF sample along the same
+    # direction finds them again from the direction (the MIS weights need the same pdf).
+    np.testing.assert_allclose(looked_up[settled, 3], out[settled, 3], rtol=1e-4)
+    for seen in (radiance, looked_up):
+        if lookup == "texel":
+            np.testing.assert_allclose(seen[settled, :3], image.reshape(-1, 3)[cell[settled]], rtol=1e-6)
+        else:   # continuous: a rounding of the direction moves it by 1e-6 of the sun's 400
+            np.testing.assert_allclose(seen[:, :3], mitsuba_envmap_lookup(image, local), rtol=1e-4, atol=1e-3)
 
 
 def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():
     """The tables built a band of rows at a time (here 3 bands) are the marginal CDF of the rows
     and each row's conditional CDF of luminance x sin(theta); a black row is uniform."""
-    from clrender.arrays import LUMINANCE, _cdf, _environment_tables
+    from clrender.arrays import ENV_CDF_BLOCK, LUMINANCE, _cdf, _environment_tables
 
     height, width = 5000, 500
     image = np.random.default_rng(6).uniform(0, 2, (height, width, 3)).astype(np.float32)
@@ -183,9 +187,15 @@ def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():
     weights = (image @ LUMINANCE) * np.sin((np.arange(height) + 0.5) / height * np.pi)[:, None]
     assert cdf[:2].tolist() == [width, height]   # the sampling grid: the texels (500 columns)
     np.testing.assert_array_equal(cdf[2:height + 3], _cdf(weights.sum(axis=1)))
-    rows = cdf[height + 3:].reshape(height, width + 1)
+    end = height + 3 + height * (width + 1)
+    rows = cdf[height + 3:end].reshape(height, width + 1)
     for row in (0, 1, 2097, 2500, 4998, 4999):
         np.testing.assert_array_equal(rows[row], _cdf(weights[row]))
+    # then every 16th entry (kernels/lights.h ENV_CDF_BLOCK) of the marginal, 313 of its 5000
+    # rows, and of each row, 32 of its 500 columns: what the kernel's search looks through first
+    assert ENV_CDF_BLOCK == 16 and len(cdf) == end + 313 + height * 32
+    np.testing.assert_array_equal(cdf[end:end + 313], cdf[2:height + 2:16])
+    np.testing.assert_array_equal(cdf[end + 313:].reshape(height, 32), rows[:, :width:16])
     np.testing.assert_array_equal(texels[:, :3], image.reshape(-1, 3))
     assert mean == pytest.approx((image.mean(axis=2, dtype=float) * np.sin((np.arange(height) + 0.5) / height
                                                                           * np.pi)[:, None]).mean()
@@ -208,9 +218,9 @@ def test_a_wide_maps_sampling_grid_sums_cells_of_texels():
     texels, cdf, mean = _environment_tables(image)
     weights = (image @ LUMINANCE) * np.sin((np.arange(height) + 0.5) / height * np.pi)[:, None]
     cells = weights.reshape(512, 4, 1024, 4).sum(axis=(1, 3))
-    assert cdf[:2].tolist() == [1024, 512] and len(cdf) == 2 + 513 + 512 * 1025
+    assert cdf[:2].tolist() == [1024, 512] and len(cdf) == 2 + 513 + 512 * 1025 + 512 // 16 + 512 * 1024 // 16
     np.testing.assert_allclose(cdf[2:515], _cdf(cells.sum(axis=1)), atol=1e-7)
-    rows = cdf[515:].reshape(512, 1025)
+    rows = cdf[515:515 + 512 * 1025].reshape(512, 1025)
     for row in (0, 255, 511):
         np.testing.assert_allclose(rows[row], _cdf(cells[row]), atol=1e-7)
 

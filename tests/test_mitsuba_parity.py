@@ -350,18 +350,19 @@ def test_vol_voxel_centres_map_as_in_mitsuba(tmp_path, placement):
 
 
 def environment_samples(context, queue, scene, count):
-    """(directions, radiance) of `count` environment light samples drawn by the kernel
-    (tests.cl sample_environment) in the world of `scene`."""
+    """(directions, radiance, radiance looked up again from the direction) of `count`
+    environment light samples drawn by the kernel (tests.cl sample_environment) in the world of
+    `scene`: the sampler's lookup at the (u, v) it drew, and an escaped ray's."""
     arrays = build_scene_arrays(scene)
     mf = cl.mem_flags
     inputs = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
               for x in (render_params(scene, arrays, 0, 1, 1, 1, 0), arrays.env_texels, arrays.env_cdf)]
-    out, radiance = np.empty((count, 4), np.float32), np.empty((count, 4), np.float32)
-    outputs = [cl.Buffer(context, mf.WRITE_ONLY, a.nbytes) for a in (out, radiance)]
+    out, radiance, looked_up = (np.empty((count, 4), np.float32) for _ in range(3))
+    outputs = [cl.Buffer(context, mf.WRITE_ONLY, a.nbytes) for a in (out, radiance, looked_up)]
     build_test_kernels(context, ENVIRONMENT=2).sample_environment(queue, (count,), None, *inputs, np.uint32(3), *outputs)
-    cl.enqueue_copy(queue, out, outputs[0])
-    cl.enqueue_copy(queue, radiance, outputs[1])
-    return out[:, :3], radiance[:, :3]
+    for host, buffer in zip((out, radiance, looked_up), outputs):
+        cl.enqueue_copy(queue, host, buffer)
+    return out[:, :3], radiance[:, :3], looked_up[:, :3]
 
 
 @pytest.mark.parametrize("suffix", [".exr", ".hdr"])
@@ -395,8 +396,9 @@ def test_envmap_lookup_matches_mitsuba_in_numpy_and_in_the_kernel(context, queue
     emitter_xml = xml.replace(' version="3.0.0"', "")
     scene_file.write_text(f'<scene version="3.0.0"><sensor type="perspective"/>{emitter_xml}</scene>')
     scene = load_quietly(scene_file)
-    directions, ours = environment_samples(context, queue, scene, 300)
-    np.testing.assert_allclose(ours, theirs(directions.astype(float)), rtol=1e-4, atol=1e-4)
+    directions, sampled, looked_up = environment_samples(context, queue, scene, 300)
+    for ours in (sampled, looked_up):
+        np.testing.assert_allclose(ours, theirs(directions.astype(float)), rtol=1e-4, atol=1e-4)
 
 
 @pytest.mark.parametrize("plugin", [{"type": "gaussian"}, {"type": "gaussian", "stddev": 1.3}, {"type": "tent"},

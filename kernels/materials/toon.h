@@ -129,11 +129,12 @@ void toon_environment(const Scene* scene, const Material* m, const SurfacePoint*
     toon_add_light(scene, m, sp, wo, wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
     toon_add_light(scene, m, sp, wo, -wi, INFINITY, irradiance, 0.5f * share, medium, rng, lighting);
 #else
-    float3 wi = sample_environment_direction(scene, u);
-    float pdf_w = environment_pdf_w(scene, wi);
+    float pdf_w;
+    float2 uv;
+    float3 wi = sample_environment_direction(scene, u, &pdf_w, &uv);
     if (pdf_w > 0.0f)
-        toon_add_light(scene, m, sp, wo, wi, INFINITY, environment_radiance(scene, wi) / pdf_w, share,
-                       medium, rng, lighting);
+        toon_add_light(scene, m, sp, wo, wi, INFINITY, environment_radiance_at(scene, uv) / pdf_w, share, medium,
+                       rng, lighting);
 #endif
 }
 #endif

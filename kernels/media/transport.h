@@ -80,7 +80,7 @@ float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medi
     float3 tr = shadow_transmittance(scene, p, ls.wi, ls.dist, medium, rng, &pdf_ratio);
     if (is_black(tr)) return (float3)(0.0f);
     float weight = (ls.delta || !mis) ? 1.0f : power_heuristic(ls.pdf_w, phase * pdf_ratio);
-    return tr * ls.radiance * (phase * weight / ls.pdf_w);
+    return tr * light_sample_radiance(scene, &ls) * (phase * weight / ls.pdf_w);
 }
 #endif
 
