@@ -605,9 +605,6 @@ def _cdf(weights):
 # Mitsuba reader resampled to 4096 across (docs/performance.md, issue 24).
 ENV_SAMPLING_COLUMNS = 1024
 
-# Every this many entries of each sampling CDF are copied after the CDFs, for a search in two
-# levels (kernels/lights.h, ENV_CDF_BLOCK: the same number).
-ENV_CDF_BLOCK = 16
 
 
 def environment_sampling_grid(width, height):
@@ -650,7 +647,7 @@ def _environment_tables(image, lookup="texel"):
     (environment_sampling_grid), uniform in (u, v) within a grid cell.
 
     Returns (texels, [grid columns, grid rows, marginal | conditional rows | every
-    ENV_CDF_BLOCK-th entry of the marginal | of each row], mean radiance over the sphere).
+    layout.ENV_CDF_BLOCK-th entry of the marginal | of each row], mean radiance over the sphere).
     Computed a band of rows at a time, in float64, stored in float32: a large map needs no
     full-size float64 temporaries."""
     height, width = environment_cells(image, lookup)
@@ -676,7 +673,7 @@ def _environment_tables(image, lookup="texel"):
         rows[part, 1:] = np.cumsum(weights, axis=1) / weights.sum(axis=1, keepdims=True)
         rows[part, -1] = 1.0
     cdf[2:2 + rows_count + 1] = _cdf(row_sums)
-    block_starts = [cdf[2:2 + rows_count:ENV_CDF_BLOCK], rows[:, :columns:ENV_CDF_BLOCK].ravel()]
+    block_starts = [cdf[2:2 + rows_count:layout.ENV_CDF_BLOCK], rows[:, :columns:layout.ENV_CDF_BLOCK].ravel()]
     texels = np.zeros((image.shape[0] * image.shape[1], 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
     return texels, np.concatenate([cdf, *block_starts]), mean / (sin_theta.sum() * width)

@@ -202,6 +202,9 @@ CAMERA = _struct(("origin", F4), ("forward", F4), ("right", F4), ("up", F4), ("l
 # that lies beyond the radius).
 FILTER_CELLS = 64
 FILTER_EDGES = 16
+# Every this many entries of each environment-sampling CDF are copied after the CDFs, for a
+# search in two levels (clrender/arrays.py, kernels/lights.h).
+ENV_CDF_BLOCK = 16
 _FILTER_EDGE_TABLE = ("<f4", (FILTER_EDGES // 4, 4))
 FILTER = _struct(("kind", I4), ("support", F4), ("shape", F4), ("cells", ("<f4", (FILTER_CELLS, 4))),
                  ("edge_cdf", _FILTER_EDGE_TABLE), ("edge_mass", _FILTER_EDGE_TABLE))
@@ -368,6 +371,7 @@ def c_constants():
     lines.append(f"#define MATERIAL_SLOTS {MATERIAL_SLOTS}")
     lines.append(f"#define FILTER_CELLS {FILTER_CELLS}")
     lines.append(f"#define FILTER_EDGES {FILTER_EDGES}")
+    lines.append(f"#define ENV_CDF_BLOCK {ENV_CDF_BLOCK}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

@@ -93,12 +93,11 @@ __global const float* environment_conditional(const Scene* scene, int2 grid, int
     return environment_marginal(scene) + (grid.y + 1) + row * (grid.x + 1);
 }
 
-// After the CDFs, each one's every ENV_CDF_BLOCK-th entry (clrender/arrays.py, ENV_CDF_BLOCK):
+// After the CDFs, each one's every ENV_CDF_BLOCK-th entry (clrender/layout.py, ENV_CDF_BLOCK):
 // the marginal's, then each row's. A search finds its block among these (a few cache lines, a
 // quarter megabyte for all rows of the living room's map, which stay cached) and then its entry
 // among the block's 16 in the full CDF (one or two lines). The same entry as one binary search
 // over the CDF (the last cdf[i] <= u), which touched one line per halving of a 4 KiB row.
-#define ENV_CDF_BLOCK 16
 
 int env_cdf_blocks(int n) { return (n + ENV_CDF_BLOCK - 1) / ENV_CDF_BLOCK; }
 
