@@ -178,7 +178,8 @@ def test_environment_sampling_follows_its_pdf(context, queue, tmp_path, monkeypa
 def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():
     """The tables built a band of rows at a time (here 3 bands) are the marginal CDF of the rows
     and each row's conditional CDF of luminance x sin(theta); a black row is uniform."""
-    from clrender.arrays import ENV_CDF_BLOCK, LUMINANCE, _cdf, _environment_tables
+    from clrender.arrays import LUMINANCE, _cdf, _environment_tables
+    from clrender.layout import ENV_CDF_BLOCK
 
     height, width = 5000, 500
     image = np.random.default_rng(6).uniform(0, 2, (height, width, 3)).astype(np.float32)
@@ -191,7 +192,7 @@ def test_environment_tables_are_the_cdfs_of_each_row_and_of_the_rows():
     rows = cdf[height + 3:end].reshape(height, width + 1)
     for row in (0, 1, 2097, 2500, 4998, 4999):
         np.testing.assert_array_equal(rows[row], _cdf(weights[row]))
-    # then every 16th entry (kernels/lights.h ENV_CDF_BLOCK) of the marginal, 313 of its 5000
+    # then every 16th entry (layout.ENV_CDF_BLOCK) of the marginal, 313 of its 5000
     # rows, and of each row, 32 of its 500 columns: what the kernel's search looks through first
     assert ENV_CDF_BLOCK == 16 and len(cdf) == end + 313 + height * 32
     np.testing.assert_array_equal(cdf[end:end + 313], cdf[2:height + 2:16])
