@@ -325,6 +325,8 @@ class Renderer:
         fill_albedo_tables(self.queue, program, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
         self._gather = splatting.Gather(self.context, scene.camera.filter) if splatting.splats(scene) else None
+        # The render pass's records argument when it does not splat.
+        self._no_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
     ARRAYS = ("nodes", "blocks", "triangles", "shading", "info", "materials", "media", "emitters",
@@ -442,7 +444,7 @@ class Renderer:
 
         end = state.samples + samples
         done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
-        most = splatting.samples_per_pass_limit(traced, self._gather.reach) if splat else MAX_SPP
+        most = splat.samples_per_pass if splat else MAX_SPP
         rows = tile_height if samples_per_pass else self._first_launch_rows(tile_width, tile_height)
         try:
             while done < end and (time_limit is None or seconds < time_limit):
@@ -493,18 +495,12 @@ class Renderer:
                                          "accumulated by splatting")
         filtered = state.filtered if state.filtered is not None else np.zeros((n, 4), np.float32)
         mf = cl.mem_flags
-        records = min(samples, splatting.samples_per_pass_limit(traced, self._gather.reach)) * traced[2] * traced[3]
+        most = min(samples, splatting.samples_per_pass_limit(traced, self._gather.reach))
+        records = most * traced[2] * traced[3]
         return _SplatBuffers(cl.Buffer(self.context, mf.READ_WRITE, records * splatting.record_bytes(self._gather.reach)),
                              cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
                                        hostbuf=np.ascontiguousarray(filtered, dtype=np.float32)),
-                             state.samples)
-
-    @property
-    def _no_records(self):
-        """The render pass's records argument when it does not splat."""
-        if not hasattr(self, "_placeholder_records"):
-            self._placeholder_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
-        return self._placeholder_records
+                             state.samples, most)
 
     def _check_depths(self, max_depth, rr_depth):
         """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""
@@ -610,11 +606,12 @@ class Renderer:
 
 @dataclass
 class _SplatBuffers:
-    """One accumulation's splatting buffers: the records of a pass, the tile's splatted sums, and
-    how many samples per pixel those hold."""
+    """One accumulation's splatting buffers: the records of a pass, the tile's splatted sums, how
+    many samples per pixel those hold, and the most a pass may take (the records' room)."""
     records: cl.Buffer
     filtered: cl.Buffer
     samples: int
+    samples_per_pass: int
 
 
 def render(scene, spp=None, device=None, seed=None, max_depth=None, progress=None, volume_method=None,
