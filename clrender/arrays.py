@@ -513,6 +513,7 @@ def _medium_array(media, scale=1.0):
         put("sigma_a", limits.float32_values(medium.sigma_a / scale, f"media[{i}]", SceneError))
         put("sigma_s", limits.float32_values(medium.sigma_s / scale, f"media[{i}]", SceneError))
         put("g", medium.g)
+        put("sample_emitters", float(medium.sample_emitters))
         put("kind", layout.MEDIUM_KINDS[medium.type])
         if medium.grid is None:
             continue

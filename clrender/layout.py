@@ -165,7 +165,8 @@ MEDIUM = _struct(("sigma_a", F4), ("sigma_s", F4), ("params", F4), ("grid", I4),
 
 # name -> (struct member, first lane, lanes). sigma_a, sigma_s: RGB coefficients in 1/length (the
 # scene's scale applied), for a grid medium per unit density (sigma(x) = density(x) sigma).
-# g: Henyey-Greenstein. kind: MEDIUM_*. Grid media only: voxel_offset, the first voxel in the
+# g: Henyey-Greenstein. sample_emitters: 1 where scattering vertices in the medium make a light
+# sample (next-event estimation), 0 where they do not (scene.Medium). kind: MEDIUM_*. Grid media only: voxel_offset, the first voxel in the
 # grid buffer; majorant_offset, the first majorant block in the majorant buffer (two floats each,
 # max then min); majorant_block, a block's edge in voxels; resolution, voxels per axis;
 # majorant_resolution, blocks per axis. The member to_voxel holds the three rows of the affine
@@ -178,6 +179,7 @@ MEDIUM_FIELDS = {
     "sigma_a": ("sigma_a", 0, 3),
     "sigma_s": ("sigma_s", 0, 3),
     "g": ("params", 0, 1),
+    "sample_emitters": ("params", 1, 1),
     "kind": ("grid", 0, 1),
     "voxel_offset": ("grid", 1, 1),
     "majorant_offset": ("grid", 2, 1),

@@ -148,11 +148,13 @@ def _medium(medium, index, asset_dir):
     sigma_t = medium.sigma_a + medium.sigma_s
     albedo = np.divide(medium.sigma_s, sigma_t, out=np.zeros(3), where=sigma_t > 0)
     phase = {"type": "hg", "g": float(medium.g)}
+    sampling = {"sample_emitters": bool(medium.sample_emitters)}
     if medium.type == "homogeneous":
         # An "rgb" value would be read as a reflectance (at most 1): unbounded inside a volume.
         extinction = float(sigma_t[0]) if np.all(sigma_t == sigma_t[0]) else {"type": "constvolume",
                                                                                 "value": _rgb(sigma_t)}
-        return {"type": "homogeneous", "sigma_t": extinction, "albedo": _rgb(albedo), "phase": phase}
+        return {"type": "homogeneous", "sigma_t": extinction, "albedo": _rgb(albedo), "phase": phase,
+                **sampling}
     if not np.all(sigma_t == sigma_t[0]):
         raise ValueError(f"medium {medium.name!r}: a grid medium with chromatic sigma_t has no "
                          "Mitsuba 3 counterpart (its heterogeneous medium scales one density grid)")
@@ -169,7 +171,7 @@ def _medium(medium, index, asset_dir):
     else:
         albedo = _rgb(albedo)
     return {"type": "heterogeneous", "id": f"medium_{index}", "albedo": albedo, "scale": float(sigma_t[0]),
-            "sigma_t": grid_volume(medium.grid.density, f"medium_{index}.vol"), "phase": phase}
+            "sigma_t": grid_volume(medium.grid.density, f"medium_{index}.vol"), "phase": phase, **sampling}
 
 
 def _light(light, index):

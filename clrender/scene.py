@@ -182,6 +182,10 @@ class Medium:
     # filling the density grid's unit cube (sigma_s(x) = albedo(x) sigma_t(x)); sigma_s then
     # holds sigma_t and sigma_a is 0.
     albedo_grid: np.ndarray = None
+    # Next-event estimation at scattering vertices inside the medium (Mitsuba's sample_emitters):
+    # off where no light can reach them that way, e.g. a medium sealed in glass, whose shadow rays
+    # the glass would stop; paths then find emitters by phase sampling alone.
+    sample_emitters: bool = True
 
     @property
     def sigma_t(self):
@@ -874,11 +878,12 @@ def _read_medium(node, base_dir):
     g = node.number("g", 0.0)
     if not -1 < g < 1:
         raise SceneError(node.at("g"), f"must be in (-1, 1), got {g!r}")
+    sample_emitters = node.boolean("sample_emitters", True)
     grid = _read_grid(node, base_dir) if kind == "grid" else None
     node.finish()
     sigma_a, sigma_s = sigma_a * scale, sigma_s * scale
     limits.float32_values(sigma_a + sigma_s, node.where, SceneError)   # the product with `scale`
-    return Medium(name, sigma_a, sigma_s, float(g), kind, grid, albedo_grid)
+    return Medium(name, sigma_a, sigma_s, float(g), kind, grid, albedo_grid, sample_emitters)
 
 
 def _read_albedo_grid(node, base_dir, kind):

@@ -134,12 +134,16 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
                 if (depth == max_depth) break;
                 float3 p = ray.origin + ms.t * ray.direction;
                 bool last = medium_scatters_once(scene, medium);
-                radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, !last, rng);
+                // Without a light sample here, phase sampling alone finds the emitters, with full
+                // weight (as after a delta lobe); a path that ends here has only its light sample.
+                bool light_sample = last || medium_makes_light_samples(scene->media + medium);
+                if (light_sample)
+                    radiance += throughput * direct_light_in_medium(scene, p, ray.direction, medium, !last, rng);
                 if (last) break;
                 // The phase function is sampled exactly: phase / pdf = 1 leaves the throughput.
                 ray.direction = sample_medium_phase(scene, medium, ray.direction, rng_float2(rng), &prev_pdf_w);
                 ray.origin = prev_p = p;
-                prev_delta = false;
+                prev_delta = !light_sample;
                 if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
                 ++depth;
                 continue;

@@ -85,6 +85,37 @@ def test_scattering_sphere_in_furnace_vanishes(device, g):
         assert z_bound(result.image[..., c], 1.0) < 5.0
 
 
+@pytest.mark.parametrize("boundary", [BOUNDARY, {"name": "boundary", "type": "dielectric", "ior": 1.5},
+                                      {"name": "boundary", "type": "dielectric", "ior": 1.5, "roughness": 0.4}],
+                         ids=["interface", "glass", "rough glass"])
+def test_a_medium_without_light_samples_vanishes_in_a_furnace(device, boundary):
+    # sample_emitters false: the environment is found by phase (and BSDF) sampling alone, which
+    # must then count with full weight (an MIS weight without its light-sample partner would
+    # darken the sphere).
+    data = medium_scene({"sigma_t": [2.0, 1.0, 0.5], "albedo": 1.0, "g": 0.6, "sample_emitters": False},
+                        {"type": "sphere", "radius": 1.0}, camera_args={"resolution": (16, 16), "fov": 25},
+                        render={"max_depth": 1000, "rr_depth": 5})
+    data["materials"] = [boundary]
+    result = clrender.Renderer(clrender.load_scene_dict(data), device).render(spp=32, seed=5)
+    assert result.discarded_samples == 0
+    for c in range(3):
+        assert z_bound(result.image[..., c], 1.0) < 5.0
+
+
+def test_a_medium_without_light_samples_makes_none(device):
+    # The sunlit slab of test_single_scattering_from_a_slab_lit_by_the_sun: a delta light, which
+    # only light samples reach. Without them the slab is black; with them it is not.
+    data = medium_scene({"sigma_t": 1.5, "albedo": 0.8}, {"type": "box", "transform": {"scale": [6, 0.3, 6]}},
+                        camera_args={"position": (0, 3, 0), "look_at": (0, 0, 0), "up": (0, 0, -1), "fov": 4,
+                                     "resolution": (8, 8)},
+                        lights=[{"type": "directional", "direction": [0, -1, 0], "irradiance": 2.0}],
+                        render={"max_depth": 8})
+    lit = clrender.Renderer(clrender.load_scene_dict(data), device).render(spp=8, seed=1).image
+    data["media"][0]["sample_emitters"] = False
+    dark = clrender.Renderer(clrender.load_scene_dict(data), device).render(spp=8, seed=1).image
+    assert lit.min() > 0 and np.all(dark == 0)
+
+
 def subpixel_rays(scene, samples_per_axis):
     """Camera rays through a regular sub-pixel grid: unit directions (H, W, samples, 3)."""
     width, height = scene.camera.resolution

@@ -801,16 +801,17 @@ def medium_scene(medium, integrator="volpath", shape_medium=True):
 
 
 @pytest.mark.parametrize("medium,expected", [
-    ('<medium type="homogeneous"/>', {"sigma_t": [1.0] * 3, "albedo": [0.75] * 3, "scale": 1.0, "g": 0.0}),
+    ('<medium type="homogeneous"/>',
+     {"sigma_t": [1.0] * 3, "albedo": [0.75] * 3, "scale": 1.0, "g": 0.0, "sample_emitters": True}),
     ('<medium type="homogeneous"><rgb name="sigma_t" value="1, 2, 3"/><float name="albedo" value="0.5"/>'
-     '<float name="scale" value="4"/><phase type="hg"/></medium>',
-     {"sigma_t": [1.0, 2.0, 3.0], "albedo": [0.5] * 3, "scale": 4.0, "g": 0.8}),
+     '<float name="scale" value="4"/><phase type="hg"/><boolean name="sample_emitters" value="false"/></medium>',
+     {"sigma_t": [1.0, 2.0, 3.0], "albedo": [0.5] * 3, "scale": 4.0, "g": 0.8, "sample_emitters": False}),
     ('<medium type="homogeneous"><float name="sigma_a" value="0.2"/><rgb name="sigma_s" value="1, 2, 3"/>'
      '<phase type="hg"><float name="g" value="-0.3"/></phase></medium>',
-     {"sigma_a": [0.2] * 3, "sigma_s": [1.0, 2.0, 3.0], "scale": 1.0, "g": -0.3}),
+     {"sigma_a": [0.2] * 3, "sigma_s": [1.0, 2.0, 3.0], "scale": 1.0, "g": -0.3, "sample_emitters": True}),
     ('<medium type="heterogeneous"><volume type="constvolume" name="sigma_t"><float name="value" value="2"/></volume>'
      '<volume type="constvolume" name="albedo"><rgb name="value" value="0.1, 0.2, 0.3"/></volume></medium>',
-     {"sigma_t": [2.0] * 3, "albedo": [0.1, 0.2, 0.3], "scale": 1.0, "g": 0.0}),
+     {"sigma_t": [2.0] * 3, "albedo": [0.1, 0.2, 0.3], "scale": 1.0, "g": 0.0, "sample_emitters": True}),
 ])
 def test_homogeneous_media(tmp_path, medium, expected):
     scene, _ = translate(tmp_path, medium_scene(medium))

@@ -3,8 +3,9 @@
 | plugin | parameter (Mitsuba's default) | clrender |
 |---|---|---|
 | `homogeneous` | `sigma_t` (1), `albedo` (0.75), `scale` (1); or `sigma_a` and `sigma_s` | homogeneous medium |
+| both | `sample_emitters` (true) | `sample_emitters` |
 | `heterogeneous` | `sigma_t` a `gridvolume`, `albedo` constant or a `gridvolume` placed as sigma_t's (1 or 3 channels), `scale` | `grid` medium, `albedo_grid` (a constant sigma_t: homogeneous) |
-| accepted | `sample_emitters`, `has_spectral_extinction` (sampling choices) | |
+| accepted | `has_spectral_extinction` (a sampling choice) | |
 | phase `isotropic` | | `g` 0 |
 | phase `hg` | `g` (0.8) | `g` |
 | volume `constvolume` | `value` (albedo); `to_world` accepted | a constant |
@@ -39,8 +40,9 @@ def read_medium(plugin, reader):
     phases = plugin.nested("phase")
     if len(phases) > 1:
         raise plugin.error("a medium takes one phase function")
-    medium = {"name": name, "scale": plugin.number("scale", 1.0), "g": read_phase(phases[0] if phases else None, reader)}
-    plugin.accept("sample_emitters", "has_spectral_extinction")   # sampling choices
+    medium = {"name": name, "scale": plugin.number("scale", 1.0), "g": read_phase(phases[0] if phases else None, reader),
+              "sample_emitters": plugin.boolean("sample_emitters", True)}
+    plugin.accept("has_spectral_extinction")   # a sampling choice
     if plugin.has("sigma_a") or plugin.has("sigma_s"):
         if plugin.has("sigma_t") or plugin.has("albedo"):
             raise plugin.error("give either sigma_t and albedo, or sigma_a and sigma_s")

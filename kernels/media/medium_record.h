@@ -9,6 +9,7 @@
 float3 medium_sigma_a(__global const Medium* m) { return m->sigma_a.xyz; }
 float3 medium_sigma_s(__global const Medium* m) { return m->sigma_s.xyz; }
 float medium_g(__global const Medium* m) { return m->params.x; }
+float medium_sample_emitters(__global const Medium* m) { return m->params.y; }
 int medium_kind(__global const Medium* m) { return m->grid.x; }
 int medium_voxel_offset(__global const Medium* m) { return m->grid.y; }
 int medium_majorant_offset(__global const Medium* m) { return m->grid.z; }
@@ -18,6 +19,8 @@ int3 medium_majorant_resolution(__global const Medium* m) { return m->majorant_r
 int medium_albedo_offset(__global const Medium* m) { return m->albedo_grid.x; }
 int medium_albedo_channels(__global const Medium* m) { return m->albedo_grid.y; }
 int3 medium_albedo_resolution(__global const Medium* m) { return m->albedo_resolution.xyz; }
+
+bool medium_makes_light_samples(__global const Medium* m) { return medium_sample_emitters(m) != 0.0f; }
 
 bool medium_has_albedo_grid(__global const Medium* m) { return medium_albedo_channels(m) > 0; }
 
