@@ -18,6 +18,7 @@ from .conductor_presets import CONDUCTOR_PRESETS
 from .layout import ENVIRONMENT_LOOKUPS, MASKINGS, MICROFACET_DISTRIBUTIONS
 from .aovs import parse_aovs
 from .files import describe, not_a_file
+from .image_prefetch import ImagePrefetch
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
 MATERIAL_TYPES = ("diffuse", "emissive", "dielectric", "conductor", "toon", "interface", "thin_dielectric",
@@ -481,10 +482,18 @@ def load_scene_dict(data, base_dir="."):
     """Build a Scene from a dict with the JSON scene structure (see docs/scene-format.md)."""
     base_dir = path_argument(base_dir, "base_dir")
     root = _Node(data, "")
+    with ImagePrefetch() as images:
+        _start_image_reads(data, base_dir, images)
+        return _read_scene(root, base_dir, images)
+
+
+def _read_scene(root, base_dir, images):
     camera = _read_camera(root.child("camera"))
     render = _read_render(root.child("render", {}))
-    texture_list = [_read_texture(node, base_dir) for node in root.items("textures")]
-    texture_names = _unique_names(texture_list, "textures")
+    # Textures are read after the shapes, so that their images decode while the meshes load
+    # (image_prefetch.py); the materials need their names only.
+    texture_nodes = root.items("textures")
+    texture_names = [node.data.get("name") for node in texture_nodes]
     material_nodes = root.items("materials")
     material_names = [node.data.get("name") for node in material_nodes]   # `back` may name a later one
     materials = [_read_material(node, texture_names, material_names) for node in material_nodes]
@@ -500,18 +509,41 @@ def load_scene_dict(data, base_dir="."):
             raise SceneError(f"media[{i}].name", f"duplicate medium name {name!r}")
     scene_medium = _medium_reference(root, "medium", medium_names)
     shapes = [_read_shape(node, names, medium_names, scene_medium, base_dir) for node in root.items("shapes")]
-    lights = [_read_light(node, base_dir) for node in root.items("lights")]
+    texture_list = [_read_texture(node, base_dir, images) for node in texture_nodes]
+    _unique_names(texture_list, "textures")
+    lights = [_read_light(node, base_dir, images) for node in root.items("lights")]
     if sum(light.type == "environment" for light in lights) > 1:
         raise SceneError("lights", "at most one environment light is allowed")
     camera_medium = None
     if "medium" in root.data["camera"]:
         camera_medium = _medium_reference(_Node(root.data["camera"], "camera"), "medium", medium_names)
-    outlines = _read_outlines(root.child("outlines")) if "outlines" in data else Outlines()
+    outlines = _read_outlines(root.child("outlines")) if "outlines" in root.data else Outlines()
     root.finish()
     _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium)
     _check_direct_integrator(render, materials, media)
     return Scene(camera, materials, shapes, lights, render, media, scene_medium, camera_medium,
                  outlines=outlines, textures=texture_list)
+
+
+def _start_image_reads(data, base_dir, images):
+    """Begin decoding the texture and environment image files that `data` names (the readers
+    below ask `images` for them where they read them). Whatever looks wrong is left to them."""
+    from .image import load_image, load_texture_image
+
+    def start(item, kind, *args, **kwargs):
+        if isinstance(item, dict) and item.get("type") == kind and isinstance(item.get("file"), str):
+            try:
+                path = (base_dir / item["file"]).resolve()
+                images.start((kind, path, *kwargs.values()), *args, path, **kwargs)
+            except (OSError, ValueError):   # an unreadable name: the reader says so at its place
+                pass
+
+    for item in data.get("textures") if isinstance(data.get("textures"), list) else []:
+        raw = item.get("raw", False) if isinstance(item, dict) else False
+        if isinstance(raw, bool):
+            start(item, "bitmap", load_texture_image, raw=raw)
+    for item in data.get("lights") if isinstance(data.get("lights"), list) else []:
+        start(item, "environment", load_image)
 
 
 def _unique_names(items, where):
@@ -1062,7 +1094,7 @@ def _is_matrix(value):
             isinstance(x, (int, float)) and not isinstance(x, bool) for x in row) for row in value)
 
 
-def _read_texture(node, base_dir):
+def _read_texture(node, base_dir, images):
     """A texture (docs/scene-format.md, Textures): a `bitmap` from a `file` (or, from Python, an
     `image` array: uint8 sRGB-encoded unless `raw`, floats linear) or a `checkerboard`."""
     name = node.string("name")
@@ -1078,7 +1110,7 @@ def _read_texture(node, base_dir):
         if ("file" in node.data) == ("image" in node.data):
             raise SceneError(node.where, "a bitmap needs either a `file` or an `image`")
         if "file" in node.data:
-            texture.pixels, texture.srgb = _texture_file(node, base_dir, raw)
+            texture.pixels, texture.srgb = _texture_file(node, base_dir, raw, images)
             texture.source = node.data["file"]
         else:
             texture.pixels, texture.srgb = _texture_array(node, raw)
@@ -1096,14 +1128,14 @@ def _read_uv_transform(node):
     return np.array([[limits.number(x, node.at("to_uv"), SceneError) for x in row] for row in value])
 
 
-def _texture_file(node, base_dir, raw):
+def _texture_file(node, base_dir, raw, images):
     from .image import load_texture_image
 
     path = (base_dir / node.string("file")).resolve()
     if not_a_file(path) is not None:
         raise SceneError(node.at("file"), describe(path))
     try:
-        image = load_texture_image(path, raw=raw)
+        image = images.get(("bitmap", path, raw), load_texture_image, path, raw=raw)
     except FileError as e:
         raise SceneError(node.at("file"), e.message) from None
     return image.pixels, image.srgb
@@ -1127,10 +1159,10 @@ def _texture_array(node, raw):
     return image, not raw
 
 
-def _read_light(node, base_dir):
+def _read_light(node, base_dir, images):
     kind = node.string("type", choices=LIGHT_TYPES)
     if kind == "environment":
-        light = _read_environment(node, base_dir)
+        light = _read_environment(node, base_dir, images)
     elif kind == "point":
         light = Light(kind, node.vector("intensity", non_negative=True, allow_scalar=True),
                       position=node.vector("position"))
@@ -1153,7 +1185,7 @@ def _direction(node):
     return _unit(direction)
 
 
-def _read_environment(node, base_dir):
+def _read_environment(node, base_dir, images):
     scale = node.number("scale", 1.0, low=0)
     if sum(key in node.data for key in ("image", "file", "radiance")) > 1:
         raise SceneError(node.where, "give one of radiance, file or image")
@@ -1172,7 +1204,7 @@ def _read_environment(node, base_dir):
         if not_a_file(path) is not None:
             raise SceneError(node.at("file"), describe(path))
         try:
-            image = load_image(path)
+            image = images.get(("environment", path), load_image, path)
         except FileError as e:
             raise SceneError(node.at("file"), e.message) from None
         return _environment_image(node, image, "file", scale)
