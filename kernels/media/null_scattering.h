@@ -10,14 +10,15 @@
 // transmittance T_maj = exp(-integral sigma_maj). Its contribution, per colour channel c, is
 //     f_c = prod over vertices of (sigma_kind,c T_maj,c) * (surface, phase and emission terms).
 // Two techniques sample such paths:
-//   - unidirectional (delta tracking): distances from sigma_maj of the hero channel h, then the
-//     vertex kind with probabilities sigma_a,h / sigma_maj,h, sigma_s,h / .., sigma_n,h / ..:
-//     p_u,c = prod (sigma_kind,c T_maj,c) (as the pdf of channel c were it the hero);
+//   - unidirectional (delta tracking): distances from sigma_maj of the hero channel h, then a
+//     real (sigma_t,h / sigma_maj,h) or null (sigma_n,h / ..) vertex; a real one scatters, its
+//     albedo sigma_s / sigma_t a weight (absorption is not sampled as a vertex):
+//     p_u,c = prod (sigma_kind,c T_maj,c), kind t or n (as the pdf of channel c were it the hero);
 //   - light (next-event estimation with ratio tracking): the direction from the light sampler,
 //     and null vertices only, distances from a residual majorant sigma_r = sigma_maj - sigma_min
 //     (residual ratio tracking, Novak et al. 2014: the known minimum density is a control variate)
 //     so p_l,c = prod (sigma_r,c exp(-integral sigma_r,c)) over the null vertices.
-// With f_c = p_u,c for the unidirectional part, an estimator only needs ratios of pdfs.
+// With f_c = albedo_c p_u,c for the unidirectional part, an estimator only needs ratios of pdfs.
 //
 // Spectral MIS: the hero channel is drawn uniformly per segment (one medium between two
 // surfaces or a surface and a scattering vertex), whose pdf is then the mixture
@@ -93,13 +94,18 @@ float mixture_pdf_ratio(float3 pu, float log_u, float3 pl, float log_l) {
 
 // ----- unidirectional: delta tracking -------------------------------------------------------
 // One segment of a path ray through a grid medium over [0, t_max): scattered (weight f / p of
-// the segment's vertices), absorbed (weight 0: media emit nothing, the path ends) or passed
-// (weight f / p and the pdf ratio for MIS). *collisions: tentative collisions (for the tests).
+// the segment's vertices) or passed (weight f / p and the pdf ratio for MIS); absorbed (weight 0)
+// only where the walk gave up (exhausted). A real collision (probability sigma_t,h / sigma_maj,h)
+// always scatters, its albedo sigma_s / sigma_t a weight per channel, as the homogeneous media
+// and Mitsuba's volpath do: absorption drawn as an event with the hero's probabilities ended the
+// paths of a channel of high albedo wherever the hero's was low (a cloud of albedo (0.99, 0.5,
+// 0.5): 2.7x the red channel's variance). *collisions: tentative collisions (for the tests).
 MediumSample delta_tracking_sample(const Scene* scene, __global const Medium* m, Ray ray, float t_max,
                                    bool spectral_mis, Rng* rng, int* collisions) {
     int h = sample_hero(rng);
     RatioProduct u_ratio = ratio_one();   // prod sigma_kind,c / sigma_kind,h: p_u,c / p_u,h
     RatioProduct l_ratio = ratio_one();   // prod sigma_r,c / sigma_n,h over the null vertices
+    float3 albedo = (float3)(1.0f);   // sigma_s / sigma_t at the scattering vertex
     MediumSample s;
     s.event = MEDIUM_EVENT_PASS;
     s.t = t_max;
@@ -110,15 +116,13 @@ MediumSample delta_tracking_sample(const Scene* scene, __global const Medium* m,
         float3 s_a, s_s;
         grid_coefficients(scene, m, majorant_ray_voxel(&w.blocks, w.t), w.density, &s_a, &s_s);
         float3 s_n = fmax(sigma_maj - s_a - s_s, (float3)(0.0f));
-        // The vertex kind, with the hero's probabilities sigma_kind,h / sigma_maj,h.
+        // Real or null, with the hero's probabilities sigma_t,h / sigma_maj,h and sigma_n,h / ..
         float u = rng_float(rng) * channel(sigma_maj, h);
-        float a_h = channel(s_a, h), s_h = channel(s_s, h), n_h = channel(s_n, h);
-        if (u < a_h) {
-            s.event = MEDIUM_EVENT_ABSORB;
-            break;
-        }
-        if (u < a_h + s_h) {
-            ratio_mul(&u_ratio, s_s / s_h);
+        float3 s_t = s_a + s_s;
+        float t_h = channel(s_t, h), n_h = channel(s_n, h);
+        if (u < t_h) {
+            ratio_mul(&u_ratio, s_t / t_h);
+            albedo = select((float3)(0.0f), s_s / s_t, s_t > 0.0f);
             s.event = MEDIUM_EVENT_SCATTER;
             s.t = w.t;
             break;
@@ -134,11 +138,11 @@ MediumSample delta_tracking_sample(const Scene* scene, __global const Medium* m,
         s.weight = (float3)(0.0f);
         return s;
     }
-    // f_c = p_u,c: the weight is p_u,c over the mixture (or the hero's p_u,h without spectral
-    // MIS), p_u,c / p_u,h = u_ratio_c T_maj,c / T_maj,h.
+    // f_c = albedo_c p_u,c: the weight is that over the mixture of the p_u (or the hero's p_u,h
+    // without spectral MIS), p_u,c / p_u,h = u_ratio_c T_maj,c / T_maj,h.
     float3 pu = relative_pdfs(u_ratio, w.tau_maj, min_component(w.tau_maj));
     float denominator = spectral_mis ? mean3(pu) : channel(pu, h);
-    s.weight = denominator > 0.0f ? pu / denominator : (float3)(0.0f);
+    s.weight = denominator > 0.0f ? albedo * pu / denominator : (float3)(0.0f);
     if (s.event == MEDIUM_EVENT_PASS) {
         float reference = min_component(w.tau_res);   // tau_res <= tau_maj per channel: exponents <= 0
         s.pdf_ratio = mixture_pdf_ratio(relative_pdfs(u_ratio, w.tau_maj, reference), u_ratio.log_scale,
