@@ -1,5 +1,6 @@
 """A scene flattened into the arrays the kernel reads (dtypes from layout.py)."""
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,11 +90,29 @@ def device_length_scale(scene):
 
 
 def build_scene_arrays(scene):
+    with ThreadPoolExecutor(1, thread_name_prefix="texture-arrays") as worker:
+        return _build_scene_arrays(scene, worker)
+
+
+def _texture_data(scene, with_uv):
+    """The texture records and texel buffer (textures.texture_arrays), and every bitmap's mean
+    computed (Texture.mean keeps it: plastic's lobe weights and textured emitters ask for it).
+    numpy copies and decodes the texels without holding Python's lock: done beside the BVH build."""
+    if not with_uv:
+        return textures.texture_arrays([])
+    for texture in scene.textures:
+        if texture.type == "bitmap":
+            texture.mean()
+    return textures.texture_arrays(scene.textures)
+
+
+def _build_scene_arrays(scene, worker):
     count = sum(1 if isinstance(shape.mesh, meshes.Sphere) else len(shape.mesh.faces) for shape in scene.shapes)
     if count > limits.MAX_TRIANGLES:   # before the triangles are gathered and the BVH is built
         raise SceneError("shapes", f"{count} primitives, more than the limit of {limits.MAX_TRIANGLES}")
     scale = device_length_scale(scene)
     with_uv = textures.scene_uses_textures(scene)
+    texture_data = worker.submit(_texture_data, scene, with_uv)
     v0, v1, v2, normals, info, uvs = _gather_triangles(scene, scale, with_uv)
     keep = _has_float32_area(v0, v1, v2)
     degenerate = int(np.count_nonzero(~keep))
@@ -114,6 +133,10 @@ def build_scene_arrays(scene):
     unordered_info = np.concatenate([info, sphere_info])
     info = unordered_info[order]
 
+    try:   # before anything asks for a texture's mean
+        texture_records, texels = texture_data.result()
+    except ValueError as e:
+        raise SceneError("textures", str(e)) from None
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
     emitters, powers, areas = _area_emitters(scene, triangles, is_sphere, info)
@@ -164,10 +187,6 @@ def build_scene_arrays(scene):
         camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, centres, radii,
                                           unordered_info)
     media, grid_data, majorant_data = _medium_array(scene.media, scale)
-    try:
-        texture_records, texels = textures.texture_arrays(scene.textures if with_uv else [])
-    except ValueError as e:
-        raise SceneError("textures", str(e)) from None
     return SceneArrays(
         nodes=nodes, blocks=blocks, triangles=triangles, shading=shading,
         info=_info_array(info), materials=materials,

@@ -40,6 +40,9 @@ class Texture:
     color0: np.ndarray = field(default_factory=lambda: np.full(3, 0.4))
     color1: np.ndarray = field(default_factory=lambda: np.full(3, 0.2))
     source: str = ""                   # the file it came from, for messages
+    # (pixels, srgb, mean()): the value and the pixels array and encoding it was computed for (a
+    # texture's pixels are replaced, not edited in place, to change it).
+    _mean: tuple = field(default=None, repr=False, compare=False)
 
     @property
     def channels(self):
@@ -50,6 +53,11 @@ class Texture:
         two colours): the weight of an emitter it drives."""
         if self.type == "checkerboard":
             return (np.asarray(self.color0, float) + np.asarray(self.color1, float)) / 2
+        if self._mean is None or self._mean[0] is not self.pixels or self._mean[1] != self.srgb:
+            self._mean = (self.pixels, self.srgb, self._bitmap_mean())
+        return self._mean[2]
+
+    def _bitmap_mean(self):
         # numpy's float32 mean over the texels, rgb.reshape(-1, 3).mean(axis=0), adds them row
         # after row: the same running sum here, block by block (the total carried in each
         # block's first row), without decoding the whole image into a float32 copy.

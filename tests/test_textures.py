@@ -152,6 +152,17 @@ def test_bitmap_mean_is_the_float32_mean_of_its_linear_texels(channels, dtype, s
     np.testing.assert_array_equal(texture.mean(), whole)
 
 
+def test_bitmap_mean_is_kept_until_the_pixels_are_replaced():
+    # Texture.mean remembers its value (build_scene_arrays computes it beside the BVH build);
+    # new pixels, or another encoding, give a new mean.
+    texture = textures.Texture("t", "bitmap", pixels=np.zeros((2, 3, 3), np.uint8), srgb=True)
+    assert np.all(texture.mean() == 0) and texture.mean() is texture.mean()
+    texture.pixels = np.full((2, 3, 3), 128, np.uint8)
+    np.testing.assert_allclose(texture.mean(), textures.srgb8_table()[128], rtol=1e-6)
+    texture.srgb = False
+    np.testing.assert_allclose(texture.mean(), 128 / 255, rtol=1e-6)
+
+
 def test_bitmap_values_are_mitsubas_conventions():
     # Row 0 at v = 0; bilinear weights between texel centres; sRGB decoded before filtering.
     pixels = np.array([[[0], [255]], [[255], [255]]], np.uint8)
