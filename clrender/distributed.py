@@ -215,7 +215,7 @@ def dask_client(workers=None, scheduler=None, timeout=None):
     timeout = CONNECT_TIMEOUT if timeout is None else limits.setting("connect_timeout", timeout)
     dask_distributed = require_dask("scheduler" if scheduler is not None else "workers")
     if scheduler is not None:
-        with _connect(dask_distributed, scheduler, timeout) as client:
+        with _client_callbacks_quiet(), _connect(dask_distributed, scheduler, timeout) as client:
             try:
                 client.wait_for_workers(1, timeout=timeout)
             except (TimeoutError, OSError) as e:
@@ -231,8 +231,23 @@ def dask_client(workers=None, scheduler=None, timeout=None):
         cluster = dask_distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                                 dashboard_address=":0", silence_logs=logging.CRITICAL,
                                                 preload=[__name__])
-    with cluster, dask_distributed.Client(cluster) as client:
+    with _client_callbacks_quiet(), cluster, dask_distributed.Client(cluster) as client:
         yield client
+
+
+@contextmanager
+def _client_callbacks_quiet():
+    """Dask's client loop logs, through tornado, the failure of each result it was still fetching
+    when its connection closes (after Ctrl-C or SIGTERM): tracebacks on the terminal for chunks
+    cancelled anyway (1 run in dozens of tests/test_distributed.py's double SIGTERM). Failures that
+    matter reach the render as exceptions."""
+    logger = logging.getLogger("tornado.application")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 def _start_resource_tracker():
