@@ -530,20 +530,23 @@ def _start_image_reads(data, base_dir, images):
     below ask `images` for them where they read them). Whatever looks wrong is left to them."""
     from .image import load_image, load_texture_image
 
-    def start(item, kind, *args, **kwargs):
+    def file_of(item, kind):
+        """The resolved path of an item of type `kind` that names a file, else None."""
         if isinstance(item, dict) and item.get("type") == kind and isinstance(item.get("file"), str):
             try:
-                path = (base_dir / item["file"]).resolve()
-                images.start((kind, path, *kwargs.values()), *args, path, **kwargs)
+                return (base_dir / item["file"]).resolve()
             except (OSError, ValueError):   # an unreadable name: the reader says so at its place
-                pass
+                return None
+        return None
 
     for item in data.get("textures") if isinstance(data.get("textures"), list) else []:
-        raw = item.get("raw", False) if isinstance(item, dict) else False
-        if isinstance(raw, bool):
-            start(item, "bitmap", load_texture_image, raw=raw)
+        path, raw = file_of(item, "bitmap"), item.get("raw", False) if isinstance(item, dict) else False
+        if path is not None and isinstance(raw, bool):
+            images.start(("bitmap", path, raw), load_texture_image, path, raw=raw)
     for item in data.get("lights") if isinstance(data.get("lights"), list) else []:
-        start(item, "environment", load_image)
+        path = file_of(item, "environment")
+        if path is not None:
+            images.start(("environment", path), load_image, path)
 
 
 def _unique_names(items, where):

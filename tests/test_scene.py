@@ -1,5 +1,6 @@
 """Scene loading: valid scenes load, invalid ones fail with errors naming the place."""
 import json
+import threading
 
 import numpy as np
 import pytest
@@ -216,3 +217,26 @@ def test_a_black_environment_image_is_no_light():
     assert active_environment(scene) is None
     scene.environment.image[3, 7, 2] = 1e-30
     assert active_environment(scene) is scene.environment
+
+
+def test_texture_and_environment_files_decode_on_the_prefetch_workers(tmp_path, monkeypatch):
+    # load_scene_dict starts each image file a scene names on image_prefetch's workers; the
+    # readers take those results (the same pixels) instead of decoding the file again.
+    from clrender import image
+
+    texels = np.arange(2 * 3 * 3, dtype=np.uint8).reshape(2, 3, 3)
+    sky = np.full((4, 8, 3), 0.25, np.float32)
+    image.save_image(texels, tmp_path / "texels.png")
+    image.save_image(sky, tmp_path / "sky.exr")
+    reads = []   # (thread, file) of each decode (load_image decodes through load_texture_image)
+    decode = image.load_texture_image
+    monkeypatch.setattr(image, "load_texture_image",
+                        lambda path, *a, **k: reads.append((threading.current_thread().name, path.name)) or decode(path, *a, **k))
+    data = base_scene(textures=[{"name": "t", "type": "bitmap", "file": "texels.png", "raw": True}],
+                      lights=[{"type": "environment", "file": "sky.exr"}])
+    data["materials"][0]["albedo"] = {"texture": "t"}
+    scene = clrender.load_scene_dict(data, base_dir=tmp_path)
+    assert sorted(file for _, file in reads) == ["sky.exr", "texels.png"], reads
+    assert all(thread.startswith("image-read") for thread, _ in reads), reads
+    assert np.array_equal(scene.textures[0].pixels, decode(tmp_path / "texels.png", raw=True).pixels)
+    np.testing.assert_allclose(scene.environment.image, sky, rtol=1e-3)
