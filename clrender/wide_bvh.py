@@ -81,7 +81,7 @@ def _merge_small_subtrees(index, count, sphere_slots, limit=MAX_LEAF):
     interior = (count == 0) & (index >= 0)
     leaf = count > 0
     sub_count = np.where(leaf, count, 0).astype(np.int64)
-    first = np.where(leaf, index, np.iinfo(np.int64).max).astype(np.int64)
+    first = np.where(leaf, index.astype(np.int64), np.iinfo(np.int64).max)
     last = np.where(leaf, index + count - 1, -1).astype(np.int64)
     spheres = np.zeros(index.shape, np.int64)   # spheres below each slot
     if sphere_slots is not None and np.any(sphere_slots):

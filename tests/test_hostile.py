@@ -295,6 +295,7 @@ def test_other_schemes_and_closed_ports_are_errors_naming_the_address(tmp_path, 
 def test_a_cluster_without_workers_fails_within_the_time_outs(tmp_path):
     """Connecting: no worker joins within --connect-timeout. Rendering: the scene cannot be
     scattered to a worker within chunk_timeout."""
+    pytest.importorskip("distributed")
     from distributed import Client, LocalCluster
 
     from clrender import distributed
@@ -316,6 +317,7 @@ def hanging_chunk(*args):
 
 
 def test_a_chunk_that_hangs_fails_the_render_after_the_chunk_time_out(tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
     from distributed import Client, LocalCluster
 
     from clrender import distributed

@@ -80,3 +80,30 @@ def test_the_mirror_can_replace_the_reconstruction_filter(scenes, tmp_path_facto
     text = xml.read_text()
     assert text.count("<rfilter") == 1 and '<rfilter type="box"/></film>' in text
     assert 'value="64"' in text and 'value="36"' in text and "stddev" not in text
+
+
+@pytest.mark.parametrize("warmup", [False, True])
+def test_timed_renders_take_their_seeds_in_order_after_an_untimed_warm_up(tmp_path, warmup):
+    """The children of peers.py: with a warm-up (--timing render), seed 0 renders first, untimed,
+    then each image of the seeds asked for has its own seconds; without, a single image is
+    followed by the next seed's, timed as rendering alone (`again`)."""
+    import json
+
+    import numpy as np
+
+    seeds = []
+
+    def render(seed):
+        seeds.append(seed)
+        return np.full((2, 3, 4), seed, np.float32)
+
+    out = tmp_path / "images.npy"
+    phases = real_scenes.Phases()
+    real_scenes._render_all(render, 5, 3 if warmup else 1, out, phases, warmup)
+    images, seconds = np.load(out), json.loads(out.with_suffix(".seconds.json").read_text())
+    assert seeds == ([0, 5, 6, 7] if warmup else [5, 6])
+    assert images.shape == ((3, 2, 3, 3) if warmup else (1, 2, 3, 3))
+    assert [image[0, 0, 0] for image in images] == ([5, 6, 7] if warmup else [5])
+    assert len(seconds) == len(images) and all(s >= 0 for s in seconds)
+    written = json.loads(out.with_suffix(".phases.json").read_text())
+    assert ("warm-up" in written) == warmup and ("again" in written) != warmup

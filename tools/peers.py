@@ -46,7 +46,8 @@ another seed, which is rendering alone: the table gives the ratio whole process 
 render), by CPU seconds and by rendering alone, and a start-up table (warm caches; with --cold,
 one more process per renderer and scene with empty kernel caches). --baseline CHECKOUT adds the
 clrender of another checkout (the code before a change) to the same interleaved rounds, with its
-own table. --timing traversal works on the real scenes too.
+own table. --timing traversal works on the real scenes too, and so does --timing render (the
+GPU's table: render seconds and MSE per renderer, no start-up).
 
 Mitsuba is an optional extra (`pip install -e '.[peers]'`). Its LLVM variants need an LLVM
 shared library: DRJIT_LIBLLVM_PATH defaults to Debian's libllvm19 when that file exists.
@@ -442,7 +443,7 @@ def main():
         renderer, xml, params, spp, seed, batches, out = args.child_real
         child = (real_scenes.child_clrender if renderer == "clrender" else real_scenes.child_mitsuba)
         child(Path(xml), json.loads(params), int(spp), int(seed), int(batches), out,
-              args.child_sampler if renderer == "clrender" else args.variant)
+              args.child_sampler if renderer == "clrender" else args.variant, args.child_warmup)
         return
     if args.child:
         renderer, folder, spp, seed, batches, out = args.child
@@ -459,10 +460,8 @@ def main():
 def run(args):
     import tempfile
 
-    import numpy as np
-
     import clrender
-    from clrender.bench import interleaved, machine_description, markdown_table, median
+    from clrender.bench import interleaved, machine_description
 
     command = "python tools/peers.py " + " ".join(sys.argv[1:])
     env = child_environment()
@@ -501,8 +500,26 @@ def run(args):
                         for name in args.scenes for runner in runners}
             results = interleaved(measures, rounds=args.runs, warmup=1)
     processes = args.timing == "process"
+    timing = (f"median of {args.runs} fresh processes each, interleaved" if processes else
+              f"median of {args.runs} renders after a warm-up render, in one process per renderer and scene")
+    print(f"\n{args.spp} spp, max depth 64, roulette from depth 5; {timing}; MSE: mean over the runs (seeds) "
+          f"against the mean of both {args.reference_batches} x {args.spp}-spp references, less their noise; "
+          f"± the ratio's relative standard error from the spread of the runs' MSEs; clrender sampler {args.sampler}")
+    print(_ratio_table({name: BENCHMARKS[name][0] for name in args.scenes}, "scene (256x256)", results, runners,
+                       checks, processes))
+    print(f"\n`{command}`")
+
+
+def _ratio_table(labels, label_header, results, runners, checks, processes):
+    """The Markdown table of clrender (runners[0]) against each of Mitsuba's runners: median
+    seconds, mean MSE and the efficiency ratio per scene; `results[(name, runner)]`: (wall s, CPU s
+    or None, MSE) per run."""
+    import numpy as np
+
+    from clrender.bench import markdown_table, median
+
     rows = []
-    for name in args.scenes:
+    for name, label in labels.items():
         stats = {}
         for runner in runners:
             runs = results[(name, runner)]
@@ -510,7 +527,7 @@ def run(args):
             stats[runner] = (median([r[0] for r in runs]), median([r[1] for r in runs]) if processes else None,
                              float(np.mean(mses)), relative_standard_error(mses))
         cw, cc, cm, c_error = stats[runners[0]]
-        row = [BENCHMARKS[name][0], f"{cw:.4g}", f"{cm:.3g}"]
+        row = [label, f"{cw:.4g}", f"{cm:.3g}"]
         for runner in runners[1:]:
             mw, mc, mm, m_error = stats[runner]
             # Mean MSEs of a few seeds are the noisy part of a ratio (the medians of time vary by a
@@ -519,29 +536,24 @@ def run(args):
             row += [f"{mw:.4g}", f"{mm:.3g}", f"{(mm * mw) / (cm * cw):.2f} ± {100 * error:.0f} %"]
             row += [f"{(mm * mc) / (cm * cc):.2f}"] if processes else []
         rows.append(row + [f"{checks[name]['blocks']:.2f}"])
-    header = ["scene (256x256)", "clrender s", "clrender MSE"]
+    header = [label_header, "clrender s", "clrender MSE"]
     for _, sampler in runners[1:]:
         header += [f"Mitsuba {sampler} s", f"Mitsuba {sampler} MSE", f"ratio vs {sampler}"]
         header += ["ratio (CPU s)"] if processes else []
-    header.append("agreement")
-    print()
-    timing = (f"median of {args.runs} fresh processes each, interleaved" if processes else
-              f"median of {args.runs} renders after a warm-up render, in one process per renderer and scene")
-    print(f"{args.spp} spp, max depth 64, roulette from depth 5; {timing}; MSE: mean over the runs (seeds) "
-          f"against the mean of both {args.reference_batches} x {args.spp}-spp references, less their noise; "
-          f"± the ratio's relative standard error from the spread of the runs' MSEs; clrender sampler {args.sampler}")
-    print(markdown_table(header, rows))
-    print(f"\n`{command}`")
+    return markdown_table(header + ["agreement"], rows)
 
 
 # ---------------------------------------------------------------------------------------------
 # Real scenes (--real-scenes): Mitsuba XML as shipped, phases timed in the processes
 # ---------------------------------------------------------------------------------------------
-def real_child_command(renderer, xml, params, spp, seed, out, variant, batches=1, sampler="independent"):
+def real_child_command(renderer, xml, params, spp, seed, out, variant, batches=1, sampler="independent",
+                       warmup=False):
     """A process rendering a real scene (real_scenes.child_clrender or child_mitsuba); `sampler`:
-    clrender's (Mitsuba's is the mirrored XML's)."""
-    return [sys.executable, str(Path(__file__).resolve()), "--child-real", renderer, str(xml), json.dumps(params),
-            str(spp), str(seed), str(batches), str(out), "--variant", variant, "--child-sampler", sampler]
+    clrender's (Mitsuba's is the mirrored XML's); `warmup`: an untimed render first, then each
+    render timed on its own (--timing render)."""
+    return ([sys.executable, str(Path(__file__).resolve()), "--child-real", renderer, str(xml), json.dumps(params),
+             str(spp), str(seed), str(batches), str(out), "--variant", variant, "--child-sampler", sampler]
+            + (["--child-warmup"] if warmup else []))
 
 
 def prepare_real(xml, size, mitsuba_samplers, cache):
@@ -591,6 +603,9 @@ def run_real(args, env, command):
     ours = [("clrender", args.sampler)] + ([("baseline", args.sampler)] if args.baseline else [])
     theirs = [("mitsuba", m) for m in args.mitsuba_samplers]
     runners = ours + theirs
+    if args.timing == "render":
+        run_real_renders(args, env, command, scenes, references, checks, ours[:1] + theirs)
+        return
     baseline_env = {**env, "PYTHONPATH": os.pathsep.join(filter(None, [str(args.baseline), os.environ.get("PYTHONPATH")]))}
     with tempfile.TemporaryDirectory() as scratch:
         seeds = iter(range(1, 10 ** 6, 2))   # odd: each process also renders seed + 1
@@ -615,6 +630,37 @@ def run_real(args, env, command):
           + "); kernel: clrender's program build plus PoCL's first-launch compile, Mitsuba's JIT (first render less "
           "the second)")
     print(markdown_table(_STARTUP_HEADER + (_COLD_HEADER if cold else []), startup))
+    print(f"\n`{command}`")
+
+
+def run_real_renders(args, env, command, scenes, references, checks, runners):
+    """--real-scenes with --timing render (GPUs): one process per renderer and scene renders a
+    warm-up image, then --runs images each timed until it is on the host; the table of ratios."""
+    import tempfile
+
+    import numpy as np
+
+    from clrender.bench import run_process
+
+    with tempfile.TemporaryDirectory() as scratch:
+        results = {}
+        for name, (params, mirrors, _size) in scenes.items():
+            for renderer, sampler in runners:
+                out = Path(scratch) / f"{renderer}-{sampler}-{name}.npy"
+                xml = mirrors["independent" if renderer == "clrender" else sampler]
+                run_process(real_child_command(renderer, xml, params, args.spp, 1, out, args.variant, args.runs,
+                                               sampler if renderer == "clrender" else "independent", warmup=True),
+                            env=env)
+                seconds = json.loads(out.with_suffix(".seconds.json").read_text())
+                results[(name, (renderer, sampler))] = [(s, None, _mse(image, references[name]))
+                                                        for s, image in zip(seconds, np.load(out))]
+            print(f"{name} done", flush=True)
+    print(f"\n{args.spp} spp, the scenes' own max depth and integrator; median of {args.runs} renders after a "
+          f"warm-up render, in one process per renderer and scene, each timed until the image is on the host; MSE: "
+          f"mean over the runs (seeds) against the mean of both {args.reference_batches} x {args.spp}-spp "
+          f"references, less their noise; ± from the spread of the runs' MSEs; clrender sampler {args.sampler}")
+    labels = {name: f"{name} ({size})" for name, (_params, _mirrors, size) in scenes.items()}
+    print(_ratio_table(labels, "scene (size)", results, runners, checks, processes=False))
     print(f"\n`{command}`")
 
 

@@ -135,10 +135,10 @@ def cpu_seconds():
     return times.user + times.system
 
 
-def child_clrender(xml, params, spp, seed, batches, out, sampler):
+def child_clrender(xml, params, spp, seed, batches, out, sampler, warmup=False):
     """Load, set up (arrays and BVH, kernel build, upload) and render the images of seeds seed,
     seed + 1, ... (`batches` of them, written to `out`); a single image is followed by a render of
-    another seed, whose time is rendering alone."""
+    another seed, whose time is rendering alone. `warmup`: see _render_all."""
     import warnings
 
     import clrender
@@ -153,10 +153,10 @@ def child_clrender(xml, params, spp, seed, batches, out, sampler):
         warnings.simplefilter("ignore")
         scene = phases.time("load", lambda: clrender.load_scene(xml, params))
     renderer = phases.time("set-up", lambda: clrender.Renderer(scene, sampler=sampler))
-    _render_all(lambda s: renderer.render(spp=spp, seed=s).image, seed, batches, out, phases)
+    _render_all(lambda s: renderer.render(spp=spp, seed=s).image, seed, batches, out, phases, warmup)
 
 
-def child_mitsuba(xml, params, spp, seed, batches, out, variant):
+def child_mitsuba(xml, params, spp, seed, batches, out, variant, warmup=False):
     """The same with Mitsuba: load_file (parse, meshes, textures, BVH), the first render (its
     JIT: tracing, compilation or the kernel cache), the second (rendering alone)."""
     import mitsuba as mi
@@ -165,17 +165,27 @@ def child_mitsuba(xml, params, spp, seed, batches, out, variant):
     mi.set_variant(variant)
     phases = Phases()
     scene = phases.time("load", lambda: mi.load_file(str(xml), **params))
-    _render_all(lambda s: np.asarray(mi.render(scene, spp=spp, seed=s), np.float32), seed, batches, out, phases)
+    _render_all(lambda s: np.asarray(mi.render(scene, spp=spp, seed=s), np.float32), seed, batches, out, phases,
+                warmup)
 
 
-def _render_all(render, seed, batches, out, phases):
-    """The images written to `out`, the phases beside them; after a single image, the next
-    seed's render as `again` (wall) and `again cpu`, which the parent takes off the process."""
+def _render_all(render, seed, batches, out, phases, warmup=False):
+    """The images written to `out`, each one's seconds beside them (`.seconds.json`), and the
+    phases. With `warmup` (--timing render), an untimed render of seed 0 first (kernel builds,
+    Mitsuba's JIT); without, a single image is followed by the next seed's render as `again`
+    (wall) and `again cpu`, which the parent takes off the process."""
     import numpy as np
 
-    images = [phases.time("render", lambda: render(seed + b))[..., :3] for b in range(batches)]
+    if warmup:
+        phases.time("warm-up", lambda: render(0))
+    images, seconds = [], []
+    for b in range(batches):
+        start = time.perf_counter()
+        images.append(phases.time("render", lambda: render(seed + b))[..., :3])
+        seconds.append(time.perf_counter() - start)
     np.save(out, np.stack(images).astype(np.float32))
-    if batches == 1:
+    Path(out).with_suffix(".seconds.json").write_text(json.dumps(seconds))
+    if batches == 1 and not warmup:
         before = cpu_seconds()
         phases.time("again", lambda: render(seed + 1))
         phases.seconds["again cpu"] = cpu_seconds() - before
