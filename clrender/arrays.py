@@ -5,11 +5,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout, light_selection, limits, meshes, plastic, principled, textures
+from . import bvh as bvh_module
+from . import disk_cache, layout, light_selection, limits, meshes, plastic, ploc, principled, textures
 from . import wide_bvh
 from .triangle_blocks import triangle_blocks
 from .bvh import intersect_brute_force
-from .ploc import build_ploc_bvh
 from .errors import SceneError
 from .origins import at_source
 
@@ -106,6 +106,25 @@ def _texture_data(scene, with_uv):
     return textures.texture_arrays(scene.textures)
 
 
+def wide_bvh_of(v0, v1, v2, centres, radii):
+    """(wide nodes, depth, primitive order) of the BVH over these triangles and spheres: built
+    (ploc.py, wide_bvh.py) once per geometry, then loaded from the disk cache, keyed by the
+    primitives and the builders' code (the build was half the set-up of the real interiors)."""
+    entry = disk_cache.key("wide bvh", disk_cache.code_digest(ploc, bvh_module, wide_bvh, layout),
+                           disk_cache.array_digest(v0, v1, v2, centres, radii))
+    cached = disk_cache.load_arrays("bvh", entry)
+    if cached is not None:
+        return cached["nodes"].view(layout.WIDE_BVH_NODE), int(cached["depth"][0]), cached["order"]
+    bvh = ploc.build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
+    order = bvh.prim_order
+    # The binary tree goes as soon as it is used: on a large mesh it is hundreds of MB, and the
+    # peak memory is that of these steps.
+    nodes, depth = wide_bvh.collapse(bvh, order >= len(v0))
+    del bvh
+    disk_cache.store_arrays("bvh", entry, {"nodes": nodes, "depth": np.array([depth]), "order": order})
+    return nodes, depth, order
+
+
 def _build_scene_arrays(scene, worker):
     count = sum(1 if isinstance(shape.mesh, meshes.Sphere) else len(shape.mesh.faces) for shape in scene.shapes)
     if count > limits.MAX_TRIANGLES:   # before the triangles are gathered and the BVH is built
@@ -121,12 +140,7 @@ def _build_scene_arrays(scene, worker):
         v0, v1, v2, normals, info, uvs = v0[keep], v1[keep], v2[keep], normals[keep], info[keep], uvs[keep]
     centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
-    bvh = build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
-    order = bvh.prim_order
-    # The binary tree and the per-corner normals go as soon as they are used: on a large mesh
-    # each is hundreds of MB, and the peak memory is that of these steps.
-    nodes, bvh_depth = wide_bvh.collapse(bvh, order >= len(v0))
-    del bvh
+    nodes, bvh_depth, order = wide_bvh_of(v0, v1, v2, centres, radii)
     triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
     del normals
     nodes, blocks = triangle_blocks(nodes, triangles)

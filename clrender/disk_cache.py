@@ -1,9 +1,12 @@
 """Arrays computed at start-up, kept on disk for the next process beside the kernel binaries
 (cache_dir(), in a folder per kind): tables the device computes with a program
-(plastic.py, energy.py), keyed by that program's build key. The key covers every input, so an
-entry is never stale; an entry is its SHA-256 and its bytes, and one that is damaged (truncated, of
-another size, or failing the checksum) is computed again and rewritten."""
+(plastic.py, energy.py), keyed by that program's build key, and the meshes of OBJ files
+(obj_reader.py), keyed by the file's bytes and the parser's source. The key covers every input,
+so an entry is never stale; an entry is its SHA-256 and its bytes, and one that is damaged
+(truncated, of another size, or failing the checksum) is computed again and rewritten."""
+import functools
 import hashlib
+import json
 import os
 import tempfile
 from pathlib import Path
@@ -17,6 +20,26 @@ _DIGEST = 32
 def key(*parts):
     """An entry's key: the hash of its inputs' reprs (strings, numbers, bytes, tuples of them)."""
     return hashlib.sha256(repr(parts).encode()).hexdigest()
+
+
+@functools.cache
+def code_digest(*modules):
+    """The hash of these modules' source files and numpy's version: in the key of an entry that
+    code computed, so that a changed computation never reads an old entry."""
+    digest = hashlib.sha256(np.__version__.encode())
+    for module in modules:
+        digest.update(Path(module.__file__).read_bytes())
+    return digest.hexdigest()
+
+
+def array_digest(*arrays):
+    """The hash of arrays' contents, types and shapes (an entry's inputs)."""
+    digest = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        digest.update(repr((a.dtype.str, a.shape)).encode())
+        digest.update(a)
+    return digest.hexdigest()
 
 
 def load(kind, entry_key, shape, dtype=np.float32):
@@ -40,14 +63,54 @@ def load(kind, entry_key, shape, dtype=np.float32):
 def store(kind, entry_key, array):
     """Write `array` under `entry_key`, atomically (a reader sees the old entry or the whole new
     one); an unwritable cache only costs the next process the computation."""
-    path = _path(kind, entry_key)
     data = np.ascontiguousarray(array)
+    _write(_path(kind, entry_key), [data], hashlib.sha256(data).digest())
+
+
+def load_arrays(kind, entry_key):
+    """The named arrays (a dict; None values kept) stored under `entry_key` by store_arrays, or
+    None (absent, unreadable or damaged)."""
+    try:
+        entry = _path(kind, entry_key).read_bytes()
+    except OSError:
+        return None
+    payload = memoryview(entry)[len(_MAGIC) + _DIGEST:]
+    if not entry.startswith(_MAGIC) or hashlib.sha256(payload).digest() != entry[len(_MAGIC):len(_MAGIC) + _DIGEST]:
+        return None
+    header_size = int.from_bytes(payload[:8], "little")
+    arrays, offset = {}, 8 + header_size
+    for name, dtype, shape in json.loads(bytes(payload[8:offset])):
+        if dtype is None:
+            arrays[name] = None
+            continue
+        size = int(np.prod(shape)) * np.dtype(dtype).itemsize
+        arrays[name] = np.frombuffer(payload[offset:offset + size], dtype).reshape(shape)
+        offset += size
+    return arrays
+
+
+def store_arrays(kind, entry_key, arrays):
+    """Write the named arrays (a dict; values may be None) under `entry_key`, as store does.
+    Plain dtypes and at least one dimension: a structured array comes back as bytes (void) for
+    its reader to view, a 0-d array as a 1-d one."""
+    data = {name: None if a is None else np.ascontiguousarray(a) for name, a in arrays.items()}
+    header = json.dumps([(name, None if a is None else a.dtype.str, None if a is None else a.shape)
+                         for name, a in data.items()]).encode()
+    parts = [len(header).to_bytes(8, "little"), header] + [a for a in data.values() if a is not None]
+    digest = hashlib.sha256()
+    for part in parts:
+        digest.update(part)
+    _write(_path(kind, entry_key), parts, digest.digest())
+
+
+def _write(path, parts, digest):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{entry_key}.")
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.")
         with os.fdopen(fd, "wb") as f:
-            f.write(_MAGIC + hashlib.sha256(data).digest())
-            f.write(data)
+            f.write(_MAGIC + digest)
+            for part in parts:
+                f.write(part)
         os.replace(tmp, path)
     except OSError:
         pass

@@ -17,12 +17,15 @@ forms (numbers only, every face's corners of one form, no comments) is checked a
 arrays (_plain_statements). Any other file, a malformed one included, is read with regular
 expressions (_general_statements), which name the line at fault. Both give the same values.
 """
+import hashlib
 import re
+import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from . import disk_cache, meshes
 from .meshes import MeshData
 
 _NUMBER = rb"[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|(?i:inf|nan))"
@@ -67,8 +70,23 @@ class ObjError(ValueError):
 
 
 def read_obj(path):
-    """The triangle mesh of an OBJ file (see the module's docstring); ObjError when malformed."""
+    """The triangle mesh of an OBJ file (see the module's docstring); ObjError when malformed.
+    A file's mesh is parsed once: later reads of the same bytes load it from the disk cache,
+    keyed by the bytes and the parser's code (parsing was most of the load time of a scene of
+    hundreds of OBJ files: docs/performance.md)."""
     text = Path(path).read_bytes()
+    entry = disk_cache.key("obj", disk_cache.code_digest(sys.modules[__name__], meshes),
+                           hashlib.sha256(text).hexdigest())
+    cached = disk_cache.load_arrays("meshes", entry)
+    if cached is not None:
+        return MeshData(**cached)
+    mesh = parse_obj(text)
+    disk_cache.store_arrays("meshes", entry, vars(mesh))
+    return mesh
+
+
+def parse_obj(text):
+    """The triangle mesh of an OBJ file's bytes (read_obj)."""
     if b"\0" in text:
         raise ObjError("not a text file (it holds NUL bytes)")
     text = _statement_text(text)

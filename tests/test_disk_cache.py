@@ -1,12 +1,13 @@
 """Arrays cached on disk between processes (clrender/disk_cache.py): a stored entry gives back the
-array stored, a damaged one is computed again, and the device-computed tables read from the cache
-are bit-identical to the ones computed (and the device is not asked again)."""
+array stored, a damaged one is computed again, and the device-computed tables, OBJ meshes and
+wide BVHs read from the cache are bit-identical to the ones computed (and the device, the
+parser or the builder is not asked again)."""
 import numpy as np
 import pyopencl as cl
 import pytest
 
 import clrender
-from clrender import disk_cache, energy, plastic
+from clrender import arrays, disk_cache, energy, obj_reader, plastic, ploc
 from clrender.arrays import build_scene_arrays
 from clrender.energy import fill_albedo_tables
 from conftest import build_test_kernels, camera
@@ -43,6 +44,92 @@ def test_a_damaged_entry_is_not_used(cache, damage):
         data[0] ^= 1
     path.write_bytes(bytes(data))
     assert disk_cache.load("maps", "k", (64,)) is None
+
+
+def test_named_arrays_come_back_with_their_types_shapes_and_nones(cache):
+    stored = {"positions": np.arange(12, dtype=np.float64).reshape(4, 3) / 3, "uvs": None,
+              "faces": np.arange(6, dtype=np.int64).reshape(2, 3), "empty": np.zeros((0, 2), np.int32)}
+    disk_cache.store_arrays("meshes", "k", stored)
+    loaded = disk_cache.load_arrays("meshes", "k")
+    assert list(loaded) == list(stored) and loaded["uvs"] is None
+    for name in ("positions", "faces", "empty"):
+        assert loaded[name].dtype == stored[name].dtype and np.array_equal(loaded[name], stored[name])
+        assert loaded[name].shape == stored[name].shape
+    assert disk_cache.load_arrays("meshes", "other") is None
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "extend", "magic"])
+def test_a_damaged_entry_of_named_arrays_is_not_used(cache, damage):
+    disk_cache.store_arrays("meshes", "k", {"a": np.linspace(0, 1, 64), "b": None})
+    path, = (cache / "meshes").iterdir()
+    data = bytearray(path.read_bytes())
+    if damage == "truncate":
+        data = data[:-1]
+    elif damage == "flip":
+        data[len(data) // 2] ^= 1
+    elif damage == "extend":
+        data += b"\0"
+    else:
+        data[0] ^= 1
+    path.write_bytes(bytes(data))
+    assert disk_cache.load_arrays("meshes", "k") is None
+
+
+OBJ = b"""v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1
+vn 0 0 1\nf 1/1/1 2/2/1 3/3/1 4/4/1\n"""
+
+
+def parse_counting(monkeypatch):
+    calls = []
+    parse = obj_reader.parse_obj
+    monkeypatch.setattr(obj_reader, "parse_obj", lambda text: calls.append(text) or parse(text))
+    return calls
+
+
+def test_an_obj_file_is_parsed_once_per_content(cache, tmp_path, monkeypatch):
+    path = tmp_path / "quad.obj"
+    path.write_bytes(OBJ)
+    calls = parse_counting(monkeypatch)
+    first, again = obj_reader.read_obj(path), obj_reader.read_obj(path)
+    assert len(calls) == 1
+    for name in ("positions", "faces", "uvs", "normals"):
+        a, b = getattr(first, name), getattr(again, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    path.write_bytes(OBJ.replace(b"v 1 1 0", b"v 1 2 0"))   # other bytes: parsed again
+    changed = obj_reader.read_obj(path)
+    assert len(calls) == 2 and changed.positions[2, 1] == 2
+    # A whole scene from the cached mesh renders as from the parsed one.
+    scene = {"camera": camera(), "materials": [{"name": "white", "type": "diffuse", "albedo": [0.8, 0.8, 0.8]}],
+             "shapes": [{"type": "mesh", "file": str(path), "material": "white"}]}
+    assert clrender.load_scene_dict(scene).shapes[0].mesh.vertices[2, 1] == 2
+
+
+def test_a_malformed_obj_file_is_an_error_every_time(cache, tmp_path, monkeypatch):
+    path = tmp_path / "bad.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    calls = parse_counting(monkeypatch)
+    for _ in range(2):
+        with pytest.raises(obj_reader.ObjError, match="line 3"):
+            obj_reader.read_obj(path)
+    assert len(calls) == 2 and not (cache / "meshes").exists()
+
+
+def test_a_wide_bvh_is_built_once_per_geometry(cache, monkeypatch):
+    rng = np.random.default_rng(3)
+    v0 = rng.uniform(-1, 1, (500, 3))
+    v1, v2 = v0 + rng.uniform(-0.1, 0.1, (500, 3)), v0 + rng.uniform(-0.1, 0.1, (500, 3))
+    centres, radii = rng.uniform(-1, 1, (3, 3)), rng.uniform(0.05, 0.2, 3)
+    builds = []
+    build = ploc.build_ploc_bvh
+    monkeypatch.setattr(ploc, "build_ploc_bvh", lambda *a, **k: builds.append(1) or build(*a, **k))
+    nodes, depth, order = arrays.wide_bvh_of(v0, v1, v2, centres, radii)
+    cached_nodes, cached_depth, cached_order = arrays.wide_bvh_of(v0, v1, v2, centres, radii)
+    assert len(builds) == 1
+    assert cached_nodes.dtype == nodes.dtype and cached_nodes.tobytes() == nodes.tobytes()
+    assert cached_depth == depth and cached_order.dtype == order.dtype and np.array_equal(cached_order, order)
+    arrays.wide_bvh_of(v0, v1, v2 + 1e-3, centres, radii)   # other geometry: built
+    arrays.wide_bvh_of(v0, v1, v2, centres, radii * 2)
+    assert len(builds) == 3
 
 
 def test_an_unwritable_cache_only_costs_the_computation(tmp_path, monkeypatch):
