@@ -13,11 +13,12 @@ On the device (kernels/textures/texture.h) a texture is a small record (layout.T
 the texels of every bitmap share one byte buffer, each stored as it came (8-bit stays 8-bit,
 float32 aligned to 4 bytes). `lookup` here is the reference the kernel is tested against.
 """
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import layout, principled
+from . import disk_cache, layout, principled
 
 KINDS = tuple(layout.TEXTURE_KINDS)
 FILTERS = tuple(layout.TEXTURE_FILTERS)
@@ -54,8 +55,20 @@ class Texture:
         if self.type == "checkerboard":
             return (np.asarray(self.color0, float) + np.asarray(self.color1, float)) / 2
         if self._mean is None or self._mean[0] is not self.pixels or self._mean[1] != self.srgb:
-            self._mean = (self.pixels, self.srgb, self._bitmap_mean())
+            self._mean = (self.pixels, self.srgb, self._stored_bitmap_mean())
         return self._mean[2]
+
+    def _stored_bitmap_mean(self):
+        # Computed once per image: hashing the texels is 8 times faster than summing them
+        # (the staircase's 18 M texels: 0.04 s against 0.38 s).
+        entry = disk_cache.key("bitmap mean", disk_cache.code_digest(sys.modules[__name__]), self.srgb,
+                               disk_cache.array_digest(self.pixels))
+        stored = disk_cache.load("means", entry, (3,))
+        if stored is not None:
+            return stored.copy()
+        mean = self._bitmap_mean()
+        disk_cache.store("means", entry, mean)
+        return mean
 
     def _bitmap_mean(self):
         # numpy's float32 mean over the texels, rgb.reshape(-1, 3).mean(axis=0), adds them row

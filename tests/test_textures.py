@@ -141,9 +141,10 @@ def test_gradient_is_the_derivative_of_the_lookup():
 
 @pytest.mark.parametrize("channels, dtype, srgb", [(3, np.uint8, True), (1, np.uint8, True), (4, np.uint8, False),
                                                    (3, np.float32, False)])
-def test_bitmap_mean_is_the_float32_mean_of_its_linear_texels(channels, dtype, srgb):
+def test_bitmap_mean_is_the_float32_mean_of_its_linear_texels(channels, dtype, srgb, tmp_path, monkeypatch):
     # Texture.mean decodes block by block: the bits of numpy's mean over the decoded image (its
     # running float32 sum), on images of more texels than a block and not a multiple of one.
+    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path))   # computed, not read from an earlier run
     rng = np.random.default_rng(9)
     height = 2 * textures._MEAN_BLOCK // 97 + 3
     texture = textures.Texture("t", "bitmap", pixels=random_image(rng, height, 97, channels, dtype), srgb=srgb)
@@ -161,6 +162,24 @@ def test_bitmap_mean_is_kept_until_the_pixels_are_replaced():
     np.testing.assert_allclose(texture.mean(), textures.srgb8_table()[128], rtol=1e-6)
     texture.srgb = False
     np.testing.assert_allclose(texture.mean(), 128 / 255, rtol=1e-6)
+
+
+def test_a_bitmap_mean_is_computed_once_per_image(tmp_path, monkeypatch):
+    # Later processes (here: other Texture objects of the same texels) read it from the disk
+    # cache, the bits computed; other texels or another encoding are computed.
+    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path))
+    computed = []
+    compute = textures.Texture._bitmap_mean
+    monkeypatch.setattr(textures.Texture, "_bitmap_mean", lambda self: computed.append(1) or compute(self))
+    pixels = random_image(np.random.default_rng(4), 40, 30, 3, np.uint8)
+    first = textures.Texture("a", "bitmap", pixels=pixels, srgb=True).mean()
+    again = textures.Texture("b", "bitmap", pixels=pixels.copy(), srgb=True).mean()
+    assert len(computed) == 1 and again.dtype == first.dtype and np.array_equal(again, first)
+    textures.Texture("c", "bitmap", pixels=pixels, srgb=False).mean()
+    other = pixels.copy()
+    other[0, 0, 0] ^= 1
+    textures.Texture("d", "bitmap", pixels=other, srgb=True).mean()
+    assert len(computed) == 3
 
 
 def test_bitmap_values_are_mitsubas_conventions():
