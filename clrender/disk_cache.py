@@ -4,6 +4,7 @@
 (obj_reader.py), keyed by the file's bytes and the parser's source. The key covers every input,
 so an entry is never stale; an entry is its SHA-256 and its bytes, and one that is damaged
 (truncated, of another size, or failing the checksum) is computed again and rewritten."""
+import contextlib
 import functools
 import hashlib
 import json
@@ -71,7 +72,8 @@ def load_arrays(kind, entry_key):
     """The named arrays (a dict; None values kept) stored under `entry_key` by store_arrays, or
     None (absent, unreadable or damaged)."""
     try:
-        entry = _path(kind, entry_key).read_bytes()
+        with open(_path(kind, entry_key), "rb") as f:
+            entry = f.read()
     except OSError:
         return None
     payload = memoryview(entry)[len(_MAGIC) + _DIGEST:]
@@ -104,25 +106,30 @@ def store_arrays(kind, entry_key, arrays):
 
 
 def _write(path, parts, digest):
+    tmp = None
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.")
+        folder = os.path.dirname(path)
+        os.makedirs(folder, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{os.path.basename(path)}.")
         with os.fdopen(fd, "wb") as f:
             f.write(_MAGIC + digest)
             for part in parts:
                 f.write(part)
         os.replace(tmp, path)
-    except OSError:
-        pass
+    except OSError:   # a full disk leaves no partial file behind
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 
 
 def cache_dir():
     """$CLRENDER_CACHE_DIR, default ~/.cache/clrender: kernel binaries (device.py) and these."""
-    return os.environ.get("CLRENDER_CACHE_DIR") or str(Path.home() / ".cache" / "clrender")
+    return os.environ.get("CLRENDER_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "clrender")
 
 
 def _path(kind, entry_key):
-    return Path(cache_dir()) / kind / f"{entry_key}.bin"
+    # Strings, not pathlib: a scene of hundreds of meshes asks for hundreds of entries.
+    return os.path.join(cache_dir(), kind, f"{entry_key}.bin")
 
 
 def load_table(build_key, fields, shape):

@@ -140,6 +140,37 @@ def test_an_unwritable_cache_only_costs_the_computation(tmp_path, monkeypatch):
     assert disk_cache.load("maps", "k", (3,)) is None
 
 
+def test_a_write_that_fails_midway_leaves_no_file(cache, monkeypatch):
+    # A full disk: the entry's bytes cannot all be written.
+    class FullDisk:
+        def __init__(self, fd, mode):
+            self.file = open(fd, mode)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.file.close()
+
+        def write(self, data):
+            self.file.write(data[:1])
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(disk_cache.os, "fdopen", FullDisk)
+    disk_cache.store_arrays("meshes", "k", {"a": np.zeros(1000)})
+    assert list((cache / "meshes").iterdir()) == []
+    assert disk_cache.load_arrays("meshes", "k") is None
+
+
+def test_obj_files_read_through_an_unwritable_cache(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(blocker))
+    path = tmp_path / "quad.obj"
+    path.write_bytes(OBJ)
+    assert len(obj_reader.read_obj(path).faces) == len(obj_reader.read_obj(path).faces) == 2
+
+
 # Materials with tables: a plastic's rough coat (plastic.py) and the energy tables of a rough
 # dielectric and a rough conductor (energy.py).
 TABLE_MATERIALS = [
