@@ -290,6 +290,13 @@ KERNEL void sample_vndf_values(float alpha, int distribution, __global const flo
     float3 h = sample_microfacet_visible(mf, n, wo[i].xyz, u[i]);
     out[i] = (float4)(h, sample_microfacet_visible_pdf(mf, n, wo[i].xyz, h));
 }
+
+// The slopes of Beckmann's unit-width visible normals seen at cos_theta[i], from u[i].
+KERNEL void beckmann_visible_slopes(__global const float* cos_theta, __global const float2* u,
+                                    __global float2* out) {
+    int i = get_global_id(0);
+    out[i] = sample_beckmann_visible_11(cos_theta[i], u[i]);
+}
 #endif
 
 // ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------

@@ -172,3 +172,32 @@ def test_visible_normals_follow_their_density(queue, kernels, distribution, alph
     # Each sample's density is the density function's at its normal.
     check = microfacet_values(queue, kernels, alpha, distribution, np.broadcast_to(wo, h[:2000].shape), h[:2000])[:, 2]
     np.testing.assert_allclose(pdf[:2000], check, rtol=1e-5)
+
+
+def beckmann_first_slope(tan_theta, u):
+    """The first slope of Beckmann's visible normals, in float64: the root s of
+    erf(s) + tan / sqrt(pi) exp(-s^2) = 2 u - 1 where cot >= 4 (Jakob 2014), by Newton's method."""
+    x0 = 2 * u - 1
+    s = special.erfinv(x0)
+    for _ in range(50):
+        value = special.erf(s) - x0 + tan_theta / np.sqrt(np.pi) * np.exp(-s * s)
+        s = s - value / (2 / np.sqrt(np.pi) * np.exp(-s * s) * (1 - s * tan_theta))
+    return s
+
+
+def test_beckmann_slopes_near_normal_incidence_are_the_root(queue, kernels):
+    # Below BECKMANN_NEAR_NORMAL_TAN (0.05) the kernel sums a series instead of taking Newton
+    # steps: its slopes are the float64 root to the float32 rounding of the slope itself and of
+    # the kernel's inverse_erf, whose error the slopes at normal incidence (tan 0) show.
+    u = np.concatenate([np.linspace(1e-6, 1 - 1e-6, 2001), [2e-6, 1e-5, 1 - 1e-5]])
+    tans = np.array([0.0, 0.01, 0.02, 0.035, 0.0499])
+    tan_theta = np.repeat(tans, len(u))
+    cos_theta = (1 / np.sqrt(1 + tan_theta ** 2)).astype(np.float32)
+    tan32 = np.sqrt(1 - cos_theta.astype(float) ** 2) / cos_theta   # what the kernel sees
+    uu = np.tile(u, len(tans))
+    u2 = np.ascontiguousarray(np.stack([uu, np.full_like(uu, 0.5)], axis=1), np.float32)
+    (out,) = run(queue, cl.Kernel(kernels, "beckmann_visible_slopes"), len(uu), upload(queue.context, cos_theta),
+                 upload(queue.context, u2), outputs=[(len(uu), 2)])
+    error = np.abs(out[:, 0] - beckmann_first_slope(tan32, uu.astype(np.float32).astype(float))).reshape(len(tans), -1)
+    erfinv_error = error[0]
+    assert np.all(error[1:] <= erfinv_error + 4 * np.spacing(np.float32(np.abs(out[:, 0]).max()))), error.max(axis=1)

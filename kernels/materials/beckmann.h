@@ -82,37 +82,51 @@ float beckmann_g2(float cos_o, float cos_i, float alpha) {
     return 1.0f / (1.0f + beckmann_lambda(cos_o, alpha) + beckmann_lambda(cos_i, alpha));
 }
 
-// Below this tan_theta the visible slopes are nearly the Gaussian of normal incidence (x = 2 u - 1
-// in the erf domain): two Newton steps from there leave a slope error below 1e-10 (float64
-// study: 1.1e-11 at 0.05, 4.5e-9 at 0.1); above it, three steps from the grazing solution.
+// Below this tan_theta the visible slopes are nearly the Gaussian of normal incidence.
 #define BECKMANN_NEAR_NORMAL_TAN 0.05f
+
+// Near normal incidence, the first slope's root of erf(s) + tan / sqrt(pi) exp(-s^2) = 2 u - 1
+// as a series in a = tan / 2 around the normal-incidence root s0 = erfinv(2 u - 1), to a^7 (its
+// terms solved symbolically; float64 study over u in [1e-6, 1 - 1e-6] and tan <= 0.05: slope
+// error < 7.6e-9, below a float32 slope's rounding): no Newton steps, whose erfinv and exp were
+// a tenth of ppg-torus's render (docs/performance.md).
+float beckmann_near_normal_slope(float s0, float a) {
+    float s2 = s0 * s0;
+    float c3 = (2.0f / 3.0f) * (2.0f * s2 - 1.0f);
+    float c4 = 0.5f * s0 * (4.0f * s2 - 5.0f);
+    float c5 = (8.0f / 15.0f) * (s2 - 2.0f) * (6.0f * s2 - 1.0f);
+    float c6 = s0 * ((96.0f * s2 - 308.0f) * s2 + 127.0f) * (1.0f / 18.0f);
+    float c7 = (8.0f / 105.0f) * (((120.0f * s2 - 522.0f) * s2 + 391.0f) * s2 - 29.0f);
+    return s0 - a * (1.0f + a * (s0 + a * (c3 + a * (c4 + a * (c5 + a * (c6 + a * c7))))));
+}
 
 // The slopes of a visible normal of the unit-width distribution seen at cos_theta (Mitsuba 3's
 // sample_visible_11: Jakob 2014). The marginal CDF of the first slope, in the erf domain x, is
 // inverted by Newton steps from the analytic solution at grazing incidence, or near normal
-// incidence from that at normal incidence; the second slope is Gaussian. u is clamped away from
+// incidence by beckmann_near_normal_slope; the second slope is Gaussian. u is clamped away from
 // 0 and 1, where the inverse is infinite.
 float2 sample_beckmann_visible_11(float cos_theta, float2 u) {
     float c = clamp(cos_theta, 1e-6f, 1.0f);
     float tan_theta = sqrt(fmax(0.0f, 1.0f - c * c)) / c;
+    u = clamp(u, 1e-6f, 1.0f - 1e-6f);
+    float second = inverse_erf(2.0f * u.y - 1.0f);
+    if (tan_theta < BECKMANN_NEAR_NORMAL_TAN)
+        return (float2)(beckmann_near_normal_slope(inverse_erf(2.0f * u.x - 1.0f), 0.5f * tan_theta), second);
     float cot_theta = c / sqrt(fmax(1e-12f, 1.0f - c * c));
     // Beyond cot 4, erf rounds to 1 and the exp term vanishes against 1 + max_x = 2 (< 2e-8).
     bool steep = cot_theta >= 4.0f;
     float max_x = steep ? 1.0f : erf(cot_theta);
-    u = clamp(u, 1e-6f, 1.0f - 1e-6f);
     // x stays inside (-1, 1), where inverse_erf is finite: an erf within its allowed 2 ulp of 1
     // (Intel's, at u.x = 1e-6) would put x at -1 exactly.
     const float x_limit = 0.99999988f;   // the largest float below 1
-    bool near_normal = tan_theta < BECKMANN_NEAR_NORMAL_TAN;
-    float x = near_normal ? 2.0f * u.x - 1.0f : max_x - (max_x + 1.0f) * erf(sqrt(-log(u.x)));
-    x = clamp(x, -x_limit, x_limit);
+    float x = clamp(max_x - (max_x + 1.0f) * erf(sqrt(-log(u.x))), -x_limit, x_limit);
     float target = u.x * (steep ? 2.0f : 1.0f + max_x + INV_SQRT_PI_F * tan_theta * exp(-cot_theta * cot_theta));
-    for (int i = near_normal ? 1 : 0; i < 3; ++i) {
+    for (int i = 0; i < 3; ++i) {
         float slope = inverse_erf(x);
         float value = 1.0f + x + INV_SQRT_PI_F * tan_theta * exp(-slope * slope) - target;
         x = clamp(x - value / (1.0f - slope * tan_theta), -x_limit, x_limit);
     }
-    return (float2)(inverse_erf(x), inverse_erf(2.0f * u.y - 1.0f));
+    return (float2)(inverse_erf(x), second);
 }
 
 // A microfacet normal visible from wo, distributed as sample_microfacet_visible_pdf: stretch
