@@ -1,4 +1,5 @@
 """A scene flattened into the arrays the kernel reads (dtypes from layout.py)."""
+import sys
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -110,8 +111,8 @@ def wide_bvh_of(v0, v1, v2, centres, radii):
     """(wide nodes, depth, primitive order) of the BVH over these triangles and spheres: built
     (ploc.py, wide_bvh.py) once per geometry, then loaded from the disk cache, keyed by the
     primitives and the builders' code (the build was half the set-up of the real interiors)."""
-    entry = disk_cache.key("wide bvh", disk_cache.code_digest(ploc, bvh_module, wide_bvh, layout),
-                           disk_cache.array_digest(v0, v1, v2, centres, radii))
+    builders = disk_cache.code_digest(sys.modules[__name__], ploc, bvh_module, wide_bvh, layout)
+    entry = disk_cache.key("wide bvh", builders, disk_cache.array_digest(v0, v1, v2, centres, radii))
     cached = disk_cache.load_arrays("bvh", entry)
     if cached is not None:
         return cached["nodes"].view(layout.WIDE_BVH_NODE), int(cached["depth"][0]), cached["order"]

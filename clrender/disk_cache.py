@@ -1,8 +1,9 @@
 """Arrays computed at start-up, kept on disk for the next process beside the kernel binaries
 (cache_dir(), in a folder per kind): tables the device computes with a program
-(plastic.py, energy.py), keyed by that program's build key, and the meshes of OBJ files
-(obj_reader.py), keyed by the file's bytes and the parser's source. The key covers every input,
-so an entry is never stale; an entry is its SHA-256 and its bytes, and one that is damaged
+(plastic.py, energy.py), keyed by that program's build key; the meshes of OBJ files
+(obj_reader.py), wide BVHs (arrays.wide_bvh_of) and bitmap means (textures.py), keyed by their
+inputs' hashes and the source of the code that computes them (code_digest). The key covers every
+input, so an entry is never stale; an entry is its SHA-256 and its bytes, and one that is damaged
 (truncated, of another size, or failing the checksum) is computed again and rewritten."""
 import contextlib
 import functools
