@@ -80,16 +80,19 @@ def load_arrays(kind, entry_key):
     payload = memoryview(entry)[len(_MAGIC) + _DIGEST:]
     if not entry.startswith(_MAGIC) or hashlib.sha256(payload).digest() != entry[len(_MAGIC):len(_MAGIC) + _DIGEST]:
         return None
-    header_size = int.from_bytes(payload[:8], "little")
-    arrays, offset = {}, 8 + header_size
-    for name, dtype, shape in json.loads(bytes(payload[8:offset])):
-        if dtype is None:
-            arrays[name] = None
-            continue
-        size = int(np.prod(shape)) * np.dtype(dtype).itemsize
-        arrays[name] = np.frombuffer(payload[offset:offset + size], dtype).reshape(shape)
-        offset += size
-    return arrays
+    try:   # an entry whose checksum holds but whose header does not (written by other code)
+        header_size = int.from_bytes(payload[:8], "little")
+        arrays, offset = {}, 8 + header_size
+        for name, dtype, shape in json.loads(bytes(payload[8:offset])):
+            if dtype is None:
+                arrays[name] = None
+                continue
+            size = int(np.prod(shape)) * np.dtype(dtype).itemsize
+            arrays[name] = np.frombuffer(payload[offset:offset + size], dtype).reshape(shape)
+            offset += size
+    except (ValueError, TypeError):
+        return None
+    return arrays if offset == len(payload) else None
 
 
 def store_arrays(kind, entry_key, arrays):

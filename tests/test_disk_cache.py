@@ -2,6 +2,8 @@
 array stored, a damaged one is computed again, and the device-computed tables, OBJ meshes and
 wide BVHs read from the cache are bit-identical to the ones computed (and the device, the
 parser or the builder is not asked again)."""
+import hashlib
+
 import numpy as np
 import pyopencl as cl
 import pytest
@@ -72,6 +74,17 @@ def test_a_damaged_entry_of_named_arrays_is_not_used(cache, damage):
     else:
         data[0] ^= 1
     path.write_bytes(bytes(data))
+    assert disk_cache.load_arrays("meshes", "k") is None
+
+
+@pytest.mark.parametrize("header", [b"not json", b'[["a", "<f8", [1000]]]', b'[["a", "no type", [2]]]', b"[1]"])
+def test_an_entry_whose_header_does_not_describe_its_bytes_is_not_used(cache, header):
+    # Checksummed as a whole, but written by other code: its header names arrays its bytes do
+    # not hold, or is no header at all.
+    payload = len(header).to_bytes(8, "little") + header + np.zeros(2).tobytes()
+    path = cache / "meshes" / "k.bin"
+    path.parent.mkdir()
+    path.write_bytes(disk_cache._MAGIC + hashlib.sha256(payload).digest() + payload)
     assert disk_cache.load_arrays("meshes", "k") is None
 
 
