@@ -45,19 +45,10 @@ def array_digest(*arrays):
 
 
 def load(kind, entry_key, shape, dtype=np.float32):
-    """The array of `shape` and `dtype` stored under `entry_key`, or None (absent, unreadable or
-    damaged)."""
-    path = _path(kind, entry_key)
-    size = len(_MAGIC) + _DIGEST + int(np.prod(shape)) * np.dtype(dtype).itemsize
-    entry = bytearray(size)
-    try:
-        with open(path, "rb") as f:
-            if f.readinto(entry) != size or f.read(1):
-                return None
-    except OSError:
-        return None
-    payload = memoryview(entry)[len(_MAGIC) + _DIGEST:]
-    if not entry.startswith(_MAGIC) or hashlib.sha256(payload).digest() != entry[len(_MAGIC):len(_MAGIC) + _DIGEST]:
+    """The array of `shape` and `dtype` stored under `entry_key`, or None (absent, unreadable,
+    damaged or of another size)."""
+    payload = _payload(kind, entry_key)
+    if payload is None or len(payload) != int(np.prod(shape)) * np.dtype(dtype).itemsize:
         return None
     return np.frombuffer(payload, dtype).reshape(shape)
 
@@ -72,13 +63,8 @@ def store(kind, entry_key, array):
 def load_arrays(kind, entry_key):
     """The named arrays (a dict; None values kept) stored under `entry_key` by store_arrays, or
     None (absent, unreadable or damaged)."""
-    try:
-        with open(_path(kind, entry_key), "rb") as f:
-            entry = f.read()
-    except OSError:
-        return None
-    payload = memoryview(entry)[len(_MAGIC) + _DIGEST:]
-    if not entry.startswith(_MAGIC) or hashlib.sha256(payload).digest() != entry[len(_MAGIC):len(_MAGIC) + _DIGEST]:
+    payload = _payload(kind, entry_key)
+    if payload is None:
         return None
     try:   # an entry whose checksum holds but whose header does not (written by other code)
         header_size = int.from_bytes(payload[:8], "little")
@@ -107,6 +93,20 @@ def store_arrays(kind, entry_key, arrays):
     for part in parts:
         digest.update(part)
     _write(_path(kind, entry_key), parts, digest.digest())
+
+
+def _payload(kind, entry_key):
+    """The bytes stored under `entry_key` after the magic and the checksum, or None where the
+    entry is absent, unreadable or fails either."""
+    try:
+        with open(_path(kind, entry_key), "rb") as f:
+            entry = f.read()
+    except OSError:
+        return None
+    payload = memoryview(entry)[len(_MAGIC) + _DIGEST:]
+    if not entry.startswith(_MAGIC) or hashlib.sha256(payload).digest() != entry[len(_MAGIC):len(_MAGIC) + _DIGEST]:
+        return None
+    return payload
 
 
 def _write(path, parts, digest):

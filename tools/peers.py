@@ -638,22 +638,15 @@ def run_real_renders(args, env, command, scenes, references, checks, runners):
     warm-up image, then --runs images each timed until it is on the host; the table of ratios."""
     import tempfile
 
-    import numpy as np
-
-    from clrender.bench import run_process
-
     with tempfile.TemporaryDirectory() as scratch:
         results = {}
         for name, (params, mirrors, _size) in scenes.items():
             for renderer, sampler in runners:
                 out = Path(scratch) / f"{renderer}-{sampler}-{name}.npy"
                 xml = mirrors["independent" if renderer == "clrender" else sampler]
-                run_process(real_child_command(renderer, xml, params, args.spp, 1, out, args.variant, args.runs,
-                                               sampler if renderer == "clrender" else "independent", warmup=True),
-                            env=env)
-                seconds = json.loads(out.with_suffix(".seconds.json").read_text())
-                results[(name, (renderer, sampler))] = [(s, None, _mse(image, references[name]))
-                                                        for s, image in zip(seconds, np.load(out))]
+                argv = real_child_command(renderer, xml, params, args.spp, 1, out, args.variant, args.runs,
+                                          sampler if renderer == "clrender" else "independent", warmup=True)
+                results[(name, (renderer, sampler))] = _timed_renders(argv, out, env, references[name])
             print(f"{name} done", flush=True)
     print(f"\n{args.spp} spp, the scenes' own max depth and integrator; median of {args.runs} renders after a "
           f"warm-up render, in one process per renderer and scene, each timed until the image is on the host; MSE: "
@@ -841,12 +834,19 @@ def _measure(renderer, sampler, folder, spp, seeds, scratch, variant, env, refer
 
 def _render_timings(renderer, sampler, folder, spp, runs, scratch, variant, env, reference):
     """(render s, None, MSE) of `runs` renders (seeds 1, 2, ...) in one process, after a warm-up."""
+    out = Path(scratch) / f"{renderer}-{sampler}-{folder.name}.npy"
+    return _timed_renders(child_command(renderer, folder, spp, 1, out, variant, runs, sampler, warmup=True), out,
+                          env, reference)
+
+
+def _timed_renders(argv, out, env, reference):
+    """Run the child `argv`, which writes its images to `out` and each one's seconds beside them:
+    (render s, None, MSE) per image."""
     import numpy as np
 
     from clrender.bench import run_process
 
-    out = Path(scratch) / f"{renderer}-{sampler}-{folder.name}.npy"
-    run_process(child_command(renderer, folder, spp, 1, out, variant, runs, sampler, warmup=True), env=env)
+    run_process(argv, env=env)
     seconds = json.loads(out.with_suffix(".seconds.json").read_text())
     return [(s, None, _mse(image, reference)) for s, image in zip(seconds, np.load(out))]
 
