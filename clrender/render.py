@@ -324,7 +324,7 @@ class Renderer:
         self.spectral_mis = spectral_mis
         fill_albedo_tables(self.queue, program, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
-        self._gather = splatting.Gather(self.context, scene.camera.filter) if splatting.splats(scene) else None
+        self._gather = splatting.Gather(self.context, scene.camera.filter, packets) if splatting.splats(scene) else None
         # The render pass's records argument when it does not splat.
         self._no_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
 

@@ -16,6 +16,8 @@ from .device import build_program
 
 # The gather's work-group size on CPU devices (the kernel skips work-items beyond the tile).
 CPU_GATHER_LOCAL_SIZE = (8, 1)
+# Pixels per work-item of the gather where the device wants packets (kernels/lanes.h).
+PACKET_LANES = 8
 # The records of one pass are at most this many bytes (fewer samples per pass on large images).
 RECORDS_BUDGET = 64 << 20
 
@@ -72,17 +74,20 @@ def samples_per_pass_limit(traced, distance):
 
 
 class Gather:
-    """The gather kernel of one device (kernels/splat.cl) for a filter reaching `reach` pixels."""
+    """The gather kernel of one device (kernels/splat.cl) for a filter reaching `reach` pixels;
+    `packets`: the pixels of a row in packets of PACKET_LANES per work-item (CPUs: 1.xx times
+    faster on PoCL, docs/performance.md), else one per work-item."""
 
-    def __init__(self, context, f):
+    def __init__(self, context, f, packets=False):
         self.reach = reach(f)
-        self.kernel = cl.Kernel(build_program(context, {}, entry="splat.cl"), "gather_splats")
+        self.lanes = PACKET_LANES if packets else 1
+        self.kernel = cl.Kernel(build_program(context, {"LANES": self.lanes}, entry="splat.cl"), "gather_splats")
         # One work-group size on CPUs, whatever the tile (render.CPU_LOCAL_SIZE says why).
         self.local_size = CPU_GATHER_LOCAL_SIZE if context.devices[0].type & cl.device_type.CPU else None
 
     def __call__(self, queue, tile, params_buffer, records, filtered):
         """Add the records of the pass of `params_buffer` to the sums `filtered` of `tile`."""
-        size = (tile[2], tile[3])
+        size = (-(-tile[2] // self.lanes), tile[3])
         if self.local_size:
             size = tuple(-(-n // m) * m for n, m in zip(size, self.local_size))
         self.kernel(queue, size, self.local_size, params_buffer, records, filtered)

@@ -21,7 +21,7 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     int first_column = get_global_id(0) * 8, ty = first_row + (int)get_global_id(1);
     int tile_width = params->tile.z;
     if (first_column >= tile_width || ty >= params->tile.w) return;
-    int8 tx = first_column + (int8)(0, 1, 2, 3, 4, 5, 6, 7);
+    int8 tx = first_column + LANE_INDEX;
     int8 in_tile = tx < tile_width;   // the last work-item of a row may overhang the tile
     int8 x = params->tile.x + tx;
     int y = params->tile.y + ty;

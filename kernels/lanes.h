@@ -28,6 +28,11 @@ typedef float3 lane_float3;
 #define lane_any(m) ((m) != 0)
 // A set lane mask, as comparisons give it.
 #define LANE_TRUE 1
+// Each lane's index, 0 .. LANES - 1.
+#define LANE_INDEX 0
+// The lanes' values from LANES consecutive floats of private memory, and back.
+#define lane_vload(p) (*(p))
+#define lane_vstore(v, p) (*(p) = (v))
 // Macros, not functions, for one lane: the expressions are then the ones written inline before,
 // and the compiler contracts a * b + c into fma exactly as it did (it contracts within an
 // expression only, so a function boundary would change the rounding).
@@ -67,6 +72,9 @@ typedef struct { float8 x, y, z; } lane_float3;
 #define as_lane_int(x) as_int8(x)
 #define lane_any(m) any(m)
 #define LANE_TRUE ((int8)(-1))
+#define LANE_INDEX ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
+#define lane_vload(p) vload8(0, (p))
+#define lane_vstore(v, p) vstore8((v), 0, (p))
 lane_float2 make_lane_float2(float8 x, float8 y) { lane_float2 v = {x, y}; return v; }
 lane_float3 make_lane_float3(float8 x, float8 y, float8 z) { lane_float3 v = {x, y, z}; return v; }
 lane_float3 l3_splat(float s) { return make_lane_float3((float8)(s), (float8)(s), (float8)(s)); }

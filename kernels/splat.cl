@@ -1,38 +1,65 @@
-// The gather of splatting (splat.h): one work-item per pixel of the target tile (params->splat)
-// adds the records of the pass's samples (params->frame.w of them) of the traced pixels
-// (params->tile) within the filter's reach to its sums: xyz sum of w L, w sum of w.
+// The gather of splatting (splat.h): one work-item per LANES adjacent pixels of a row of the
+// target tile (params->splat; lanes.h: 8 on CPUs, in the vector lanes, 1 elsewhere) adds the
+// records of the pass's samples (params->frame.w of them) of the traced pixels (params->tile)
+// within the filter's reach to their sums: xyz sum of w L, w sum of w. Each pixel adds its
+// neighbours' records in the same order (sample, then row, then column) whatever LANES is.
 #include "portability.h"
+#include "lanes.h"
 #include "types.h"
 #include "splat.h"
 
+// Element q of `a` in each lane: one vector load where the lanes' indices are consecutive (all
+// but a row's first and last work-items, whose neighbours beyond the traced pixels are clamped).
+lane_float load_record_lanes(__global const float* a, lane_int q) {
+#if LANES == 1
+    return a[q];
+#else
+    return q.s7 - q.s0 == 7 ? vload8(0, a + q.s0) : LANE_LOAD(a, q, );
+#endif
+}
+
 KERNEL void gather_splats(__constant RenderParams* params, __global const float* records, __global float4* filtered) {
-    int tx = get_global_id(0), ty = get_global_id(1);
+    int first = get_global_id(0) * LANES, ty = get_global_id(1);
     int4 target = params->splat, traced = params->tile;
-    if (tx >= target.z || ty >= target.w) return;
-    int x = target.x + tx, y = target.y + ty;
+    if (first >= target.z || ty >= target.w) return;
+    int lanes = min(LANES, target.z - first);
+    lane_int x = target.x + first + LANE_INDEX;
+    int y = target.y + ty;
     int reach = params->splat_reach.x;
     int pixels = traced.z * traced.w;
-    float4 sum = filtered[ty * target.z + tx];
-    // Loops of the same length in every work-item (neighbours outside the traced pixels, i.e.
-    // outside the image, weigh 0), which the implementations vectorise across work-items.
+    __global float4* out = filtered + ty * target.z + first;
+    float start[4][LANES];
+    for (int i = 0; i < LANES; ++i) {
+        float4 sum = i < lanes ? out[i] : (float4)(0.0f);
+        start[0][i] = sum.x; start[1][i] = sum.y; start[2][i] = sum.z; start[3][i] = sum.w;
+    }
+    lane_float sum_r = lane_vload(start[0]), sum_g = lane_vload(start[1]), sum_b = lane_vload(start[2]);
+    lane_float sum_w = lane_vload(start[3]);
+    lane_int lowest = (lane_int)(traced.x), highest = (lane_int)(traced.x + traced.z - 1);
     for (int s = 0; s < params->frame.w; ++s) {
         __global const float* pass = records + s * SPLAT_COMPONENTS(reach) * pixels;
         for (int dy = -reach; dy <= reach; ++dy) {
             int qy = y + dy;
-            bool row = qy >= traced.y && qy < traced.y + traced.w;
-            int row_start = (clamp(qy, traced.y, traced.y + traced.w - 1) - traced.y) * traced.z - traced.x;
+            if (qy < traced.y || qy >= traced.y + traced.w) continue;   // outside the image: weight 0
+            __global const float* row = pass + (qy - traced.y) * traced.z - traced.x;
             // This pixel is -dy rows from the neighbour's, -dx columns.
-            __global const float* y_weights = pass + (SPLAT_Y_WEIGHT(reach) + reach - dy) * pixels + row_start;
+            __global const float* y_weights = row + (SPLAT_Y_WEIGHT(reach) + reach - dy) * pixels;
             for (int dx = -reach; dx <= reach; ++dx) {
-                int qx = x + dx;
-                int q = clamp(qx, traced.x, traced.x + traced.z - 1);
-                bool inside = row && qx == q;
-                float w = pass[(SPLAT_X_WEIGHT + reach - dx) * pixels + row_start + q] * y_weights[q];
-                w = inside ? w : 0.0f;
-                sum += (float4)(pass[row_start + q], pass[pixels + row_start + q], pass[2 * pixels + row_start + q],
-                                1.0f) * w;
+                lane_int qx = x + dx;
+                lane_int q = clamp(qx, lowest, highest);
+                lane_float w = load_record_lanes(row + (SPLAT_X_WEIGHT + reach - dx) * pixels, q) *
+                               load_record_lanes(y_weights, q);
+                w = select((lane_float)(0.0f), w, qx == q);   // neighbours outside the image weigh 0
+                sum_r += load_record_lanes(row, q) * w;
+                sum_g += load_record_lanes(row + pixels, q) * w;
+                sum_b += load_record_lanes(row + 2 * pixels, q) * w;
+                sum_w += w;
             }
         }
     }
-    filtered[ty * target.z + tx] = sum;
+    lane_vstore(sum_r, start[0]);
+    lane_vstore(sum_g, start[1]);
+    lane_vstore(sum_b, start[2]);
+    lane_vstore(sum_w, start[3]);
+    for (int i = 0; i < lanes; ++i) out[i] = (float4)(start[0][i], start[1][i], start[2][i], start[3][i]);
 }

@@ -133,3 +133,55 @@ def test_splatting_lowers_the_noise_of_each_pixel():
         renders = np.stack([renderer.render(spp=1, seed=seed).image for seed in range(SEEDS)]).astype(float)
         variances[method] = renders.var(axis=0, ddof=1)[2:-2, 2:-2].mean()
     assert variances["splat"] < 0.5 * variances["importance"], variances
+
+
+def reference_gather(records, traced, target, reach, start):
+    """What the gather adds to `start` (target's pixels x 4): for each pixel, the records of the
+    traced pixels within `reach`, weighted by the x weight of the column offset times the y
+    weight of the row offset (kernels/splat.h), in float64."""
+    x0, y0, width, height = traced
+    planes = records.reshape(len(records), -1, height, width).astype(float)
+    sums = start.reshape(target[3], target[2], 4).astype(float).copy()
+    for ty in range(target[3]):
+        for tx in range(target[2]):
+            x, y = target[0] + tx, target[1] + ty
+            for qy in range(max(y - reach, y0), min(y + reach, y0 + height - 1) + 1):
+                for qx in range(max(x - reach, x0), min(x + reach, x0 + width - 1) + 1):
+                    record = planes[:, :, qy - y0, qx - x0]
+                    w = record[:, 3 + reach + (x - qx)] * record[:, 3 + 3 * reach + 1 + (y - qy)]
+                    sums[ty, tx, :3] += (record[:, :3] * w[:, None]).sum(axis=0)
+                    sums[ty, tx, 3] += w.sum()
+    return sums.reshape(-1, 4)
+
+
+# Target tiles in the traced pixels (5..24) x (2..8) of a 40 x 12 image, neither a multiple of
+# the 8 lanes wide: one touching their right edge, one their left and top edges (where the
+# neighbours of a packet's last or first lanes lie outside them).
+@pytest.mark.parametrize("target", [(12, 3, 13, 5), (5, 2, 11, 7)], ids=["right", "left-top"])
+@pytest.mark.parametrize("packets", [False, True], ids=["one-pixel", "packets"])
+def test_the_gather_adds_each_pixels_neighbours_records(packets, target):
+    # Random records of 3 samples.
+    import pyopencl as cl
+    from clrender import layout, splatting
+
+    device = clrender.choose_device(TEST_DEVICE)
+    context = cl.Context([device])
+    queue = cl.CommandQueue(context)
+    gather = splatting.Gather(context, Filter("gaussian", stddev=0.5), packets=packets)
+    reach, traced = gather.reach, (5, 2, 20, 7)
+    samples = 3
+    rng = np.random.default_rng(7)
+    records = rng.uniform(0.0, 1.0, (samples, splatting.record_bytes(reach) // 4, traced[3] * traced[2])).astype(np.float32)
+    start = rng.uniform(0.0, 1.0, (target[2] * target[3], 4)).astype(np.float32)
+    params = np.zeros(1, layout.RENDER_PARAMS)
+    params["frame"] = (40, 12, 0, samples)
+    params["tile"], params["splat"], params["splat_reach"] = traced, target, (reach, 0, 0, 0)
+    mf = cl.mem_flags
+    params_buffer = cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=params)
+    records_buffer = cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=records)
+    filtered = cl.Buffer(context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=start)
+    gather(queue, target, params_buffer, records_buffer, filtered)
+    result = np.empty_like(start)
+    cl.enqueue_copy(queue, result, filtered)
+    # float32 sums of 3 x 25 products in [0, 1]: within a few ulps of the sums (at most 80).
+    np.testing.assert_allclose(result, reference_gather(records, traced, target, reach, start), rtol=1e-5, atol=1e-5)
