@@ -75,7 +75,7 @@ def samples_per_pass_limit(traced, distance):
 
 class Gather:
     """The gather kernel of one device (kernels/splat.cl) for a filter reaching `reach` pixels;
-    `packets`: the pixels of a row in packets of PACKET_LANES per work-item (CPUs: 1.xx times
+    `packets`: the pixels of a row in packets of PACKET_LANES per work-item (CPUs: 3 times
     faster on PoCL, docs/performance.md), else one per work-item."""
 
     def __init__(self, context, f, packets=False):
