@@ -47,7 +47,7 @@ void store_splat_lanes(__global float* out, lane_float value, int count) {
 
 // The records of the lanes' samples (sample `index` of the pass, `count` lanes from `slot` of the
 // traced pixels): radiance, and the filter at the offsets from the centres of the pixels d =
-// -reach .. reach away to the sample's `position` in its pixel.
+// -reach .. reach away to the sample's `position` in its pixel (filter.h, filter_row).
 void write_splat_records(__constant RenderParams* params, __global float* records, int index, int slot, int count,
                          lane_float3 radiance, lane_float2 position) {
     int reach = params->splat_reach.x;
@@ -56,11 +56,12 @@ void write_splat_records(__constant RenderParams* params, __global float* record
     store_splat_lanes(record, radiance.x, count);
     store_splat_lanes(record + pixels, radiance.y, count);
     store_splat_lanes(record + 2 * pixels, radiance.z, count);
-    for (int d = -reach; d <= reach; ++d) {
-        store_splat_lanes(record + (SPLAT_X_WEIGHT + reach + d) * pixels,
-                          filter_value(&params->filter, (float)d + 0.5f - position.x), count);
-        store_splat_lanes(record + (SPLAT_Y_WEIGHT(reach) + reach + d) * pixels,
-                          filter_value(&params->filter, (float)d + 0.5f - position.y), count);
+    FilterRow x_weights = filter_row(&params->filter, (float)-reach + 0.5f - position.x);
+    FilterRow y_weights = filter_row(&params->filter, (float)-reach + 0.5f - position.y);
+    for (int i = 0; i <= 2 * reach; ++i) {
+        store_splat_lanes(record + (SPLAT_X_WEIGHT + i) * pixels, filter_row_next(&params->filter, &x_weights), count);
+        store_splat_lanes(record + (SPLAT_Y_WEIGHT(reach) + i) * pixels, filter_row_next(&params->filter, &y_weights),
+                          count);
     }
 }
 

@@ -492,3 +492,12 @@ KERNEL void resolve_material_values(__global const Material* materials, __global
     out[i * (MATERIAL_SLOTS + 1) + MATERIAL_SLOTS] = m.emission;
 }
 #endif
+
+// ----- a row of filter values (filter.h, filter_row): out[i] the filter at t + i ---------------
+KERNEL void filter_row_values(__constant Filter* filter, float t, __global float* out) {
+    FilterRow row = filter_row(filter, t);
+    for (int i = 0; i < (int)get_global_size(0); ++i) {
+        float value = filter_row_next(filter, &row);
+        if (i == (int)get_global_id(0)) out[i] = value;
+    }
+}

@@ -15,7 +15,7 @@ import pyopencl as cl
 import pytest
 from scipy.integrate import quad
 
-from clrender import filters, layout
+from clrender import filters, layout, splatting
 from clrender.scene import Filter
 from conftest import build_test_kernels, z_bound
 
@@ -106,3 +106,24 @@ def test_the_box_is_identity_and_needs_no_tables():
     record = filters.filter_record(Filter("box"))
     assert record["kind"][0] == layout.PIXEL_FILTERS["box"]
     assert not np.any(record["cells"])
+
+
+@pytest.mark.parametrize("f", [f for f in FILTERS if f.type != "box"], ids=lambda f: f"{f.type}-{f.stddev if f.type == 'gaussian' else f.radius}")
+@pytest.mark.parametrize("position", [0.0, 0.37, 0.999])
+def test_a_row_of_filter_values_is_the_filter(context, queue, f, position):
+    # A splat record's weights (kernels/splat.h): the filter at the offsets from the centres of
+    # the pixels -reach .. reach away to a sample at `position` in its pixel, and two beyond
+    # (0), from the gaussian's recurrence: within 2e-6 of float64 (exp_fast: 2e-7 relative per
+    # exp, a few products per value).
+    reach = splatting.reach(f)
+    t = -reach - 1 + 0.5 - position
+    out = np.empty(2 * reach + 3, np.float32)
+    out_buffer = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    filter_buffer = cl.Buffer(context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                              hostbuf=filters.filter_record(f).tobytes())
+    cl.Kernel(build_test_kernels(context), "filter_row_values")(queue, out.shape, None, filter_buffer,
+                                                                  np.float32(t), out_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    expected = filters.evaluate(f, np.float32(t) + np.arange(len(out)))
+    np.testing.assert_allclose(out, expected, rtol=0, atol=2e-6)
+    assert out[0] == 0.0 and out[-1] == 0.0
