@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bvh as bvh_module
-from . import disk_cache, layout, light_selection, limits, meshes, plastic, ploc, principled, textures
+from . import disk_cache, host_memory, layout, light_selection, limits, meshes, plastic, ploc, principled, textures
 from . import wide_bvh
 from .triangle_blocks import triangle_blocks
 from .bvh import intersect_brute_force
@@ -280,7 +280,7 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     # Without spheres every slot is a triangle's: a slice writes the fields without index arrays.
     slots = np.flatnonzero(~is_sphere) if with_spheres else slice(None)
     tri = np.asarray(order)[slots]
-    triangles = np.zeros(len(order), layout.TRIANGLE)
+    triangles = host_memory.zeros(len(order), layout.TRIANGLE)
     # Edges are differences of the float32 corners, not rounded float64 differences: then
     # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
     # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
@@ -289,7 +289,7 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     triangles["v0"][slots, :3] = a
     triangles["e1"][slots, :3] = b - a
     triangles["e2"][slots, :3] = c - a
-    shading = np.zeros(len(order), layout.TRIANGLE_SHADING)
+    shading = host_memory.zeros(len(order), layout.TRIANGLE_SHADING)
     for k, name in enumerate(("n0", "n1", "n2")):
         shading[name][slots, :3] = np.asarray(normals)[tri, k]
     if with_spheres:
@@ -309,7 +309,7 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
 
 def _slot_uvs(order, uvs):
     """The (slots * 3, 2) corner uv of each primitive slot (a sphere's computed in the kernel)."""
-    out = np.zeros((len(order), 3, 2), np.float32)
+    out = host_memory.zeros((len(order), 3, 2), np.float32)
     triangle = np.asarray(order) < len(uvs)
     out[triangle] = uvs[np.asarray(order)[triangle]]
     return out.reshape(-1, 2)
@@ -435,7 +435,7 @@ def _emitter(kind, radiance, p0=(0, 0, 0)):
 
 
 def _info_array(info):
-    out = np.zeros(len(info), layout.TRIANGLE_INFO)
+    out = host_memory.zeros(len(info), layout.TRIANGLE_INFO)
     out["info"] = info
     return out
 

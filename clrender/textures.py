@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import disk_cache, layout, principled
+from . import disk_cache, host_memory, layout, principled
 
 KINDS = tuple(layout.TEXTURE_KINDS)
 FILTERS = tuple(layout.TEXTURE_FILTERS)
@@ -237,7 +237,7 @@ def texture_arrays(textures):
         record["format"][:2] = (channels, layout.TEXEL_ENCODINGS[encoding])
         chunks.append((offset, data))
         offset += data.size
-    texels = np.zeros(max(offset, 1), np.uint8)
+    texels = host_memory.zeros(max(offset, 1), np.uint8)
     for start, data in chunks:
         texels[start:start + data.size] = data
     return records, texels

@@ -2,7 +2,7 @@
 layout.TRIANGLE_BLOCK per leaf (kernels/bvh.h, intersect_triangle_block)."""
 import numpy as np
 
-from . import layout
+from . import host_memory, layout
 
 LANES = 4
 
@@ -13,12 +13,12 @@ def triangle_blocks(nodes, triangles):
     order of the leaves' lanes. A block's lanes past the leaf's count repeat its last triangle.
     `triangles`: the primitive slots (layout.TRIANGLE). There is always at least one block (an
     empty buffer cannot be passed to a kernel)."""
-    nodes = nodes.copy()
+    nodes = host_memory.copy(nodes)
     leaf = nodes["count"] > 0
     first, count = nodes["child"][leaf], nodes["count"][leaf]
     if np.any(count > LANES):
         raise ValueError(f"a leaf of {int(count.max())} triangles; a block holds {LANES}")
-    blocks = np.zeros(max(len(first), 1), layout.TRIANGLE_BLOCK)
+    blocks = host_memory.zeros(max(len(first), 1), layout.TRIANGLE_BLOCK)
     slots = first[:, None] + np.minimum(np.arange(LANES), count[:, None] - 1)   # (leaves, LANES)
     blocks["slot"][:len(first)] = slots
     for name in ("v0", "e1", "e2"):
