@@ -87,19 +87,21 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
 
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
-    features, every material some shape uses diffuse (emissive included) or smooth dielectric
-    reflecting untinted,
-    no light but emitting triangles (no emitting spheres, point, directional or environment
-    lights), path tracing (not the direct integrator) and emitters visible to the camera."""
+    features, every material some shape uses diffuse (emissive included), smooth dielectric
+    reflecting untinted or smooth conductor, no light but emitting triangles (no emitting
+    spheres, point, directional or environment lights), path tracing (not the direct
+    integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     if scene.render.integrator != "path" or scene.render.hide_emitters:
         return False
     for shape in scene.shapes:
         material = scene.materials[shape.material]
-        if material.type not in ("diffuse", "emissive", "dielectric"):
+        if material.type not in ("diffuse", "emissive", "dielectric", "conductor"):
             return False
-        if material.type == "dielectric" and not (_is_smooth(material) and np.all(material.reflection_tint == 1)):
+        if material.type in ("dielectric", "conductor") and not _is_smooth(material):
+            return False
+        if material.type == "dielectric" and not np.all(material.reflection_tint == 1):
             return False
         if isinstance(shape.mesh, meshes.Sphere) and np.any(material.emission > 0):
             return False

@@ -1,7 +1,8 @@
 // Path tracing of LANES paths at once (lanes.h: 8 on CPUs), each lane a camera path: path.h's
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
-// diffuse and smooth dielectric surfaces, triangle emitters, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// diffuse, smooth dielectric and smooth conductor surfaces, triangle emitters, no media,
+// environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
 #ifndef CLRENDER_PATH_PACKETS_H
@@ -16,6 +17,7 @@
 #include "materials/material.h"
 #include "materials/diffuse.h"
 #include "materials/dielectric_smooth.h"
+#include "materials/conductor_smooth.h"
 
 // Emission of the surfaces hit (front faces of emitting triangles), weighted against the
 // light-sampling density of reaching them from the previous vertex (path.h, emitted_radiance).
@@ -54,29 +56,40 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
 }
 
-// The scattering of the lanes' vertices: the diffuse lobe, or the smooth dielectric's pair of
-// delta lobes (picked with u_lobe, path.h's rnl) where `dielectric`.
+// The scattering of the lanes' vertices: the diffuse lobe; where `smooth`, the smooth
+// dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl) or the conductor's mirror.
 BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
-                             lane_int dielectric, lane_float u_lobe, lane_float2 u, lane_int lanes) {
+                             lane_int smooth, lane_float u_lobe, lane_float2 u, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
     bs.wi = sample_diffuse(sp, u);
     bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
     // For cosine sampling f * cos / pdf is the albedo itself.
     bs.weight = l3_select(l3_splat(0.0f), color, bs.pdf_w > 0.0f);
 #if DIELECTRIC
-    lane_int glass = lanes & dielectric;
+    smooth &= lanes;
+    if (!lane_any(smooth)) return bs;
+    lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
+    lane_int conductor = smooth & (material_kind_at(scene->materials, sp->material) == MATERIAL_CONDUCTOR);
+    lane_int glass = smooth & !conductor;
     if (lane_any(glass)) {
         lane_float ior = material_ior_at(scene->materials, sp->material);
         lane_float exterior = material_exterior_ior_at(scene->materials, sp->material);
-        lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
         lane_float eta = select(exterior / ior, ior / exterior, sp->front_face);  // bsdf.h, material_eta
         BsdfSample delta = sample_dielectric_delta(l3_splat(1.0f), color, eta, n, sp->ng, wo, u_lobe);
         bs.wi = l3_select(bs.wi, delta.wi, glass);
         bs.weight = l3_select(bs.weight, delta.weight, glass);
         bs.pdf_w = select(bs.pdf_w, delta.pdf_w, glass);
         bs.eta = select(bs.eta, delta.eta, glass);
-        bs.delta = glass;
     }
+    if (lane_any(conductor)) {
+        BsdfSample mirror = sample_conductor_delta(color, material_conductor_eta_at(scene->materials, sp->material),
+                                                   material_conductor_k_at(scene->materials, sp->material), n,
+                                                   sp->ng, wo);
+        bs.wi = l3_select(bs.wi, mirror.wi, conductor);
+        bs.weight = l3_select(bs.weight, mirror.weight, conductor);
+        bs.pdf_w = select(bs.pdf_w, mirror.pdf_w, conductor);
+    }
+    bs.delta = smooth;
 #endif
     return bs;
 }
@@ -124,25 +137,27 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        lane_int dielectric = material_kind_at(scene->materials, sp.material) == MATERIAL_DIELECTRIC;
+        // Smooth dielectrics and conductors (features.py gives packets no rough ones): delta lobes.
+        lane_int kind = material_kind_at(scene->materials, sp.material);
+        lane_int smooth = (kind == MATERIAL_DIELECTRIC) | (kind == MATERIAL_CONDUCTOR);
         // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
         // reaches it, and the path ends there.
         lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
         lane_float3 color = l3_select(material_color_at(scene->materials, sp.material), l3_splat(0.0f), black_back);
-        aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !dielectric);
+        aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !smooth);
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
         if (depth == max_depth) break;
-        // A diffuse vertex draws its light sample, a dielectric one its lobe (rng_float, the first
+        // A diffuse vertex draws its light sample, a smooth one its lobe (rng_float, the first
         // coordinate of the same dimension); the independent sampler's 2D draw takes two numbers
-        // where rng_float takes one, so the dielectric lanes give one back.
+        // where rng_float takes one, so the smooth lanes give one back.
         lane_float2 u_light = rng_float2(rng);
-        if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), dielectric);
-        lane_float3 direct = direct_light_lanes(scene, &sp, color, u_light, alive & !dielectric);
+        if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, u_light, alive & !smooth);
         // Selected, not added everywhere: the throughput of a finished lane may be anything.
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
         lane_float3 wo = l3_neg(ray.direction);
-        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, dielectric, u_light.x, rng_float2(rng), alive);
+        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, u_light.x, rng_float2(rng), alive);
         alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
         prev_pdf_w = bs.pdf_w;

@@ -26,11 +26,18 @@ RTOL = 1e-4
 
 def example(name, resolution=(40, 32), **render):
     one_sided = name.startswith("one_sided_")   # Mitsuba's diffuse: black seen from behind
-    data = json.loads((SCENES / f"{name.removeprefix('one_sided_')}.json").read_text())
+    mirrors = name.startswith("mirror_")        # the blocks smooth conductors: copper, a tinted mirror
+    data = json.loads((SCENES / f"{name.removeprefix('one_sided_').removeprefix('mirror_')}.json").read_text())
     if one_sided:
         for material in data["materials"]:
             if material["type"] == "diffuse":
                 material["two_sided"] = False
+    if mirrors:
+        data["materials"] += [{"name": "copper", "type": "conductor", "material": "Cu"},
+                              {"name": "mirror", "type": "conductor", "tint": [0.9, 0.8, 0.6]}]
+        for shape in data["shapes"]:
+            if shape["name"] in ("short_block", "tall_block"):
+                shape["material"] = "copper" if shape["name"] == "tall_block" else "mirror"
     data["camera"]["resolution"] = list(resolution)
     # The prism stands on the floor: where two surfaces coincide, rounding decides which one a
     # ray meets, and the two kernels round differently (2 % of the pixels differed at 8 spp).
@@ -57,12 +64,13 @@ def both(scene, device, spp=8, **settings):
     return results
 
 
-@pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box"])
+@pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box",
+                                  "mirror_cornell_box"])
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
-    # analytic glass sphere. The independent sampler checks that a dielectric lane gives back
-    # the number its lobe choice does not take (path_packets.h).
+    # analytic glass sphere; copper and tinted mirror blocks. The independent sampler checks that
+    # a smooth lane gives back the number its lobe choice does not take (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
     assert mega.discarded_samples == packets.discarded_samples == 0
     assert differing(mega.image, packets.image) <= MAX_DIFFERING
@@ -132,6 +140,7 @@ def test_packets_are_used_only_where_they_cover_the_scene():
 
     assert lanes(example("cornell_box")) == 8
     assert lanes(example("cornell_glass")) == 8
+    assert lanes(example("mirror_cornell_box")) == 8
     assert scene_features(example("cornell_box"), packets=False)["LANES"] == 1
     assert lanes(example("cornell_box"), sample_aovs=True) == 8
     for name in ("rough_glass", "smoke_cornell_box", "toon_cornell_box", "cloud_low_sun", "fog_beam"):
@@ -145,12 +154,12 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     def point_light(data):
         data["lights"] = [{"type": "point", "position": [0, 1, 0], "intensity": 1}]
 
-    def conductor(data):
-        data["materials"][0] = {"name": "white", "type": "conductor"}
+    def rough_conductor(data):
+        data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
 
     def emitting_sphere(data):
         data["shapes"].append({"name": "bulb", "type": "sphere", "material": "light", "center": [0, 1, 0],
                                "radius": 0.1})
 
-    for change in (point_light, conductor, emitting_sphere):
+    for change in (point_light, rough_conductor, emitting_sphere):
         assert lanes(variant(change)) == 1, change.__name__

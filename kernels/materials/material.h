@@ -79,6 +79,12 @@ lane_float material_ior_at(__global const Material* materials, lane_int index) {
 lane_float material_exterior_ior_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD(materials, index, .slot[2].y);
 }
+lane_float3 material_conductor_eta_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD3(materials, index, .slot[4]);
+}
+lane_float3 material_conductor_k_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD3(materials, index, .slot[5]);
+}
 
 // An index-matched boundary (an interface, or a dielectric with the same index on both sides):
 // only separates media and transmits its colour, not a path vertex.
