@@ -364,12 +364,13 @@ class Renderer:
         self.scene = scene
 
     def _upload(self, array):
-        """A read-only device buffer of `array`. On a CPU the device's memory is the host's: its
-        kernels read the array where it is (host_memory.py; the buffer keeps it alive), no copy
-        (the staircase's 110 MB took 0.14 s to copy, and a large mesh's arrays were in memory
-        twice); elsewhere a copy."""
+        """A read-only device buffer of `array`. On a CPU whose memory is the host's (PoCL,
+        Intel's runtime; not Oclgrind, a simulator with memory of its own) the kernels read the
+        array where it is (host_memory.py; the buffer keeps it alive), no copy (the staircase's
+        110 MB took 0.14 s to copy, and a large mesh's arrays were in memory twice); elsewhere
+        a copy."""
         data = array if array.size else np.zeros(1, array.dtype)
-        if self.device.type & cl.device_type.CPU:
+        if self.device.type & cl.device_type.CPU and self.device.host_unified_memory:
             flags = cl.mem_flags.USE_HOST_PTR
             data = host_memory.aligned(data)
         else:
