@@ -30,9 +30,12 @@ class LoadedScene:
 def read_scene_file(path, parameters=None):
     """The scene file `path` read by its format's reader: a LoadedScene. `parameters` (name ->
     value) override the file's defaults, for formats that have them (Mitsuba's -D)."""
+    from .files import resolving_folders_once
+
     path = path_argument(path, "path")
     module = importlib.import_module(f".{READERS.get(path.suffix.lower(), DEFAULT_READER)}", __package__)
-    return module.read_scene_file(path, parameters)
+    with resolving_folders_once():
+        return module.read_scene_file(path, parameters)
 
 
 def load_scene(path, parameters=None):

@@ -17,7 +17,7 @@ from .errors import ArgumentError, FileError, SceneError
 from .conductor_presets import CONDUCTOR_PRESETS
 from .layout import ENVIRONMENT_LOOKUPS, MASKINGS, MICROFACET_DISTRIBUTIONS
 from .aovs import parse_aovs
-from .files import describe, not_a_file
+from .files import describe, not_a_file, resolved
 from .image_prefetch import ImagePrefetch
 from .loader import LoadedScene, load_scene, path_argument, read_scene_bytes
 
@@ -534,7 +534,7 @@ def _start_image_reads(data, base_dir, images):
         """The resolved path of an item of type `kind` that names a file, else None."""
         if isinstance(item, dict) and item.get("type") == kind and isinstance(item.get("file"), str):
             try:
-                return (base_dir / item["file"]).resolve()
+                return resolved(base_dir / item["file"])
             except (OSError, ValueError):   # an unreadable name: the reader says so at its place
                 return None
         return None
@@ -936,7 +936,7 @@ def _read_albedo_grid(node, base_dir, kind):
 
 def _load_grid_file(node, base_dir, load):
     """`load(path)` of the grid file named by node.file (SceneError naming it if that fails)."""
-    path = (base_dir / node.string("file")).resolve()
+    path = resolved(base_dir / node.string("file"))
     if path.suffix.lower() not in grids.GRID_SUFFIXES:
         raise SceneError(node.at("file"), f"unsupported grid format {path.suffix!r}; "
                                           f"valid: {', '.join(grids.GRID_SUFFIXES)}")
@@ -967,7 +967,7 @@ def _read_density(node, base_dir):
         raise SceneError(node.where, "give either a `file` or a `procedural` generator")
     if "file" in node.data:
         density = _load_grid_file(node, base_dir, grids.load_density_file)
-        path = (base_dir / node.string("file")).resolve()
+        path = resolved(base_dir / node.string("file"))
         node.finish()
         return density, path.name
     name = node.string("procedural", choices=tuple(grids.PROCEDURAL))
@@ -1053,7 +1053,7 @@ def _read_sphere(node):
 
 def _read_mesh_file(node, base_dir):
     filename = node.string("file")
-    path = (base_dir / filename).resolve()
+    path = resolved(base_dir / filename)
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise SceneError(node.at("file"), f"unsupported mesh format {path.suffix!r}; valid: {', '.join(MESH_SUFFIXES)}")
     if not_a_file(path) is not None:
@@ -1134,7 +1134,7 @@ def _read_uv_transform(node):
 def _texture_file(node, base_dir, raw, images):
     from .image import load_texture_image
 
-    path = (base_dir / node.string("file")).resolve()
+    path = resolved(base_dir / node.string("file"))
     if not_a_file(path) is not None:
         raise SceneError(node.at("file"), describe(path))
     try:
@@ -1203,7 +1203,7 @@ def _read_environment(node, base_dir, images):
     if "file" in node.data:
         from .image import load_image
 
-        path = (base_dir / node.string("file")).resolve()
+        path = resolved(base_dir / node.string("file"))
         if not_a_file(path) is not None:
             raise SceneError(node.at("file"), describe(path))
         try:

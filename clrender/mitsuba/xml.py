@@ -21,7 +21,7 @@ from pathlib import Path
 
 from .. import limits
 from ..errors import SceneError
-from ..files import describe, not_a_file
+from ..files import describe, not_a_file, resolved
 from ..loader import read_scene_bytes
 
 
@@ -127,7 +127,7 @@ class Files:
         problems = [not_a_file(candidate) for candidate in candidates]   # None: a regular file
         for candidate, problem in zip(candidates, problems):
             if problem is None:
-                return candidate.resolve()
+                return resolved(candidate)
         for candidate, problem in zip(candidates, problems):   # there, but a folder or a named pipe: say so
             if problem != "not found":
                 raise element.error(describe(candidate))
