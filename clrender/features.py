@@ -85,6 +85,12 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
     return features
 
 
+def gather_features(packets):
+    """The defines of splatting's gather (kernels/splat.cl): LANES pixels of a row per work-item,
+    8 where the device wants camera paths in packets (a CPU), else 1."""
+    return {"LANES": FEATURE_VALUES["LANES"][-1] if packets else 1}
+
+
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
     features, every material some shape uses diffuse (emissive included), smooth dielectric

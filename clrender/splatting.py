@@ -13,11 +13,10 @@ import pyopencl as cl
 
 from . import filters
 from .device import build_program
+from .features import gather_features
 
 # The gather's work-group size on CPU devices (the kernel skips work-items beyond the tile).
 CPU_GATHER_LOCAL_SIZE = (8, 1)
-# Pixels per work-item of the gather where the device wants packets (kernels/lanes.h).
-PACKET_LANES = 8
 # The records of one pass are at most this many bytes (fewer samples per pass on large images).
 RECORDS_BUDGET = 64 << 20
 
@@ -75,13 +74,14 @@ def samples_per_pass_limit(traced, distance):
 
 class Gather:
     """The gather kernel of one device (kernels/splat.cl) for a filter reaching `reach` pixels;
-    `packets`: the pixels of a row in packets of PACKET_LANES per work-item (CPUs: 3 times
-    faster on PoCL, docs/performance.md), else one per work-item."""
+    `packets`: the pixels of a row in packets per work-item (features.gather_features; CPUs: 3
+    times faster on PoCL, docs/performance.md), else one per work-item."""
 
     def __init__(self, context, f, packets=False):
         self.reach = reach(f)
-        self.lanes = PACKET_LANES if packets else 1
-        self.kernel = cl.Kernel(build_program(context, {"LANES": self.lanes}, entry="splat.cl"), "gather_splats")
+        features = gather_features(packets)
+        self.lanes = features["LANES"]
+        self.kernel = cl.Kernel(build_program(context, features, entry="splat.cl"), "gather_splats")
         # One work-group size on CPUs, whatever the tile (render.CPU_LOCAL_SIZE says why).
         self.local_size = CPU_GATHER_LOCAL_SIZE if context.devices[0].type & cl.device_type.CPU else None
 
