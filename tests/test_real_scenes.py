@@ -277,3 +277,14 @@ def test_real_scene_renders_as_in_mitsuba(tmp_path, device, mitsuba_llvm, scene)
     ours, mitsuba = mitsuba_llvm.render_both(path, device, spp=spp, renders=RENDERS, **parameters)
     # Both splat with the scenes' gaussian and tent filters: neighbouring pixels share samples.
     mitsuba_llvm.assert_same_image(ours, mitsuba, z_limit, independent_pixels=False)
+
+
+@pytest.mark.parametrize("scene", ["tutorials-cbox/cbox.xml", "mitsuba-cbox/cbox.xml",
+                                   "bitterli-cornell-box/scene_v3.xml"])
+def test_the_packet_integrator_renders_the_cornell_boxes(scene):
+    # Diffuse walls, smooth glass and mirrors (tutorials-cbox's conductor), triangle emitters:
+    # the scenes the packet integrator covers (features.packets_cover) render in packets on CPUs.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", clrender.MitsubaXmlWarning)
+        loaded = clrender.load_scene(real_scene(scene))
+    assert scene_features(loaded, packets=True)["LANES"] == 8
