@@ -57,9 +57,10 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
 }
 
 // The scattering of the lanes' vertices: the diffuse lobe; where `smooth`, the smooth
-// dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl) or the conductor's mirror.
+// dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl), or where also `conductor`
+// the conductor's mirror.
 BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
-                             lane_int smooth, lane_float u_lobe, lane_float2 u, lane_int lanes) {
+                             lane_int smooth, lane_int conductor, lane_float u_lobe, lane_float2 u, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
     bs.wi = sample_diffuse(sp, u);
     bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
@@ -69,7 +70,7 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
     smooth &= lanes;
     if (!lane_any(smooth)) return bs;
     lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
-    lane_int conductor = smooth & (material_kind_at(scene->materials, sp->material) == MATERIAL_CONDUCTOR);
+    conductor &= smooth;
     lane_int glass = smooth & !conductor;
     if (lane_any(glass)) {
         lane_float ior = material_ior_at(scene->materials, sp->material);
@@ -139,7 +140,8 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
         // Smooth dielectrics and conductors (features.py gives packets no rough ones): delta lobes.
         lane_int kind = material_kind_at(scene->materials, sp.material);
-        lane_int smooth = (kind == MATERIAL_DIELECTRIC) | (kind == MATERIAL_CONDUCTOR);
+        lane_int conductor = kind == MATERIAL_CONDUCTOR;
+        lane_int smooth = (kind == MATERIAL_DIELECTRIC) | conductor;
         // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
         // reaches it, and the path ends there.
         lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
@@ -157,7 +159,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         // Selected, not added everywhere: the throughput of a finished lane may be anything.
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
         lane_float3 wo = l3_neg(ray.direction);
-        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, u_light.x, rng_float2(rng), alive);
+        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, u_light.x, rng_float2(rng), alive);
         alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
         prev_pdf_w = bs.pdf_w;
