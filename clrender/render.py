@@ -10,6 +10,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import filters, host_memory, layout, limits, splatting
+from . import sample_items as sample_items_module
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
 from .outlines import apply_outlines, composite
@@ -276,7 +277,7 @@ class Renderer:
     @device_errors()
     def __init__(self, scene, device=None, local_size=None, pass_seconds=0.25, spectral_mis=True,
                  volume_method=None, step=None, raymarch_multiple_scattering=None, context=None, sampler=None,
-                 packets=None):
+                 packets=None, sample_items=None):
         """`scene`: a Scene, a scene dict or a file path. `device`: an OpenCL device or a choice
         for `choose_device` (default: the device of `context` if given). `volume_method`
         ("null" or "raymarch"), `step` (ray marching's longest step in voxels, >=
@@ -285,7 +286,9 @@ class Renderer:
         `context`: an existing context of `device` to share, so renderers of many scenes reuse
         its built programs. `packets`: trace camera paths 8 per work-item where the packet
         integrator covers the scene (features.packets_cover); default: on CPU devices, whose
-        vector lanes then carry them (the image is the same to float rounding)."""
+        vector lanes then carry them (the image is the same to float rounding), unless
+        `sample_items`. `sample_items`: a render pass takes one work-item per pixel and sample
+        (clrender/sample_items.py; the same image bit for bit); default: on GPUs (not with packets)."""
         self.scene = scene = as_scene(scene)
         step = None if step is None else limits.setting("step", step)
         limits.number(pass_seconds, "pass_seconds", low=0.0, low_open=True)
@@ -297,8 +300,11 @@ class Renderer:
         self.context = context if context is not None else cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context)
         if packets is None:
-            packets = bool(self.device.type & cl.device_type.CPU)
+            packets = bool(self.device.type & cl.device_type.CPU) and not sample_items
         self.features = scene_features(scene, volume_method, packets=packets)
+        if sample_items and self.features["LANES"] > 1:
+            raise ArgumentError("sample_items", "the packet integrator takes a pixel's samples in turn: "
+                                                "ask for sample items without packets")
         # Limits of the chosen method that the image may show, for the user (the CLI prints them).
         self.notes = march_notes(scene) if self.features["GRID_MEDIA"] == layout.VOLUME_METHODS["raymarch"] else []
         self.step = step
@@ -325,6 +331,9 @@ class Renderer:
         fill_albedo_tables(self.queue, program, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
         self._gather = splatting.Gather(self.context, scene.camera.filter, packets) if splatting.splats(scene) else None
+        if sample_items is None:
+            sample_items = sample_items_module.wanted(self.device, self.features)
+        self._sample_sums = sample_items_module.SampleSums(self.context, packets) if sample_items else None
         # The render pass's records argument when it does not splat.
         self._no_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
 
@@ -450,12 +459,14 @@ class Renderer:
                     if state.aov_sums is not None else np.zeros(1, layout.AOV_SUMS))
         aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=aov_sums)
         splat = self._splat_buffers(state, traced, samples)
+        # The sample-level AOVs are summed in each pixel's loop: no sample items for them.
+        items = self._sample_sums is not None and state.aov_sums is None
+        records, most = self._pass_records(splat, items, traced, samples)
         kernel, lanes = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
 
         end = state.samples + samples
         done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
-        most = splat.samples_per_pass if splat else MAX_SPP
         rows = tile_height if samples_per_pass else self._first_launch_rows(tile_width, tile_height)
         try:
             while done < end and (time_limit is None or seconds < time_limit):
@@ -466,15 +477,22 @@ class Renderer:
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 # The tile's rows in bands of `rows` (a multiple of the work-group height but for
                 # the last, whose excess rows the kernel's guard skips), each band a launch told
-                # its first row: every pixel gets these samples once, in index order.
+                # its first row: every pixel gets these samples once, in index order. With sample
+                # items a pass of several samples is launched over them too (a pass of one runs
+                # as a plain pass: the kernel tells them apart by the launch's third dimension),
+                # and its records are summed once all its rows are traced.
+                items_of_pass = count if items else 1
                 for first_row in range(0, tile_height, rows):
                     band = min(rows, tile_height - first_row)
                     start = time.perf_counter()
-                    kernel(self.queue, self._global_size(tile_width, band, lanes), self.local_size, params_buffer,
-                           *self._buffers, accum_buffer, discarded_buffer, *aux_buffers, aov_buffer,
-                           splat.records if splat else self._no_records, np.int32(first_row))
-                    if splat and first_row + band >= tile_height:
-                        self._gather(self.queue, state.tile, params_buffer, splat.records, splat.filtered)
+                    global_size, local_size = self._launch_size(tile_width, band, lanes, items_of_pass)
+                    kernel(self.queue, global_size, local_size, params_buffer, *self._buffers, accum_buffer,
+                           discarded_buffer, *aux_buffers, aov_buffer, records, np.int32(first_row))
+                    if first_row + band >= tile_height:
+                        if items_of_pass > 1:
+                            self._sample_sums(self.queue, traced, params_buffer, records, accum_buffer)
+                        if splat:
+                            self._gather(self.queue, state.tile, params_buffer, splat.records, splat.filtered)
                     self.queue.finish()
                     elapsed = time.perf_counter() - start
                     seconds += elapsed
@@ -513,6 +531,18 @@ class Renderer:
                                        hostbuf=np.ascontiguousarray(filtered, dtype=np.float32)),
                              state.samples, most)
 
+    def _pass_records(self, splat, items, traced, samples):
+        """(records buffer, most samples per pass) of an accumulation of `samples` over the pixels
+        `traced`: the splatting records when the film splats (`splat`), else with sample items
+        (`items`) a buffer of their radiance, else a placeholder and no limit."""
+        if splat:
+            return splat.records, splat.samples_per_pass
+        if not items:
+            return self._no_records, MAX_SPP
+        most = min(samples, splatting.samples_per_pass_limit(traced, 0))
+        size = most * traced[2] * traced[3] * splatting.record_bytes(0)
+        return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size), most
+
     def _check_depths(self, max_depth, rr_depth):
         """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""
         for name, value in (("max_depth", max_depth), ("rr_depth", rr_depth)):
@@ -549,13 +579,19 @@ class Renderer:
             self._aov_kernel = cl.Kernel(program, "render_pass")
         return self._aov_kernel, self.features["LANES"]
 
-    def _global_size(self, width, height, lanes=1):
-        """Work-items for a tile of width x height pixels, `lanes` adjacent pixels of a row each."""
+    def _launch_size(self, width, height, lanes=1, items=1):
+        """(global size, local size) of a launch over a tile of width x height pixels, `lanes`
+        adjacent pixels of a row per work-item, and `items` samples over a third dimension when
+        more than one (sample items)."""
         width = -(-width // lanes)
         if self.local_size is None:
-            return (width, height)
-        lx, ly = self.local_size
-        return (-(-width // lx) * lx, -(-height // ly) * ly)
+            size, local = (width, height), None
+        else:
+            lx, ly = self.local_size
+            size, local = (-(-width // lx) * lx, -(-height // ly) * ly), self.local_size
+        if items > 1:
+            return size + (items,), None if local is None else tuple(local) + (1,)
+        return size, local
 
     def _band_rows(self, rows, height):
         """`rows` rounded down to a multiple of the work-group height (at least one), at most

@@ -63,3 +63,18 @@ KERNEL void gather_splats(__constant RenderParams* params, __global const float*
     lane_vstore(sum_w, start[3]);
     for (int i = 0; i < lanes; ++i) out[i] = (float4)(start[0][i], start[1][i], start[2][i], start[3][i]);
 }
+
+// After a pass of sample items (integrator.cl): each traced pixel adds its own records' radiance
+// to its accumulator in sample order, as the render pass's loop adds them.
+KERNEL void sum_samples(__constant RenderParams* params, __global const float* records, __global float4* accumulator) {
+    int tx = get_global_id(0), ty = get_global_id(1);
+    int4 traced = params->tile;
+    if (tx >= traced.z || ty >= traced.w) return;
+    int pixels = traced.z * traced.w;
+    int slot = ty * traced.z + tx;
+    __global const float* record = records + slot;
+    float4 sum = accumulator[slot];
+    for (int s = 0; s < params->frame.w; ++s, record += SPLAT_COMPONENTS(params->splat_reach.x) * pixels)
+        sum += (float4)(record[0], record[pixels], record[2 * pixels], 1.0f);
+    accumulator[slot] = sum;
+}

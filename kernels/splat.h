@@ -45,17 +45,32 @@ void store_splat_lanes(__global float* out, lane_float value, int count) {
 #endif
 }
 
-// The records of the lanes' samples (sample `index` of the pass, `count` lanes from `slot` of the
-// traced pixels): radiance, and the filter at the offsets from the centres of the pixels d =
-// -reach .. reach away to the sample's `position` in its pixel (filter.h, filter_row).
+// The first component of the record of sample `index` of the pass at `slot` of the traced pixels.
+__global float* splat_record(__constant RenderParams* params, __global float* records, int index, int slot) {
+    return records + index * SPLAT_COMPONENTS(params->splat_reach.x) * params->tile.z * params->tile.w + slot;
+}
+
+// The radiance of the lanes' samples (sample `index` of the pass, `count` lanes from `slot` of the
+// traced pixels): a record's first three components, all that sample items (integrator.cl) write
+// when the film does not splat.
+void write_sample_radiance(__constant RenderParams* params, __global float* records, int index, int slot, int count,
+                           lane_float3 radiance) {
+    int pixels = params->tile.z * params->tile.w;
+    __global float* record = splat_record(params, records, index, slot);
+    store_splat_lanes(record, radiance.x, count);
+    store_splat_lanes(record + pixels, radiance.y, count);
+    store_splat_lanes(record + 2 * pixels, radiance.z, count);
+}
+
+// The records of the lanes' samples: radiance, and the filter at the offsets from the centres of
+// the pixels d = -reach .. reach away to the sample's `position` in its pixel (filter.h,
+// filter_row).
 void write_splat_records(__constant RenderParams* params, __global float* records, int index, int slot, int count,
                          lane_float3 radiance, lane_float2 position) {
     int reach = params->splat_reach.x;
     int pixels = params->tile.z * params->tile.w;
-    __global float* record = records + index * SPLAT_COMPONENTS(reach) * pixels + slot;
-    store_splat_lanes(record, radiance.x, count);
-    store_splat_lanes(record + pixels, radiance.y, count);
-    store_splat_lanes(record + 2 * pixels, radiance.z, count);
+    write_sample_radiance(params, records, index, slot, count, radiance);
+    __global float* record = splat_record(params, records, index, slot);
     FilterRow x_weights = filter_row(&params->filter, (float)-reach + 0.5f - position.x);
     FilterRow y_weights = filter_row(&params->filter, (float)-reach + 0.5f - position.y);
     for (int i = 0; i <= 2 * reach; ++i) {

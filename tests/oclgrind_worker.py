@@ -42,11 +42,13 @@ mf = cl.mem_flags
 def render(scene, device, method=None, local_size=None, launches=2, aovs=(), banded=False, **settings):
     """`launches` samples, one per launch (a later one adds to the accumulator of the earlier);
     `aovs`: the AOVs to accumulate (the AOVS feature when sample-level ones are named); `banded`:
-    the samples after the first in bands of one work-group row, launches offset to their row."""
+    the samples after the first in bands of one work-group row, launches offset to their row;
+    with `sample_items=True` among the settings, the samples in one launch of sample items."""
     renderer = clrender.Renderer(scene, device, local_size=local_size, volume_method=method,
                                  **settings, **({"pass_seconds": 1e-9} if banded else {}))
     depth = {} if scene.render.integrator == "direct" else {"max_depth": min(scene.render.max_depth, 4)}
-    result = renderer.render(spp=launches, samples_per_pass=None if banded else 1, seed=1, aovs=aovs, **depth)
+    per_pass = None if banded else launches if settings.get("sample_items") else 1
+    result = renderer.render(spp=launches, samples_per_pass=per_pass, seed=1, aovs=aovs, **depth)
     return {"discarded": result.discarded_samples, "finite": bool(np.all(np.isfinite(result.image)))}
 
 
@@ -61,8 +63,8 @@ def run_combination(case, device):
     info = render(scene, device, method, aovs=SAMPLE_AOVS if features["AOVS"] else (), packets=packets)
     # Run-time switches, on a quarter of the pixels: ray marching's other next-event path (one
     # light sample per segment instead of per step), hero-only free-flight sampling, an albedo
-    # grid, emitters hidden from the camera, the direct integrator (surfaces only), and the pixel
-    # filter by importance sampling instead of splatting.
+    # grid, emitters hidden from the camera, the direct integrator (surfaces only), the pixel
+    # filter by importance sampling instead of splatting, and sample items (both filter methods).
     small, _ = feature_scene(features, (4, 4))
     info = add(info, render(replace(small, render=replace(small.render, filter_method="importance")), device, method,
                             launches=1))
@@ -74,6 +76,9 @@ def run_combination(case, device):
         info = add(info, render(with_albedo_grid(small), device, method, launches=1,
                                 aovs=SAMPLE_AOVS if features["AOVS"] else ()))
     if not packets:
+        info = add(info, render(small, device, method, launches=2, sample_items=True))
+        info = add(info, render(replace(small, render=replace(small.render, filter_method="importance")), device,
+                                method, launches=2, sample_items=True))
         small.render = replace(small.render, hide_emitters=True)
         info = add(info, render(small, device, method, launches=1))
     if not (packets or features["MEDIA"] or features["TOON"]):
