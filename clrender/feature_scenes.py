@@ -36,8 +36,9 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
     lights and materials (features.packets_cover): their scene keeps only the rectangle light,
-    and DIELECTRIC adds the smooth glass and the copper mirror only; it needs its features when
-    the renderer asks for packets."""
+    and DIELECTRIC adds the smooth glass, the copper mirror and two rough mirrors without energy
+    compensation (Beckmann with separable masking, as Mitsuba's scenes have them, and GGX); it
+    needs its features when the renderer asks for packets."""
     materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
                  {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
     shapes = [{"name": "floor", "type": "rectangle", "material": "white",
@@ -66,10 +67,17 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         lights.append({"type": "environment", "radiance": [0.3, 0.4, 0.5]})
     if features["DIELECTRIC"] and packets:
         materials += [{"name": "glass", "type": "dielectric", "ior": 1.5},
-                      {"name": "mirror", "type": "conductor", "material": "Cu"}]
+                      {"name": "mirror", "type": "conductor", "material": "Cu"},
+                      {"name": "rough_mirror", "type": "conductor", "material": "Au", "roughness": 0.3,
+                       "distribution": "beckmann", "masking": "separable", "energy_compensation": False},
+                      {"name": "rough_tint", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.2,
+                       "energy_compensation": False}]
         sphere("glass", "glass", [0.9, -0.5, 0.3], 0.45)
         shapes.append({"name": "mirror", "type": "rectangle", "material": "mirror",
                        "transform": {"scale": 0.4, "rotate": [0, 60, 0], "translate": [-1.6, -0.4, 0.2]}})
+        shapes.append({"name": "rough_mirror", "type": "box", "material": "rough_mirror",
+                       "transform": {"scale": [0.6, 0.5, 0.05], "translate": [0.3, -0.5, -1.2]}})
+        sphere("rough_tint", "rough_tint", [-0.45, -0.75, 1.6], 0.25)
         shapes.append({"name": "prism", "type": "box", "material": "glass",
                        "transform": {"scale": 0.3, "rotate": [20, 40, 0], "translate": [-0.2, -0.6, 0.9]}})
     elif features["DIELECTRIC"]:

@@ -94,9 +94,9 @@ def gather_features(packets):
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
     features, every material some shape uses diffuse (emissive included), smooth dielectric
-    reflecting untinted or smooth conductor, no light but emitting triangles (no emitting
-    spheres, point, directional or environment lights), path tracing (not the direct
-    integrator) and emitters visible to the camera."""
+    reflecting untinted, or conductor (rough ones without energy compensation), no light but
+    emitting triangles (no emitting spheres, point, directional or environment lights), path
+    tracing (not the direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     if scene.render.integrator != "path" or scene.render.hide_emitters:
@@ -105,7 +105,9 @@ def packets_cover(scene, features):
         material = scene.materials[shape.material]
         if material.type not in ("diffuse", "emissive", "dielectric", "conductor"):
             return False
-        if material.type in ("dielectric", "conductor") and not _is_smooth(material):
+        if material.type == "dielectric" and not _is_smooth(material):
+            return False
+        if material.type == "conductor" and not _is_smooth(material) and material.energy_compensation:
             return False
         if material.type == "dielectric" and not np.all(material.reflection_tint == 1):
             return False

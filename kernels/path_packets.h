@@ -1,8 +1,8 @@
 // Path tracing of LANES paths at once (lanes.h: 8 on CPUs), each lane a camera path: path.h's
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
-// diffuse, smooth dielectric and smooth conductor surfaces, triangle emitters, no media,
-// environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// diffuse, smooth dielectric, smooth and rough conductor surfaces (no energy compensation),
+// triangle emitters, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
 #ifndef CLRENDER_PATH_PACKETS_H
@@ -18,6 +18,49 @@
 #include "materials/diffuse.h"
 #include "materials/dielectric_smooth.h"
 #include "materials/conductor_smooth.h"
+#include "materials/conductor.h"
+
+// The lanes' glossy lobe (path.h's rough conductors): where `rough`, a microfacet conductor of
+// tint `tint` (black seen from a one-sided back), its surface and complex index, about the
+// specular normal n (bsdf.h, specular_normal).
+typedef struct {
+    lane_int rough;
+#if DIELECTRIC
+    lane_float3 tint, eta, k, n;
+    Microfacet mf;
+#endif
+} GlossyLanes;
+
+GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int conductor, lane_float3 tint,
+                         lane_float3 wo) {
+    GlossyLanes g;
+    g.rough = 0;
+#if DIELECTRIC
+    if (!lane_any(conductor)) return g;
+    g.mf = material_microfacet_at(scene->materials, sp->material);
+    g.rough = conductor & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
+    if (!lane_any(g.rough)) return g;
+    g.tint = tint;
+    g.eta = material_conductor_eta_at(scene->materials, sp->material);
+    g.k = material_conductor_k_at(scene->materials, sp->material);
+    g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
+#endif
+    return g;
+}
+
+// bsdf.h's eval_bsdf and sample_bsdf_pdf at the rough lanes: f * cos of direction wi and the
+// density of sampling it, 0 where the normals disagree.
+lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane_float3 wo, lane_float3 wi,
+                              lane_float* pdf_w) {
+#if DIELECTRIC
+    lane_int agree = g->rough & sides_agree(l3_dot(wi, sp->ng), l3_dot(wi, g->n));
+    *pdf_w = select((lane_float)(0.0f), sample_conductor_pdf(g->mf, g->n, wo, wi), agree);
+    return l3_select(l3_splat(0.0f), eval_conductor(g->tint, g->eta, g->k, g->mf, g->n, wo, wi), agree);
+#else
+    *pdf_w = 0.0f;
+    return l3_splat(0.0f);
+#endif
+}
 
 // Emission of the surfaces hit (front faces of emitting triangles), weighted against the
 // light-sampling density of reaching them from the previous vertex (path.h, emitted_radiance).
@@ -34,10 +77,10 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
     return l3_select(l3_splat(0.0f), l3_scale(le, weight), emits);
 }
 
-// Next-event estimation at the diffuse vertices of `lanes` (path.h, direct_light), from the 2D
-// draw u: an emitter picked (light_selection.py), a point on it, a shadow ray.
+// Next-event estimation at the diffuse and rough vertices of `lanes` (path.h, direct_light), from
+// the 2D draw u: an emitter picked (light_selection.py), a point on it, a shadow ray.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
-                               lane_float2 u, lane_int lanes) {
+                               const GlossyLanes* glossy, lane_float3 wo, lane_float2 u, lane_int lanes) {
     int count = scene->params->config.w;
     lane_float3 radiance = l3_splat(0.0f);
     if (count == 0 || !lane_any(lanes)) return radiance;
@@ -48,25 +91,43 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     lane_float light_pdf_w = emitter_selection_pmf(scene, index) * pdf_w;
     lane_float3 le = LANE_LOAD3(scene->emitters, index, .radiance);
     lane_float3 f = eval_diffuse(albedo, sp, wi);
+    lane_float bsdf_pdf_w = sample_diffuse_pdf(sp, wi);
+    if (lane_any(glossy->rough & lanes)) {
+        lane_float glossy_pdf_w;
+        f = l3_select(f, eval_glossy_lanes(glossy, sp, wo, wi, &glossy_pdf_w), glossy->rough);
+        bsdf_pdf_w = select(bsdf_pdf_w, glossy_pdf_w, glossy->rough);
+    }
     lane_int lit = lanes & (dist > 0.0f) & (light_pdf_w > 0.0f) & !is_black(le) & !is_black(f);
     if (!lane_any(lit)) return radiance;
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
     lit &= !any_hits(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit);
-    lane_float weight = power_heuristic(light_pdf_w, sample_diffuse_pdf(sp, wi));
+    lane_float weight = power_heuristic(light_pdf_w, bsdf_pdf_w);
     return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
 }
 
 // The scattering of the lanes' vertices: the diffuse lobe; where `smooth`, the smooth
 // dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl), or where also `conductor`
-// the conductor's mirror.
+// the conductor's mirror; where glossy->rough, the rough conductor's lobe (bsdf.h,
+// sample_specular_bsdf: eval / pdf, none where the normals disagree).
 BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
-                             lane_int smooth, lane_int conductor, lane_float u_lobe, lane_float2 u, lane_int lanes) {
+                             lane_int smooth, lane_int conductor, const GlossyLanes* glossy, lane_float u_lobe,
+                             lane_float2 u, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
     bs.wi = sample_diffuse(sp, u);
     bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
     // For cosine sampling f * cos / pdf is the albedo itself.
     bs.weight = l3_select(l3_splat(0.0f), color, bs.pdf_w > 0.0f);
 #if DIELECTRIC
+    lane_int rough = glossy->rough & lanes;
+    if (lane_any(rough)) {
+        lane_float3 wi = sample_conductor(glossy->mf, glossy->n, wo, u);
+        lane_float pdf_w;
+        lane_float3 f = eval_glossy_lanes(glossy, sp, wo, wi, &pdf_w);
+        lane_int valid = pdf_w > 0.0f;   // also rejects the zero vector: its cosines are 0
+        bs.wi = l3_select(bs.wi, wi, rough);
+        bs.pdf_w = select(bs.pdf_w, select((lane_float)(0.0f), pdf_w, valid), rough);
+        bs.weight = l3_select(bs.weight, l3_select(l3_splat(0.0f), l3_div(f, pdf_w), valid), rough);
+    }
     smooth &= lanes;
     if (!lane_any(smooth)) return bs;
     lane_float3 n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);   // bsdf.h, specular_normal
@@ -138,28 +199,37 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        // Smooth dielectrics and conductors (features.py gives packets no rough ones): delta lobes.
+        // Smooth dielectrics and conductors: delta lobes; rough conductors: glossy ones
+        // (features.py gives packets no rough dielectrics).
         lane_int kind = material_kind_at(scene->materials, sp.material);
         lane_int conductor = kind == MATERIAL_CONDUCTOR;
-        lane_int smooth = (kind == MATERIAL_DIELECTRIC) | conductor;
         // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
         // reaches it, and the path ends there.
         lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
         lane_float3 color = l3_select(material_color_at(scene->materials, sp.material), l3_splat(0.0f), black_back);
+        lane_float3 wo = l3_neg(ray.direction);
+        GlossyLanes glossy = glossy_lanes(scene, &sp, conductor, color, wo);
+        lane_int smooth = (kind == MATERIAL_DIELECTRIC) | (conductor & !glossy.rough);
         aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !smooth);
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
         if (depth == max_depth) break;
-        // A diffuse vertex draws its light sample, a smooth one its lobe (rng_float, the first
-        // coordinate of the same dimension); the independent sampler's 2D draw takes two numbers
-        // where rng_float takes one, so the smooth lanes give one back.
+        // A diffuse or rough vertex draws its light sample, a smooth one its lobe (rng_float, the
+        // first coordinate of the same dimension); the independent sampler's 2D draw takes two
+        // numbers where rng_float takes one, so the smooth lanes give one back.
         lane_float2 u_light = rng_float2(rng);
         if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
-        lane_float3 direct = direct_light_lanes(scene, &sp, color, u_light, alive & !smooth);
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth);
+        // A rough vertex then draws its lobe's number as a smooth one did (bsdf.h, sample_bsdf),
+        // which a conductor does not use; the other lanes give it back.
+        if (lane_any(glossy.rough)) {
+            rng_float(rng);
+            rng->counter -= select((lane_uint)(1u), (lane_uint)(0u), glossy.rough);
+        }
         // Selected, not added everywhere: the throughput of a finished lane may be anything.
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
-        lane_float3 wo = l3_neg(ray.direction);
-        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, u_light.x, rng_float2(rng), alive);
+        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, &glossy, u_light.x, rng_float2(rng),
+                                          alive);
         alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
         prev_pdf_w = bs.pdf_w;

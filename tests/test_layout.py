@@ -85,7 +85,8 @@ def test_accessors_read_the_lanes_named_in_layout(context, queue):
 def test_lane_accessors_read_the_same_lanes(context, queue):
     # materials/material.h's *_at accessors (the packet kernel's, over lanes.h) against the
     # scalar accessors of the same fields, at one lane.
-    fields = ("kind", "one_sided", "color", "emission", "ior", "exterior_ior", "conductor_eta", "conductor_k")
+    fields = ("kind", "one_sided", "color", "emission", "ior", "exterior_ior", "conductor_eta", "conductor_k", "alpha",
+              "distribution", "masking")
     record = np.zeros(1, layout.MATERIAL)
     raw = record.view(np.uint8)
     for member in record.dtype.names:   # distinct small values, exact as float and as int

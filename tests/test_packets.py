@@ -27,7 +27,10 @@ RTOL = 1e-4
 def example(name, resolution=(40, 32), **render):
     one_sided = name.startswith("one_sided_")   # Mitsuba's diffuse: black seen from behind
     mirrors = name.startswith("mirror_")        # the blocks smooth conductors: copper, a tinted mirror
-    data = json.loads((SCENES / f"{name.removeprefix('one_sided_').removeprefix('mirror_')}.json").read_text())
+    rough = name.startswith("rough_mirror_")    # the blocks rough conductors, as Mitsuba's scenes have them:
+    # gold (Beckmann, separable masking) and a tinted GGX one, one-sided, no energy compensation
+    base = name.removeprefix("one_sided_").removeprefix("rough_mirror_").removeprefix("mirror_")
+    data = json.loads((SCENES / f"{base}.json").read_text())
     if one_sided:
         for material in data["materials"]:
             if material["type"] == "diffuse":
@@ -38,6 +41,15 @@ def example(name, resolution=(40, 32), **render):
         for shape in data["shapes"]:
             if shape["name"] in ("short_block", "tall_block"):
                 shape["material"] = "copper" if shape["name"] == "tall_block" else "mirror"
+    if rough:
+        data["materials"] += [{"name": "gold", "type": "conductor", "material": "Au", "roughness": 0.3,
+                               "distribution": "beckmann", "masking": "separable", "energy_compensation": False,
+                               "two_sided": False},
+                              {"name": "brass", "type": "conductor", "tint": [0.9, 0.7, 0.5], "roughness": 0.15,
+                               "energy_compensation": False, "two_sided": False}]
+        for shape in data["shapes"]:
+            if shape["name"] in ("short_block", "tall_block"):
+                shape["material"] = "gold" if shape["name"] == "tall_block" else "brass"
     data["camera"]["resolution"] = list(resolution)
     # The prism stands on the floor: where two surfaces coincide, rounding decides which one a
     # ray meets, and the two kernels round differently (2 % of the pixels differed at 8 spp).
@@ -65,12 +77,13 @@ def both(scene, device, spp=8, **settings):
 
 
 @pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box",
-                                  "mirror_cornell_box"])
+                                  "mirror_cornell_box", "rough_mirror_cornell_box"])
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
-    # analytic glass sphere; copper and tinted mirror blocks. The independent sampler checks that
-    # a smooth lane gives back the number its lobe choice does not take (path_packets.h).
+    # analytic glass sphere; copper and tinted mirror blocks; rough gold and brass blocks. The
+    # independent sampler checks that a smooth lane gives back the number its lobe choice does not
+    # take, and that a rough lane draws the lobe number it does not use (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
     assert mega.discarded_samples == packets.discarded_samples == 0
     assert differing(mega.image, packets.image) <= MAX_DIFFERING
@@ -141,6 +154,7 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     assert lanes(example("cornell_box")) == 8
     assert lanes(example("cornell_glass")) == 8
     assert lanes(example("mirror_cornell_box")) == 8
+    assert lanes(example("rough_mirror_cornell_box")) == 8
     assert scene_features(example("cornell_box"), packets=False)["LANES"] == 1
     assert lanes(example("cornell_box"), sample_aovs=True) == 8
     for name in ("rough_glass", "smoke_cornell_box", "toon_cornell_box", "cloud_low_sun", "fog_beam"):
@@ -154,7 +168,7 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     def point_light(data):
         data["lights"] = [{"type": "point", "position": [0, 1, 0], "intensity": 1}]
 
-    def rough_conductor(data):
+    def rough_conductor(data):   # energy compensation (the default): its tables are not in the packets
         data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
 
     def emitting_sphere(data):

@@ -62,9 +62,6 @@ float rough_specular_pdf(const Material* m, const SurfacePoint* sp, float3 n, fl
     return sample_conductor_pdf(material_microfacet(m), n, wo, wi);
 }
 
-// A glossy lobe counts only where the geometric and the shading normal put wi on the same side,
-// as eval_diffuse does; otherwise light would leak through the facet.
-bool sides_agree(float a, float b) { return (a > 0.0f && b > 0.0f) || (a < 0.0f && b < 0.0f); }
 #endif
 
 // A one-sided material (field one_sided; Mitsuba's BSDFs without `twosided`) seen from

@@ -4,9 +4,10 @@
 // is a perfect mirror, F = 1 (a conductor given only its tint).
 // Conventions as in dielectric.h: unit world-space directions away from the surface, n on wo's
 // side. Uses reflect() from dielectric_smooth.h; the smooth lobe and the Fresnel term are in
-// conductor_smooth.h.
+// conductor_smooth.h. Over the lane types (lanes.h).
 #ifndef CLRENDER_CONDUCTOR_H
 #define CLRENDER_CONDUCTOR_H
+#include "lanes.h"
 #include "math.h"
 #include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
@@ -14,26 +15,31 @@
 #include "materials/conductor_smooth.h"
 #if DIELECTRIC
 
-float3 eval_conductor(float3 tint, float3 eta, float3 k, Microfacet mf, float3 n, float3 wo, float3 wi) {
-    float cos_o = dot(n, wo), cos_i = dot(n, wi);
-    if (cos_o <= 0.0f || cos_i <= 0.0f) return (float3)(0.0f);
-    float3 h = normalize(wo + wi);
-    float3 f = fresnel_conductor(clamp(dot(wo, h), 0.0f, 1.0f), eta, k);
-    return tint * f * (microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+lane_float3 eval_conductor(lane_float3 tint, lane_float3 eta, lane_float3 k, Microfacet mf, lane_float3 n,
+                           lane_float3 wo, lane_float3 wi) {
+    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
+    lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
+    if (!lane_any(lit)) return l3_splat(0.0f);
+    lane_float3 h = l3_normalize(l3_add(wo, wi));
+    lane_float3 f = fresnel_conductor(clamp(l3_dot(wo, h), 0.0f, 1.0f), eta, k);
+    lane_float3 value = l3_scale(l3_mul(tint, f), microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+    return l3_select(l3_splat(0.0f), value, lit);
 }
 
-float sample_conductor_pdf(Microfacet mf, float3 n, float3 wo, float3 wi) {
-    float cos_o = dot(n, wo), cos_i = dot(n, wi);
-    if (cos_o <= 0.0f || cos_i <= 0.0f) return 0.0f;
-    float3 h = normalize(wo + wi);
-    float cos_oh = dot(wo, h);
-    return cos_oh > 0.0f ? sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh) : 0.0f;
+lane_float sample_conductor_pdf(Microfacet mf, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
+    lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
+    if (!lane_any(lit)) return 0.0f;
+    lane_float3 h = l3_normalize(l3_add(wo, wi));
+    lane_float cos_oh = l3_dot(wo, h);
+    lit &= cos_oh > 0.0f;
+    return select((lane_float)(0.0f), sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh), lit);
 }
 
 // Zero vector for no sample (mirrored below the macro surface; see sample_dielectric).
-float3 sample_conductor(Microfacet mf, float3 n, float3 wo, float2 rn) {
-    float3 wi = reflect(wo, sample_microfacet_visible(mf, n, wo, rn));
-    return dot(n, wi) > 0.0f ? wi : (float3)(0.0f);
+lane_float3 sample_conductor(Microfacet mf, lane_float3 n, lane_float3 wo, lane_float2 rn) {
+    lane_float3 wi = reflect(wo, sample_microfacet_visible(mf, n, wo, rn));
+    return l3_select(l3_splat(0.0f), wi, l3_dot(n, wi) > 0.0f);
 }
 
 #endif

@@ -85,6 +85,15 @@ lane_float3 material_conductor_eta_at(__global const Material* materials, lane_i
 lane_float3 material_conductor_k_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD3(materials, index, .slot[5]);
 }
+lane_float material_alpha_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD(materials, index, .slot[1].x);
+}
+lane_int material_distribution_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD_INT(materials, index, .maps.z);
+}
+lane_int material_masking_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD_INT(materials, index, .maps.w);
+}
 
 // An index-matched boundary (an interface, or a dielectric with the same index on both sides):
 // only separates media and transmits its colour, not a path vertex.

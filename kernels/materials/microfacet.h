@@ -6,19 +6,22 @@
 // Directions are unit vectors in world space; n is the macro normal on wo's side.
 #ifndef CLRENDER_MICROFACET_H
 #define CLRENDER_MICROFACET_H
+#include "lanes.h"
 #include "math.h"
 #include "materials/material.h"
 #include "materials/ggx.h"
 #include "materials/beckmann.h"
 #if DIELECTRIC
 
+// Over the lane types (lanes.h): each lane its surface; a lane's distribution is one of the two,
+// and a branch skips the one no lane has.
 typedef struct {
-    float alpha;
-    int distribution;   // MICROFACET_*
-    int masking;        // MASKING_*
+    lane_float alpha;
+    lane_int distribution;   // MICROFACET_*
+    lane_int masking;        // MASKING_*
 } Microfacet;
 
-Microfacet make_microfacet(float alpha, int distribution, int masking) {
+Microfacet make_microfacet(lane_float alpha, lane_int distribution, lane_int masking) {
     Microfacet mf;
     mf.alpha = alpha;
     mf.distribution = distribution;
@@ -31,6 +34,12 @@ Microfacet material_microfacet(const Material* m) {
     return make_microfacet(material_alpha(m), material_distribution(m), material_masking(m));
 }
 
+// The same, of each lane's material `index` (lanes.h).
+Microfacet material_microfacet_at(__global const Material* materials, lane_int index) {
+    return make_microfacet(material_alpha_at(materials, index), material_distribution_at(materials, index),
+                           material_masking_at(materials, index));
+}
+
 // Below this width a lobe is narrower than float32 can evaluate reliably (a GGX D peaks at
 // 1 / (pi alpha^2) and 1 - cos^2 cancels near the peak); such surfaces are treated as smooth,
 // as in pbrt-v4 (TrowbridgeReitzDistribution::EffectivelySmooth).
@@ -38,38 +47,61 @@ Microfacet material_microfacet(const Material* m) {
 
 bool microfacet_is_smooth(float alpha) { return alpha < MICROFACET_MIN_ALPHA; }
 
+// A glossy lobe counts only where the geometric and the shading normal put wi on the same side
+// (a, b: wi's cosines to them), as eval_diffuse does; otherwise light would leak through the facet.
+lane_int sides_agree(lane_float a, lane_float b) { return ((a > 0.0f) & (b > 0.0f)) | ((a < 0.0f) & (b < 0.0f)); }
+
+// `beckmann` of the lanes, `ggx` of the others: each evaluated only where some lane needs it.
+#define MICROFACET_EITHER(mf, beckmann, ggx) \
+    lane_int is_beckmann = (mf).distribution == MICROFACET_BECKMANN; \
+    lane_float value = 0.0f; \
+    if (lane_any(is_beckmann)) value = (beckmann); \
+    if (lane_any(!is_beckmann)) value = select(value, (ggx), !is_beckmann); \
+    return value;
+
 // The distribution of normals D(h), per unit solid angle and projected area.
-float microfacet_d(Microfacet mf, float3 n, float3 h) {
-    return mf.distribution == MICROFACET_BECKMANN ? beckmann_d(n, h, mf.alpha) : ggx_d(n, h, mf.alpha);
+lane_float microfacet_d(Microfacet mf, lane_float3 n, lane_float3 h) {
+    MICROFACET_EITHER(mf, beckmann_d(n, h, mf.alpha), ggx_d(n, h, mf.alpha))
 }
 
 // Smith masking of one direction at cos_w to the macro normal.
-float microfacet_g1(Microfacet mf, float cos_w) {
-    return mf.distribution == MICROFACET_BECKMANN ? beckmann_g1(cos_w, mf.alpha) : ggx_g1(cos_w, mf.alpha);
+lane_float microfacet_g1(Microfacet mf, lane_float cos_w) {
+    MICROFACET_EITHER(mf, beckmann_g1(cos_w, mf.alpha), ggx_g1(cos_w, mf.alpha))
+}
+
+// Height-correlated masking-shadowing of the pair (wo, wi), either distribution.
+lane_float microfacet_g2(Microfacet mf, lane_float cos_o, lane_float cos_i) {
+    MICROFACET_EITHER(mf, beckmann_g2(cos_o, cos_i, mf.alpha), ggx_g2(cos_o, cos_i, mf.alpha))
 }
 
 // Masking-shadowing of the pair (wo, wi), from their cosines to the macro normal (either sign:
 // transmission has cos_i < 0). The microfacet must face both; the lobes check that.
-float microfacet_g(Microfacet mf, float cos_o, float cos_i) {
-    if (mf.masking == MASKING_SEPARABLE) return microfacet_g1(mf, cos_o) * microfacet_g1(mf, cos_i);
-    return mf.distribution == MICROFACET_BECKMANN ? beckmann_g2(cos_o, cos_i, mf.alpha)
-                                                   : ggx_g2(cos_o, cos_i, mf.alpha);
+lane_float microfacet_g(Microfacet mf, lane_float cos_o, lane_float cos_i) {
+    lane_int separable = mf.masking == MASKING_SEPARABLE;
+    lane_float g = 0.0f;
+    if (lane_any(separable)) g = microfacet_g1(mf, cos_o) * microfacet_g1(mf, cos_i);
+    if (lane_any(!separable)) g = select(g, microfacet_g2(mf, cos_o, cos_i), !separable);
+    return g;
 }
 
 // Density of visible normals, per unit solid angle of h (Heitz 2018, eq. 3):
 // D_wo(h) = G1(wo) max(0, wo.h) D(h) / cos_o.
-float sample_microfacet_visible_pdf(Microfacet mf, float3 n, float3 wo, float3 h) {
-    float cos_o = dot(n, wo), cos_oh = dot(wo, h);
-    if (cos_o <= 0.0f || cos_oh <= 0.0f) return 0.0f;
-    return microfacet_g1(mf, cos_o) * cos_oh * microfacet_d(mf, n, h) / cos_o;
+lane_float sample_microfacet_visible_pdf(Microfacet mf, lane_float3 n, lane_float3 wo, lane_float3 h) {
+    lane_float cos_o = l3_dot(n, wo), cos_oh = l3_dot(wo, h);
+    lane_int visible = (cos_o > 0.0f) & (cos_oh > 0.0f);
+    if (!lane_any(visible)) return 0.0f;
+    return select((lane_float)(0.0f), microfacet_g1(mf, cos_o) * cos_oh * microfacet_d(mf, n, h) / cos_o, visible);
 }
 
 // A microfacet normal visible from wo, distributed as sample_microfacet_visible_pdf. (Mitsuba's
 // sample_visible = false samples D(h) cos(h) instead: the same lobes in expectation, noisier;
 // we always sample visible normals.)
-float3 sample_microfacet_visible(Microfacet mf, float3 n, float3 wo, float2 u) {
-    return mf.distribution == MICROFACET_BECKMANN ? sample_beckmann_vndf(n, wo, mf.alpha, u)
-                                                   : sample_ggx_vndf(n, wo, mf.alpha, u);
+lane_float3 sample_microfacet_visible(Microfacet mf, lane_float3 n, lane_float3 wo, lane_float2 u) {
+    lane_int is_beckmann = mf.distribution == MICROFACET_BECKMANN;
+    lane_float3 h = l3_splat(0.0f);
+    if (lane_any(is_beckmann)) h = sample_beckmann_vndf(n, wo, mf.alpha, u);
+    if (lane_any(!is_beckmann)) h = l3_select(h, sample_ggx_vndf(n, wo, mf.alpha, u), !is_beckmann);
+    return h;
 }
 
 #endif

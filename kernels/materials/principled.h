@@ -329,7 +329,7 @@ float3 to_frame(const ShadingFrame* f, float3 v) { return (float3)(dot(v, f->s),
 float3 from_frame(const ShadingFrame* f, float3 v) { return v.x * f->s + v.y * f->t + v.z * f->n; }
 
 // A direction counts only where the facet and the shading normal put it on the same side, as
-// for the other glossy lobes (bsdf.h sides_agree): otherwise light would leak through the facet.
+// for the other glossy lobes (microfacet.h sides_agree): otherwise light would leak through the facet.
 bool principled_sides_agree(const SurfacePoint* sp, float3 n_wo, float3 wi) {
     return dot(wi, sp->ng) * dot(wi, n_wo) > 0.0f;
 }
