@@ -9,7 +9,6 @@ import itertools
 
 import numpy as np
 
-from . import meshes
 from .arrays import active_environment
 from .textures import scene_uses_textures
 from .errors import ArgumentError
@@ -95,7 +94,7 @@ def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
     features, every material some shape uses diffuse (emissive included), smooth dielectric
     reflecting untinted, or conductor (rough ones without energy compensation), no light but
-    emitting triangles (no emitting spheres, point, directional or environment lights), path
+    emitting triangles and spheres (no point, spot, directional or environment lights), path
     tracing (not the direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
@@ -110,8 +109,6 @@ def packets_cover(scene, features):
         if material.type == "conductor" and not _is_smooth(material) and material.energy_compensation:
             return False
         if material.type == "dielectric" and not np.all(material.reflection_tint == 1):
-            return False
-        if isinstance(shape.mesh, meshes.Sphere) and np.any(material.emission > 0):
             return False
     return not scene.lights
 

@@ -11,6 +11,7 @@
 
 #include "sphere.h"
 #include "triangle_lights.h"
+#include "area_lights.h"
 #include "textures/texture.h"
 
 typedef struct {
@@ -192,78 +193,7 @@ float3 sample_environment_direction(const Scene* scene, float2 u, float* pdf_w, 
 }
 #endif
 
-// ----- area lights: spheres ------------------------------------------------------------------
-// Seen from outside, a sphere fills a cone of directions; it is sampled uniformly inside that
-// cone (pbrt-v4, Sphere::Sample), so the pdf is 1 / (2 pi (1 - cos theta_max)) wherever it is
-// seen. A flipped sphere (front face, and so its emission, inside) is seen from inside only: it
-// is sampled uniformly by area. From anywhere else only back faces are seen, which do not emit.
-// Below sin^2 theta_max = sin^2(1.5 degrees), 1 - cos theta_max is its Taylor term (pbrt-v4):
-// the subtraction would cancel.
-#define SMALL_CONE_SIN2 0.00068523f
-
-float sphere_cone_one_minus_cos(float sin2_max) {
-    return sin2_max < SMALL_CONE_SIN2 ? 0.5f * sin2_max : 1.0f - sqrt(fmax(0.0f, 1.0f - sin2_max));
-}
-
-// Solid-angle pdf of sampling the direction from p to q on an emitting sphere; cos_light: the
-// cosine at q between the sphere's front normal and the direction back to p.
-float sphere_emitter_pdf_w(__global const Emitter* e, float3 p, float3 q, float cos_light) {
-    float radius = e->p0.w;
-    float3 to_centre = e->p0.xyz - p;
-    float dist2_centre = dot(to_centre, to_centre);
-    if (radius < 0.0f) {
-        if (!(dist2_centre < radius * radius) || !(cos_light > 0.0f)) return 0.0f;
-        float3 d = q - p;
-        return dot(d, d) / (cos_light * 4.0f * PI_F * radius * radius);
-    }
-    float sin2_max = radius * radius / dist2_centre;
-    if (!(sin2_max < 1.0f)) return 0.0f;
-    return 1.0f / (2.0f * PI_F * sphere_cone_one_minus_cos(sin2_max));
-}
-
-// A point q on an emitting sphere seen from p, with the solid-angle pdf of its direction (0 when
-// p sees no front face). q is moved off the surface towards p by its rounding bound, so that
-// the shadow ray to it stops short of the sphere.
-float3 sample_sphere_emitter(__global const Emitter* e, float3 p, float2 u, float* pdf_w) {
-    float3 centre = e->p0.xyz;
-    float radius = e->p0.w;
-    float3 to_centre = centre - p;
-    float dist2_centre = dot(to_centre, to_centre);
-    float sin2_max = radius * radius / dist2_centre;
-    *pdf_w = 0.0f;
-    float3 n;   // unit direction from the centre to q
-    if (radius < 0.0f) {
-        if (!(sin2_max > 1.0f)) return p;
-        n = sample_uniform_sphere(u);
-    } else {
-        if (!(sin2_max < 1.0f)) return p;
-        // A direction at angle theta from the axis (uniform in the cone: 1 - cos theta = w), then
-        // the point of the sphere it meets first, at angle alpha from the axis at the centre.
-        float w = u.x * sphere_cone_one_minus_cos(sin2_max);
-        float sin2_theta = w * (2.0f - w);
-        float cos_alpha = sin2_theta * rsqrt(sin2_max) +
-                          (1.0f - w) * sqrt(fmax(0.0f, 1.0f - sin2_theta / sin2_max));
-        float sin_alpha = sqrt(fmax(0.0f, 1.0f - cos_alpha * cos_alpha));
-        float s, c;
-        sincos_2pi(u.y, &s, &c);
-        n = -to_world((float3)(sin_alpha * c, sin_alpha * s, cos_alpha), to_centre * rsqrt(dist2_centre));
-    }
-    float error;
-    float3 q = sphere_point(centre, radius, n, &error);
-    float3 front = radius < 0.0f ? -n : n;
-    float3 to_p = p - q;
-    q = offset_ray_origin(q, dot(to_p, n) > 0.0f ? n : -n, error);
-    *pdf_w = sphere_emitter_pdf_w(e, p, q, dot(front, to_p) * rsqrt(dot(to_p, to_p)));
-    return q;
-}
-
-// Solid-angle pdf of reaching q, a point on area emitter e with cosine cos_light towards p,
-// from p (the MIS weight of emission that a BSDF or phase sample hits).
-float area_emitter_pdf_w(__global const Emitter* e, float3 p, float3 q, float cos_light) {
-    if (e->kind.x == EMITTER_SPHERE) return sphere_emitter_pdf_w(e, p, q, cos_light);
-    return triangle_emitter_pdf_w(e->p0.w, length(q - p), cos_light);
-}
-
+// ----- area lights: their radiance (sampling and densities: area_lights.h) -----------------
 // The radiance of area emitter e at its point q, sampled with u: Emitter.radiance, or where its
 // lane w names a texture (as materials/textured_params.h), the texture's value at q's uv (the
 // primitive slot in kind.y).
@@ -352,7 +282,7 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
         ls.radiance = ls.pdf_w > 0.0f ? area_emitter_radiance(scene, e, u, p + dist * wi) : (float3)(0.0f);
     } else if (kind == EMITTER_SPHERE) {
         float pdf_w;
-        float3 q = sample_sphere_emitter(e, p, u, &pdf_w);
+        float3 q = sample_sphere_emitter(scene->emitters, index, p, u, &pdf_w);
         float3 d = q - p;
         float dist = length(d);
         if (!(pdf_w > 0.0f && dist > 0.0f)) return ls;

@@ -49,9 +49,8 @@ INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const Surf
     if (!sp->front_face || sp->emitter < 0) return (float3)(0.0f);
     float3 le = material_emission(m);
     if (prev_delta) return le;
-    __global const Emitter* e = scene->emitters + sp->emitter;
     float light_pdf_w = emitter_selection_pmf(scene, sp->emitter) *
-                        area_emitter_pdf_w(e, prev_p, sp->p, -dot(dir, sp->ng));
+                        area_emitter_pdf_w(scene->emitters, sp->emitter, prev_p, sp->p, -dot(dir, sp->ng));
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 

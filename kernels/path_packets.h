@@ -2,7 +2,7 @@
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
 // diffuse, smooth dielectric, smooth and rough conductor surfaces (no energy compensation),
-// triangle emitters, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// triangle and sphere emitters, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
 #ifndef CLRENDER_PATH_PACKETS_H
@@ -14,6 +14,7 @@
 #include "camera.h"
 #include "scene.h"
 #include "triangle_lights.h"
+#include "area_lights.h"
 #include "materials/material.h"
 #include "materials/diffuse.h"
 #include "materials/dielectric_smooth.h"
@@ -62,8 +63,8 @@ lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane
 #endif
 }
 
-// Emission of the surfaces hit (front faces of emitting triangles), weighted against the
-// light-sampling density of reaching them from the previous vertex (path.h, emitted_radiance).
+// Emission of the surfaces hit (front faces of emitting triangles and spheres), weighted against
+// the light-sampling density of reaching them from the previous vertex (path.h, emitted_radiance).
 lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 prev_p,
                                    lane_float3 dir, lane_float prev_pdf_w, lane_int prev_delta) {
     lane_int emits = sp->front_face & (sp->emitter >= 0);
@@ -71,8 +72,7 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
     lane_int emitter = max(sp->emitter, (lane_int)(0));   // (Oclgrind gets integer max(vector, scalar) wrong)
     lane_float3 le = material_emission_at(scene->materials, sp->material);
     lane_float light_pdf_w = emitter_selection_pmf(scene, emitter) *
-        triangle_emitter_pdf_w(LANE_LOAD(scene->emitters, emitter, .p0.w), l3_length(l3_sub(sp->p, prev_p)),
-                               -l3_dot(dir, sp->ng));
+                             area_emitter_pdf_w(scene->emitters, emitter, prev_p, sp->p, -l3_dot(dir, sp->ng));
     lane_float weight = select(power_heuristic(prev_pdf_w, light_pdf_w), (lane_float)(1.0f), prev_delta);
     return l3_select(l3_splat(0.0f), l3_scale(le, weight), emits);
 }
@@ -86,8 +86,19 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     if (count == 0 || !lane_any(lanes)) return radiance;
     lane_float u_on_emitter;
     lane_int index = sample_discrete_cdf_reuse(scene->emitter_cdf, count, u.x, &u_on_emitter);
-    lane_float dist, pdf_w;
-    lane_float3 wi = sample_triangle_emitter(scene, index, sp->p, make_lane_float2(u_on_emitter, u.y), &dist, &pdf_w);
+    lane_float2 u_emitter = make_lane_float2(u_on_emitter, u.y);
+    lane_int sphere = LANE_LOAD_INT(scene->emitters, index, .kind.x) == EMITTER_SPHERE;
+    lane_float dist = 0.0f, pdf_w = 0.0f;
+    lane_float3 wi = l3_splat(0.0f);
+    if (lane_any(!sphere)) wi = sample_triangle_emitter(scene, index, sp->p, u_emitter, &dist, &pdf_w);
+    if (lane_any(sphere)) {   // lights.h, sample_light
+        lane_float sphere_pdf_w;
+        lane_float3 d = l3_sub(sample_sphere_emitter(scene->emitters, index, sp->p, u_emitter, &sphere_pdf_w), sp->p);
+        lane_float sphere_dist = l3_length(d);
+        wi = l3_select(wi, l3_div(d, sphere_dist), sphere);
+        dist = select(dist, sphere_dist, sphere);
+        pdf_w = select(pdf_w, sphere_pdf_w, sphere);
+    }
     lane_float light_pdf_w = emitter_selection_pmf(scene, index) * pdf_w;
     lane_float3 le = LANE_LOAD3(scene->emitters, index, .radiance);
     lane_float3 f = eval_diffuse(albedo, sp, wi);

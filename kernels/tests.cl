@@ -182,7 +182,7 @@ KERNEL void sample_area_emitter(__global const Emitter* emitters, __global const
     float cos_light = -dot(ls.wi, emitters->p0.w < 0.0f ? -n : n);
     out_sample[i] = (float4)(ls.wi, ls.pdf_w);
     out_point[i] = (float4)(q, ls.dist);
-    out_pdf[i] = (float2)(area_emitter_pdf_w(emitters, p, q, cos_light), cos_light);
+    out_pdf[i] = (float2)(area_emitter_pdf_w(emitters, 0, p, q, cos_light), cos_light);
 }
 
 #if ENVIRONMENT == ENVIRONMENT_IMAGE

@@ -29,7 +29,8 @@ def example(name, resolution=(40, 32), **render):
     mirrors = name.startswith("mirror_")        # the blocks smooth conductors: copper, a tinted mirror
     rough = name.startswith("rough_mirror_")    # the blocks rough conductors, as Mitsuba's scenes have them:
     # gold (Beckmann, separable masking) and a tinted GGX one, one-sided, no energy compensation
-    base = name.removeprefix("one_sided_").removeprefix("rough_mirror_").removeprefix("mirror_")
+    bulbs = name.startswith("bulbs_")           # two emitting spheres beside the ceiling's light
+    base = name.removeprefix("one_sided_").removeprefix("rough_mirror_").removeprefix("mirror_").removeprefix("bulbs_")
     data = json.loads((SCENES / f"{base}.json").read_text())
     if one_sided:
         for material in data["materials"]:
@@ -50,6 +51,14 @@ def example(name, resolution=(40, 32), **render):
         for shape in data["shapes"]:
             if shape["name"] in ("short_block", "tall_block"):
                 shape["material"] = "gold" if shape["name"] == "tall_block" else "brass"
+    if bulbs:
+        data["materials"] += [{"name": "bulb", "type": "emissive", "radiance": [8.0, 6.0, 3.0]},
+                              {"name": "sky", "type": "emissive", "radiance": [0.2, 0.25, 0.3]}]
+        data["shapes"] += [{"name": "bulb", "type": "sphere", "material": "bulb", "center": [-0.5, 0.5, 0.3],
+                            "radius": 0.12},
+                           # flipped: emitting inwards, onto the room and the camera inside it
+                           {"name": "sky", "type": "sphere", "material": "sky", "center": [0.0, 1.0, 0.0],
+                            "radius": 12.0, "flip_normals": True}]
     data["camera"]["resolution"] = list(resolution)
     # The prism stands on the floor: where two surfaces coincide, rounding decides which one a
     # ray meets, and the two kernels round differently (2 % of the pixels differed at 8 spp).
@@ -77,11 +86,12 @@ def both(scene, device, spp=8, **settings):
 
 
 @pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box",
-                                  "mirror_cornell_box", "rough_mirror_cornell_box"])
+                                  "mirror_cornell_box", "rough_mirror_cornell_box", "bulbs_cornell_box"])
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
-    # analytic glass sphere; copper and tinted mirror blocks; rough gold and brass blocks. The
+    # analytic glass sphere; copper and tinted mirror blocks; rough gold and brass blocks; two
+    # emitting spheres, one flipped around the scene (sampled by area, from inside). The
     # independent sampler checks that a smooth lane gives back the number its lobe choice does not
     # take, and that a rough lane draws the lobe number it does not use (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
@@ -155,6 +165,7 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     assert lanes(example("cornell_glass")) == 8
     assert lanes(example("mirror_cornell_box")) == 8
     assert lanes(example("rough_mirror_cornell_box")) == 8
+    assert lanes(example("bulbs_cornell_box")) == 8
     assert scene_features(example("cornell_box"), packets=False)["LANES"] == 1
     assert lanes(example("cornell_box"), sample_aovs=True) == 8
     for name in ("rough_glass", "smoke_cornell_box", "toon_cornell_box", "cloud_low_sun", "fog_beam"):
@@ -171,9 +182,5 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     def rough_conductor(data):   # energy compensation (the default): its tables are not in the packets
         data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
 
-    def emitting_sphere(data):
-        data["shapes"].append({"name": "bulb", "type": "sphere", "material": "light", "center": [0, 1, 0],
-                               "radius": 0.1})
-
-    for change in (point_light, rough_conductor, emitting_sphere):
+    for change in (point_light, rough_conductor):
         assert lanes(variant(change)) == 1, change.__name__
