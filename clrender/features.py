@@ -41,6 +41,9 @@ FEATURE_VALUES = {
 # What the packet integrator (LANES 8) leaves out: every other feature.
 PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
 
+# The lights (besides emitting shapes) that the packet integrator samples.
+PACKET_LIGHTS = ("point", "directional")
+
 SPECULAR_MATERIALS = ("dielectric", "conductor", "thin_dielectric", "plastic", "principled")
 
 
@@ -92,10 +95,10 @@ def gather_features(packets):
 
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
-    features, every material some shape uses diffuse (emissive included), smooth dielectric
-    reflecting untinted, or conductor (rough ones without energy compensation), no light but
-    emitting triangles and spheres (no point, spot, directional or environment lights), path
-    tracing (not the direct integrator) and emitters visible to the camera."""
+    features, every material some shape uses diffuse (emissive included), dielectric reflecting
+    untinted or conductor (rough ones without energy compensation), emitting triangles and
+    spheres, point and directional lights (no spot or environment lights), path tracing (not the
+    direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     if scene.render.integrator != "path" or scene.render.hide_emitters:
@@ -104,13 +107,11 @@ def packets_cover(scene, features):
         material = scene.materials[shape.material]
         if material.type not in ("diffuse", "emissive", "dielectric", "conductor"):
             return False
-        if material.type == "dielectric" and not _is_smooth(material):
-            return False
-        if material.type == "conductor" and not _is_smooth(material) and material.energy_compensation:
+        if material.type in ("dielectric", "conductor") and not _is_smooth(material) and material.energy_compensation:
             return False
         if material.type == "dielectric" and not np.all(material.reflection_tint == 1):
             return False
-    return not scene.lights
+    return all(light.type in PACKET_LIGHTS for light in scene.lights)
 
 
 def _is_smooth(material):

@@ -1,8 +1,8 @@
 // Path tracing of LANES paths at once (lanes.h: 8 on CPUs), each lane a camera path: path.h's
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
-// diffuse, smooth dielectric, smooth and rough conductor surfaces (no energy compensation),
-// triangle and sphere emitters, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation),
+// triangle and sphere emitters, point and directional lights, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
 #ifndef CLRENDER_PATH_PACKETS_H
@@ -20,30 +20,41 @@
 #include "materials/dielectric_smooth.h"
 #include "materials/conductor_smooth.h"
 #include "materials/conductor.h"
+#include "materials/dielectric.h"
 
-// The lanes' glossy lobe (path.h's rough conductors): where `rough`, a microfacet conductor of
-// tint `tint` (black seen from a one-sided back), its surface and complex index, about the
-// specular normal n (bsdf.h, specular_normal).
+// The lanes' glossy lobes (bsdf.h's rough dielectrics and conductors, without energy
+// compensation): where `rough`, a microfacet surface about the specular normal n (bsdf.h,
+// specular_normal); where also `dielectric` an interface of relative index eta, transmission
+// tinted by `tint` and reflection untinted (features.py), else a conductor of tint `tint` and
+// complex index eta_rgb + i k. One-sided backs are black: both tints 0.
 typedef struct {
-    lane_int rough;
+    lane_int rough, dielectric;
 #if DIELECTRIC
-    lane_float3 tint, eta, k, n;
+    lane_float3 tint, reflect_tint, eta_rgb, k, n;
+    lane_float eta;
     Microfacet mf;
 #endif
 } GlossyLanes;
 
-GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int conductor, lane_float3 tint,
-                         lane_float3 wo) {
+GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int kind, lane_float3 tint,
+                         lane_int black_back, lane_float3 wo) {
     GlossyLanes g;
     g.rough = 0;
+    g.dielectric = 0;
 #if DIELECTRIC
-    if (!lane_any(conductor)) return g;
+    lane_int specular = (kind == MATERIAL_CONDUCTOR) | (kind == MATERIAL_DIELECTRIC);
+    if (!lane_any(specular)) return g;
     g.mf = material_microfacet_at(scene->materials, sp->material);
-    g.rough = conductor & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
+    g.rough = specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
     if (!lane_any(g.rough)) return g;
+    g.dielectric = g.rough & (kind == MATERIAL_DIELECTRIC);
     g.tint = tint;
-    g.eta = material_conductor_eta_at(scene->materials, sp->material);
+    g.reflect_tint = l3_select(l3_splat(1.0f), l3_splat(0.0f), black_back);
+    g.eta_rgb = material_conductor_eta_at(scene->materials, sp->material);
     g.k = material_conductor_k_at(scene->materials, sp->material);
+    lane_float ior = material_ior_at(scene->materials, sp->material);
+    lane_float exterior = material_exterior_ior_at(scene->materials, sp->material);
+    g.eta = select(1.0f, select(exterior / ior, ior / exterior, sp->front_face), g.dielectric);  // bsdf.h, material_eta
     g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
 #endif
     return g;
@@ -53,14 +64,41 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int co
 // density of sampling it, 0 where the normals disagree.
 lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane_float3 wo, lane_float3 wi,
                               lane_float* pdf_w) {
+    lane_float3 f = l3_splat(0.0f);
+    *pdf_w = 0.0f;
 #if DIELECTRIC
     lane_int agree = g->rough & sides_agree(l3_dot(wi, sp->ng), l3_dot(wi, g->n));
-    *pdf_w = select((lane_float)(0.0f), sample_conductor_pdf(g->mf, g->n, wo, wi), agree);
-    return l3_select(l3_splat(0.0f), eval_conductor(g->tint, g->eta, g->k, g->mf, g->n, wo, wi), agree);
-#else
-    *pdf_w = 0.0f;
-    return l3_splat(0.0f);
+    lane_int dielectric = agree & g->dielectric, conductor = agree & !g->dielectric;
+    if (lane_any(dielectric)) {
+        f = l3_select(f, eval_dielectric(g->reflect_tint, g->tint, g->eta, g->mf, g->n, wo, wi), dielectric);
+        *pdf_w = select(*pdf_w, sample_dielectric_pdf(g->eta, g->mf, g->n, wo, wi), dielectric);
+    }
+    if (lane_any(conductor)) {
+        f = l3_select(f, eval_conductor(g->tint, g->eta_rgb, g->k, g->mf, g->n, wo, wi), conductor);
+        *pdf_w = select(*pdf_w, sample_conductor_pdf(g->mf, g->n, wo, wi), conductor);
+    }
 #endif
+    return f;
+}
+
+// bsdf.h's sample_specular_bsdf at the rough lanes (`rough`), from the lobe's numbers rnl and rn.
+BsdfSample sample_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane_float3 wo, lane_float rnl,
+                               lane_float2 rn, lane_int rough) {
+    BsdfSample bs = bsdf_sample_none();
+#if DIELECTRIC
+    lane_float3 wi = l3_splat(0.0f);
+    lane_int dielectric = rough & g->dielectric, conductor = rough & !g->dielectric;
+    if (lane_any(dielectric)) wi = l3_select(wi, sample_dielectric(g->eta, g->mf, g->n, wo, rnl, rn), dielectric);
+    if (lane_any(conductor)) wi = l3_select(wi, sample_conductor(g->mf, g->n, wo, rn), conductor);
+    lane_float pdf_w;
+    lane_float3 f = eval_glossy_lanes(g, sp, wo, wi, &pdf_w);
+    lane_int valid = pdf_w > 0.0f;   // also rejects the zero vector: its cosines are 0
+    bs.wi = wi;
+    bs.pdf_w = select((lane_float)(0.0f), pdf_w, valid);
+    bs.weight = l3_select(l3_splat(0.0f), l3_div(f, pdf_w), valid);
+    bs.eta = select((lane_float)(1.0f), g->eta, l3_dot(wi, sp->ng) < 0.0f);
+#endif
+    return bs;
 }
 
 // Emission of the surfaces hit (front faces of emitting triangles and spheres), weighted against
@@ -77,30 +115,68 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
     return l3_select(l3_splat(0.0f), l3_scale(le, weight), emits);
 }
 
+// The lanes' light samples from p (lights.h, sample_light), from the 2D draw u: an emitter picked
+// (light_selection.py; its probability in *pmf) and the direction *wi to it, the distance *dist
+// (not > 0: no sample), the solid-angle density *pdf_w of that direction (1 for a point or
+// directional light, a delta), the radiance arriving; where *delta, a point or directional light.
+lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u, lane_float3* wi, lane_float* dist,
+                               lane_float* pdf_w, lane_float* pmf, lane_int* delta) {
+    lane_float u_on_emitter;
+    lane_int index = sample_discrete_cdf_reuse(scene->emitter_cdf, scene->params->config.w, u.x, &u_on_emitter);
+    *pmf = emitter_selection_pmf(scene, index);
+    lane_float2 u_emitter = make_lane_float2(u_on_emitter, u.y);
+    lane_int kind = LANE_LOAD_INT(scene->emitters, index, .kind.x);
+    lane_int triangle = kind == EMITTER_TRIANGLE, sphere = kind == EMITTER_SPHERE;
+    lane_int point = kind == EMITTER_POINT, directional = kind == EMITTER_DIRECTIONAL;
+    lane_float3 radiance = LANE_LOAD3(scene->emitters, index, .radiance);
+    *wi = l3_splat(0.0f);
+    *dist = 0.0f;
+    *pdf_w = 0.0f;
+    *delta = point | directional;
+    if (lane_any(triangle)) {
+        lane_float triangle_dist, triangle_pdf_w;
+        lane_float3 w = sample_triangle_emitter(scene, index, p, u_emitter, &triangle_dist, &triangle_pdf_w);
+        *wi = l3_select(*wi, w, triangle);
+        *dist = select(*dist, triangle_dist, triangle);
+        *pdf_w = select(*pdf_w, triangle_pdf_w, triangle);
+    }
+    if (lane_any(sphere)) {
+        lane_float sphere_pdf_w;
+        lane_float3 d = l3_sub(sample_sphere_emitter(scene->emitters, index, p, u_emitter, &sphere_pdf_w), p);
+        lane_float sphere_dist = l3_length(d);
+        *wi = l3_select(*wi, l3_div(d, sphere_dist), sphere);
+        *dist = select(*dist, sphere_dist, sphere);
+        *pdf_w = select(*pdf_w, sphere_pdf_w, sphere);
+    }
+    if (lane_any(point)) {   // lights.h, delta_light_sample
+        lane_float3 d = l3_sub(LANE_LOAD3(scene->emitters, index, .p0), p);
+        lane_float dist2 = l3_dot(d, d);
+        lane_float point_dist = sqrt(dist2);
+        point &= dist2 > 0.0f;
+        *wi = l3_select(*wi, l3_div(d, point_dist), point);
+        *dist = select(*dist, point_dist, point);
+        *pdf_w = select(*pdf_w, (lane_float)(1.0f), point);
+        radiance = l3_select(radiance, l3_div(radiance, dist2), point);
+    }
+    if (lane_any(directional)) {
+        *wi = l3_select(*wi, LANE_LOAD3(scene->emitters, index, .p0), directional);
+        *dist = select(*dist, (lane_float)(INFINITY), directional);
+        *pdf_w = select(*pdf_w, (lane_float)(1.0f), directional);
+    }
+    return radiance;
+}
+
 // Next-event estimation at the diffuse and rough vertices of `lanes` (path.h, direct_light), from
-// the 2D draw u: an emitter picked (light_selection.py), a point on it, a shadow ray.
+// the 2D draw u: a light sample, a shadow ray.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
                                const GlossyLanes* glossy, lane_float3 wo, lane_float2 u, lane_int lanes) {
-    int count = scene->params->config.w;
     lane_float3 radiance = l3_splat(0.0f);
-    if (count == 0 || !lane_any(lanes)) return radiance;
-    lane_float u_on_emitter;
-    lane_int index = sample_discrete_cdf_reuse(scene->emitter_cdf, count, u.x, &u_on_emitter);
-    lane_float2 u_emitter = make_lane_float2(u_on_emitter, u.y);
-    lane_int sphere = LANE_LOAD_INT(scene->emitters, index, .kind.x) == EMITTER_SPHERE;
-    lane_float dist = 0.0f, pdf_w = 0.0f;
-    lane_float3 wi = l3_splat(0.0f);
-    if (lane_any(!sphere)) wi = sample_triangle_emitter(scene, index, sp->p, u_emitter, &dist, &pdf_w);
-    if (lane_any(sphere)) {   // lights.h, sample_light
-        lane_float sphere_pdf_w;
-        lane_float3 d = l3_sub(sample_sphere_emitter(scene->emitters, index, sp->p, u_emitter, &sphere_pdf_w), sp->p);
-        lane_float sphere_dist = l3_length(d);
-        wi = l3_select(wi, l3_div(d, sphere_dist), sphere);
-        dist = select(dist, sphere_dist, sphere);
-        pdf_w = select(pdf_w, sphere_pdf_w, sphere);
-    }
-    lane_float light_pdf_w = emitter_selection_pmf(scene, index) * pdf_w;
-    lane_float3 le = LANE_LOAD3(scene->emitters, index, .radiance);
+    if (scene->params->config.w == 0 || !lane_any(lanes)) return radiance;
+    lane_float3 wi;
+    lane_float dist, pdf_w, pmf;
+    lane_int delta;
+    lane_float3 le = sample_light_lanes(scene, sp->p, u, &wi, &dist, &pdf_w, &pmf, &delta);
+    lane_float light_pdf_w = pmf * pdf_w;
     lane_float3 f = eval_diffuse(albedo, sp, wi);
     lane_float bsdf_pdf_w = sample_diffuse_pdf(sp, wi);
     if (lane_any(glossy->rough & lanes)) {
@@ -112,17 +188,17 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     if (!lane_any(lit)) return radiance;
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
     lit &= !any_hits(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit);
-    lane_float weight = power_heuristic(light_pdf_w, bsdf_pdf_w);
+    lane_float weight = select(power_heuristic(light_pdf_w, bsdf_pdf_w), (lane_float)(1.0f), delta);
     return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
 }
 
 // The scattering of the lanes' vertices: the diffuse lobe; where `smooth`, the smooth
 // dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl), or where also `conductor`
-// the conductor's mirror; where glossy->rough, the rough conductor's lobe (bsdf.h,
-// sample_specular_bsdf: eval / pdf, none where the normals disagree).
+// the conductor's mirror; where glossy->rough, the glossy lobe (sample_glossy_lanes, its lobe
+// chosen with u_glossy_lobe).
 BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
                              lane_int smooth, lane_int conductor, const GlossyLanes* glossy, lane_float u_lobe,
-                             lane_float2 u, lane_int lanes) {
+                             lane_float u_glossy_lobe, lane_float2 u, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
     bs.wi = sample_diffuse(sp, u);
     bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
@@ -131,13 +207,11 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
 #if DIELECTRIC
     lane_int rough = glossy->rough & lanes;
     if (lane_any(rough)) {
-        lane_float3 wi = sample_conductor(glossy->mf, glossy->n, wo, u);
-        lane_float pdf_w;
-        lane_float3 f = eval_glossy_lanes(glossy, sp, wo, wi, &pdf_w);
-        lane_int valid = pdf_w > 0.0f;   // also rejects the zero vector: its cosines are 0
-        bs.wi = l3_select(bs.wi, wi, rough);
-        bs.pdf_w = select(bs.pdf_w, select((lane_float)(0.0f), pdf_w, valid), rough);
-        bs.weight = l3_select(bs.weight, l3_select(l3_splat(0.0f), l3_div(f, pdf_w), valid), rough);
+        BsdfSample glossy_bs = sample_glossy_lanes(glossy, sp, wo, u_glossy_lobe, u, rough);
+        bs.wi = l3_select(bs.wi, glossy_bs.wi, rough);
+        bs.pdf_w = select(bs.pdf_w, glossy_bs.pdf_w, rough);
+        bs.weight = l3_select(bs.weight, glossy_bs.weight, rough);
+        bs.eta = select(bs.eta, glossy_bs.eta, rough);
     }
     smooth &= lanes;
     if (!lane_any(smooth)) return bs;
@@ -210,8 +284,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        // Smooth dielectrics and conductors: delta lobes; rough conductors: glossy ones
-        // (features.py gives packets no rough dielectrics).
+        // Smooth dielectrics and conductors: delta lobes; rough ones: glossy lobes.
         lane_int kind = material_kind_at(scene->materials, sp.material);
         lane_int conductor = kind == MATERIAL_CONDUCTOR;
         // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
@@ -219,8 +292,8 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
         lane_float3 color = l3_select(material_color_at(scene->materials, sp.material), l3_splat(0.0f), black_back);
         lane_float3 wo = l3_neg(ray.direction);
-        GlossyLanes glossy = glossy_lanes(scene, &sp, conductor, color, wo);
-        lane_int smooth = (kind == MATERIAL_DIELECTRIC) | (conductor & !glossy.rough);
+        GlossyLanes glossy = glossy_lanes(scene, &sp, kind, color, black_back, wo);
+        lane_int smooth = ((kind == MATERIAL_DIELECTRIC) | conductor) & !glossy.rough;
         aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !smooth);
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
@@ -231,16 +304,18 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         lane_float2 u_light = rng_float2(rng);
         if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
         lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth);
-        // A rough vertex then draws its lobe's number as a smooth one did (bsdf.h, sample_bsdf),
-        // which a conductor does not use; the other lanes give it back.
+        // A rough vertex then draws its lobe's number as a smooth one did (bsdf.h, sample_bsdf:
+        // a dielectric's reflection or refraction; a conductor does not use it); the other lanes
+        // give it back.
+        lane_float u_glossy_lobe = 0.0f;
         if (lane_any(glossy.rough)) {
-            rng_float(rng);
+            u_glossy_lobe = rng_float(rng);
             rng->counter -= select((lane_uint)(1u), (lane_uint)(0u), glossy.rough);
         }
         // Selected, not added everywhere: the throughput of a finished lane may be anything.
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
-        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, &glossy, u_light.x, rng_float2(rng),
-                                          alive);
+        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, &glossy, u_light.x, u_glossy_lobe,
+                                          rng_float2(rng), alive);
         alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
         prev_pdf_w = bs.pdf_w;

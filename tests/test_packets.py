@@ -30,7 +30,11 @@ def example(name, resolution=(40, 32), **render):
     rough = name.startswith("rough_mirror_")    # the blocks rough conductors, as Mitsuba's scenes have them:
     # gold (Beckmann, separable masking) and a tinted GGX one, one-sided, no energy compensation
     bulbs = name.startswith("bulbs_")           # two emitting spheres beside the ceiling's light
-    base = name.removeprefix("one_sided_").removeprefix("rough_mirror_").removeprefix("mirror_").removeprefix("bulbs_")
+    frosted = name.startswith("frosted_")       # the glass rough: Beckmann, separable, uncompensated
+    lit = name.startswith("lit_")               # a point light in the room, a directional one through its front
+    base = name
+    for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_"):
+        base = base.removeprefix(prefix)
     data = json.loads((SCENES / f"{base}.json").read_text())
     if one_sided:
         for material in data["materials"]:
@@ -51,6 +55,13 @@ def example(name, resolution=(40, 32), **render):
         for shape in data["shapes"]:
             if shape["name"] in ("short_block", "tall_block"):
                 shape["material"] = "gold" if shape["name"] == "tall_block" else "brass"
+    if frosted:
+        for material in data["materials"]:
+            if material["type"] == "dielectric":
+                material.update(roughness=0.15, distribution="beckmann", masking="separable", energy_compensation=False)
+    if lit:
+        data["lights"] = [{"type": "point", "position": [0.4, 1.5, 0.5], "intensity": [0.8, 0.7, 0.5]},
+                          {"type": "directional", "direction": [0.1, -0.4, -1.0], "irradiance": [0.6, 0.7, 0.9]}]
     if bulbs:
         data["materials"] += [{"name": "bulb", "type": "emissive", "radiance": [8.0, 6.0, 3.0]},
                               {"name": "sky", "type": "emissive", "radiance": [0.2, 0.25, 0.3]}]
@@ -86,12 +97,15 @@ def both(scene, device, spp=8, **settings):
 
 
 @pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box",
-                                  "mirror_cornell_box", "rough_mirror_cornell_box", "bulbs_cornell_box"])
+                                  "mirror_cornell_box", "rough_mirror_cornell_box", "bulbs_cornell_box",
+                                  "frosted_cornell_glass", "frosted_tir_prism", "lit_cornell_glass"])
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
     # analytic glass sphere; copper and tinted mirror blocks; rough gold and brass blocks; two
-    # emitting spheres, one flipped around the scene (sampled by area, from inside). The
+    # emitting spheres, one flipped around the scene (sampled by area, from inside); the sphere
+    # and the prism of frosted glass (rough: reflection and refraction, from both sides); a point
+    # and a directional light beside the emitting triangle. The
     # independent sampler checks that a smooth lane gives back the number its lobe choice does not
     # take, and that a rough lane draws the lobe number it does not use (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
@@ -166,6 +180,8 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     assert lanes(example("mirror_cornell_box")) == 8
     assert lanes(example("rough_mirror_cornell_box")) == 8
     assert lanes(example("bulbs_cornell_box")) == 8
+    assert lanes(example("frosted_cornell_glass")) == 8
+    assert lanes(example("lit_cornell_glass")) == 8
     assert scene_features(example("cornell_box"), packets=False)["LANES"] == 1
     assert lanes(example("cornell_box"), sample_aovs=True) == 8
     for name in ("rough_glass", "smoke_cornell_box", "toon_cornell_box", "cloud_low_sun", "fog_beam"):
@@ -176,11 +192,11 @@ def test_packets_are_used_only_where_they_cover_the_scene():
         change(data)
         return clrender.load_scene_dict(data, base_dir=SCENES)
 
-    def point_light(data):
-        data["lights"] = [{"type": "point", "position": [0, 1, 0], "intensity": 1}]
+    def spot_light(data):
+        data["lights"] = [{"type": "spot", "position": [0, 1.5, 0], "direction": [0, -1, 0], "intensity": 1}]
 
     def rough_conductor(data):   # energy compensation (the default): its tables are not in the packets
         data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
 
-    for change in (point_light, rough_conductor):
+    for change in (spot_light, rough_conductor):
         assert lanes(variant(change)) == 1, change.__name__

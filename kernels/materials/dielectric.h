@@ -12,8 +12,10 @@
 // that starts and ends in the same medium the factors cancel (a furnace is unaffected); they
 // matter when the camera or an emitter sits inside a medium. The path tracer keeps the product
 // of eta^2 aside so that Russian roulette does not kill paths for being inside glass.
+// The rough interface is written over the lane types (lanes.h), as the smooth one.
 #ifndef CLRENDER_DIELECTRIC_H
 #define CLRENDER_DIELECTRIC_H
+#include "lanes.h"
 #include "math.h"
 #include "materials/bsdf_sample.h"
 #include "materials/microfacet.h"
@@ -21,72 +23,95 @@
 #if DIELECTRIC
 
 // ----- rough interface: microfacets (materials/microfacet.h) -------------------------------------
+// Refraction's generalised half vector h ~ -(wo + eta wi) (Walter et al. 2007, eq. 16), turned to
+// n's side, with |wo + eta wi|^2 and the cosines of wo and wi to h: false where no microfacet
+// explains the pair (it must face wo and be crossed by wi).
+lane_int refraction_half_vector(lane_float eta, lane_float3 n, lane_float3 wo, lane_float3 wi, lane_float3* h,
+                                lane_float* len2, lane_float* cos_oh, lane_float* cos_ih) {
+    lane_float3 ht = l3_add(wo, l3_scale(wi, eta));
+    *len2 = l3_dot(ht, ht);
+    *h = l3_scale(ht, rsqrt(*len2));
+    *h = l3_select(*h, l3_neg(*h), l3_dot(n, *h) < 0.0f);
+    *cos_oh = l3_dot(wo, *h);
+    *cos_ih = l3_dot(wi, *h);
+    return (*len2 > 0.0f) & (*cos_oh > 0.0f) & (*cos_ih < 0.0f);
+}
+
 // f * |cos_i| (Walter et al. 2007, eqs. 20-21); reflection is tinted by reflect_tint (Mitsuba's
-// specular_reflectance), transmission by tint (specular_transmittance). Transmission uses the
-// generalised half vector h ~ -(wo + eta wi) (eq. 16); the microfacet must face wo and be
-// crossed by wi, otherwise that configuration has no microfacet explaining it. Since
+// specular_reflectance), transmission by tint (specular_transmittance). Since
 // wo.h + eta wi.h = |wo + eta wi|, the squared denominator of eq. 21 is |wo + eta wi|^2 / eta^2,
 // which never vanishes, and its eta^2 cancels the 1/eta^2 of radiance transport.
-float3 eval_dielectric(float3 reflect_tint, float3 tint, float eta, Microfacet mf, float3 n, float3 wo,
-                       float3 wi) {
-    float cos_o = dot(n, wo), cos_i = dot(n, wi);
-    if (cos_o <= 0.0f || cos_i == 0.0f) return (float3)(0.0f);
-    if (cos_i > 0.0f) {
-        float3 h = normalize(wo + wi);  // |wo + wi| > 0: both lie above the surface
-        float f = fresnel_dielectric(dot(wo, h), eta);
-        return reflect_tint * (f * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+lane_float3 eval_dielectric(lane_float3 reflect_tint, lane_float3 tint, lane_float eta, Microfacet mf, lane_float3 n,
+                            lane_float3 wo, lane_float3 wi) {
+    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
+    lane_int reflects = (cos_o > 0.0f) & (cos_i > 0.0f), transmits = (cos_o > 0.0f) & (cos_i < 0.0f);
+    lane_float3 value = l3_splat(0.0f);
+    if (lane_any(reflects)) {
+        lane_float3 h = l3_normalize(l3_add(wo, wi));  // |wo + wi| > 0: both lie above the surface
+        lane_float f = fresnel_dielectric(l3_dot(wo, h), eta);
+        value = l3_select(value, l3_scale(reflect_tint, f * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) /
+                                                        (4.0f * cos_o)), reflects);
     }
-    float3 ht = wo + eta * wi;
-    float len2 = dot(ht, ht);
-    if (!(len2 > 0.0f)) return (float3)(0.0f);
-    float3 h = ht * rsqrt(len2);
-    if (dot(n, h) < 0.0f) h = -h;
-    float cos_oh = dot(wo, h), cos_ih = dot(wi, h);
-    if (cos_oh <= 0.0f || cos_ih >= 0.0f) return (float3)(0.0f);
-    float f = fresnel_dielectric(cos_oh, eta);
-    float value = (1.0f - f) * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) * cos_oh * -cos_ih /
-                  (cos_o * len2);
-    return tint * value;
+    if (lane_any(transmits)) {
+        lane_float3 h;
+        lane_float len2, cos_oh, cos_ih;
+        transmits &= refraction_half_vector(eta, n, wo, wi, &h, &len2, &cos_oh, &cos_ih);
+        lane_float f = fresnel_dielectric(cos_oh, eta);
+        lane_float t = (1.0f - f) * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) * cos_oh * -cos_ih /
+                       (cos_o * len2);
+        value = l3_select(value, l3_scale(tint, t), transmits);
+    }
+    return value;
 }
 
 // Density of sample_dielectric: the visible-normal density, times the probability of the lobe
 // chosen at that normal (F or 1 - F), times the Jacobian from h to wi (1 / (4 wo.h) for
 // reflection; eta^2 |wi.h| / |wo + eta wi|^2 for refraction, Walter et al. eq. 17).
-float sample_dielectric_pdf(float eta, Microfacet mf, float3 n, float3 wo, float3 wi) {
-    float cos_o = dot(n, wo), cos_i = dot(n, wi);
-    if (cos_o <= 0.0f || cos_i == 0.0f) return 0.0f;
-    if (cos_i > 0.0f) {
-        float3 h = normalize(wo + wi);
-        float cos_oh = dot(wo, h);
-        float f = fresnel_dielectric(cos_oh, eta);
-        return cos_oh > 0.0f ? f * sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh) : 0.0f;
+lane_float sample_dielectric_pdf(lane_float eta, Microfacet mf, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
+    lane_int reflects = (cos_o > 0.0f) & (cos_i > 0.0f), transmits = (cos_o > 0.0f) & (cos_i < 0.0f);
+    lane_float pdf_w = 0.0f;
+    if (lane_any(reflects)) {
+        lane_float3 h = l3_normalize(l3_add(wo, wi));
+        lane_float cos_oh = l3_dot(wo, h);
+        lane_float f = fresnel_dielectric(cos_oh, eta);
+        pdf_w = select(pdf_w, f * sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh),
+                       reflects & (cos_oh > 0.0f));
     }
-    float3 ht = wo + eta * wi;
-    float len2 = dot(ht, ht);
-    if (!(len2 > 0.0f)) return 0.0f;
-    float3 h = ht * rsqrt(len2);
-    if (dot(n, h) < 0.0f) h = -h;
-    float cos_oh = dot(wo, h), cos_ih = dot(wi, h);
-    if (cos_oh <= 0.0f || cos_ih >= 0.0f) return 0.0f;
-    float f = fresnel_dielectric(cos_oh, eta);
-    return (1.0f - f) * sample_microfacet_visible_pdf(mf, n, wo, h) * eta * eta * -cos_ih / len2;
+    if (lane_any(transmits)) {
+        lane_float3 h;
+        lane_float len2, cos_oh, cos_ih;
+        transmits &= refraction_half_vector(eta, n, wo, wi, &h, &len2, &cos_oh, &cos_ih);
+        lane_float f = fresnel_dielectric(cos_oh, eta);
+        pdf_w = select(pdf_w, (1.0f - f) * sample_microfacet_visible_pdf(mf, n, wo, h) * eta * eta * -cos_ih / len2,
+                       transmits);
+    }
+    return pdf_w;
 }
 
 // A visible microfacet normal, then reflection or refraction about it chosen by its Fresnel
-// term. A direction that ends on the wrong side of the macro surface (reflected below it or
-// refracted above it) is rejected rather than kept: otherwise two mechanisms could produce the
-// same wi and sample_dielectric_pdf, which counts one, would understate the density.
+// term (rnl). A direction that ends on the wrong side of the macro surface (reflected below it
+// or refracted above it) is rejected rather than kept: otherwise two mechanisms could produce
+// the same wi and sample_dielectric_pdf, which counts one, would understate the density.
 // Returns the zero vector for no sample.
-float3 sample_dielectric(float eta, Microfacet mf, float3 n, float3 wo, float rnl, float2 rn) {
-    float3 h = sample_microfacet_visible(mf, n, wo, rn);
-    float cos_oh = dot(wo, h);
-    if (cos_oh <= 0.0f) return (float3)(0.0f);
-    float3 wi;
-    if (rnl < fresnel_dielectric(cos_oh, eta)) {
-        wi = reflect(wo, h);
-        return dot(n, wi) > 0.0f ? wi : (float3)(0.0f);
+lane_float3 sample_dielectric(lane_float eta, Microfacet mf, lane_float3 n, lane_float3 wo, lane_float rnl,
+                              lane_float2 rn) {
+    lane_float3 h = sample_microfacet_visible(mf, n, wo, rn);
+    lane_float cos_oh = l3_dot(wo, h);
+    lane_int visible = cos_oh > 0.0f;
+    lane_float3 wi = l3_splat(0.0f);
+    if (!lane_any(visible)) return wi;
+    lane_int reflects = visible & (rnl < fresnel_dielectric(cos_oh, eta));
+    lane_int refracts = visible & !reflects;
+    if (lane_any(reflects)) {
+        lane_float3 r = reflect(wo, h);
+        wi = l3_select(wi, r, reflects & (l3_dot(n, r) > 0.0f));
     }
-    if (!refract(wo, h, eta, &wi) || dot(n, wi) >= 0.0f) return (float3)(0.0f);
+    if (lane_any(refracts)) {
+        lane_float3 t = l3_splat(0.0f);
+        refracts &= refract(wo, h, eta, &t);
+        wi = l3_select(wi, t, refracts & (l3_dot(n, t) < 0.0f));
+    }
     return wi;
 }
 
