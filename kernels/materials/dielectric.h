@@ -56,10 +56,12 @@ lane_float3 eval_dielectric(lane_float3 reflect_tint, lane_float3 tint, lane_flo
         lane_float3 h;
         lane_float len2, cos_oh, cos_ih;
         transmits &= refraction_half_vector(eta, n, wo, wi, &h, &len2, &cos_oh, &cos_ih);
-        lane_float f = fresnel_dielectric(cos_oh, eta);
-        lane_float t = (1.0f - f) * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) * cos_oh * -cos_ih /
-                       (cos_o * len2);
-        value = l3_select(value, l3_scale(tint, t), transmits);
+        if (lane_any(transmits)) {
+            lane_float f = fresnel_dielectric(cos_oh, eta);
+            lane_float t = (1.0f - f) * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) * cos_oh * -cos_ih /
+                           (cos_o * len2);
+            value = l3_select(value, l3_scale(tint, t), transmits);
+        }
     }
     return value;
 }
@@ -82,9 +84,11 @@ lane_float sample_dielectric_pdf(lane_float eta, Microfacet mf, lane_float3 n, l
         lane_float3 h;
         lane_float len2, cos_oh, cos_ih;
         transmits &= refraction_half_vector(eta, n, wo, wi, &h, &len2, &cos_oh, &cos_ih);
-        lane_float f = fresnel_dielectric(cos_oh, eta);
-        pdf_w = select(pdf_w, (1.0f - f) * sample_microfacet_visible_pdf(mf, n, wo, h) * eta * eta * -cos_ih / len2,
-                       transmits);
+        if (lane_any(transmits)) {
+            lane_float f = fresnel_dielectric(cos_oh, eta);
+            pdf_w = select(pdf_w, (1.0f - f) * sample_microfacet_visible_pdf(mf, n, wo, h) * eta * eta * -cos_ih / len2,
+                           transmits);
+        }
     }
     return pdf_w;
 }
