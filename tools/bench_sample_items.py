@@ -4,10 +4,11 @@ alternating in one process (median of the rounds' ratios), and whether the image
 bits.
 
     python tools/bench_sample_items.py [SCENE.json ...] [--real-scenes ../shared/real-scenes]
-        [--size 128] [--spp 64] [--runs 5] [--device gpu]
+        [--size 128] [--spp 64] [--runs 5] [--device gpu] [--launches]
 
 Real scenes are sized as tools/peers.py sizes them (the longer side --size, the 48 x 48 test
-scenes at their own size); JSON scenes at their own resolution.
+scenes at their own size); JSON scenes at their own resolution. --launches also prints, per scene
+and mode, the samples and seconds of each launch of one more render.
 """
 import argparse
 import sys
@@ -46,6 +47,7 @@ def main():
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--device", default=None)
+    parser.add_argument("--launches", action="store_true", help="the launches of one more render, one by one")
     args = parser.parse_args()
     configs = {"per pixel": False, "sample items": True}
     header = ["scene (size)"] + [f"{name} s" for name in configs] + [f"speed-up {name}" for name in configs
@@ -64,6 +66,21 @@ def main():
         cells = [f"{name} ({width}x{height})"] + [f"{median(seconds[c]):.4g}" for c in configs]
         cells += [f"{median(round_ratios(seconds['per pixel'], seconds[c])):.2f}" for c in configs if c != "per pixel"]
         print("| " + " | ".join(cells + ["yes" if same else "no"]) + " |", flush=True)
+        if args.launches:
+            for config, renderer in renderers.items():
+                print(f"  {name}, {config}: launches (samples per pixel, seconds) "
+                      f"{launches(renderer, args.spp)}", flush=True)
+
+
+def launches(renderer, spp):
+    """(samples per pixel, kernel seconds) of each launch of one render of `spp` samples."""
+    done = []
+    renderer.render(spp=spp, seed=1, progress=lambda samples, _end, seconds: done.append((samples, seconds)))
+    steps, previous = [], (0, 0.0)
+    for samples, seconds in done:
+        steps.append((round(samples - previous[0], 3), round(seconds - previous[1], 5)))
+        previous = (samples, seconds)
+    return steps
 
 
 if __name__ == "__main__":
