@@ -2,7 +2,8 @@
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
 // diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation),
-// triangle and sphere emitters, point and directional lights, no media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// triangle and sphere emitters, point and directional lights, no media, environment or toon. A
+// lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
 #ifndef CLRENDER_PATH_PACKETS_H
@@ -54,7 +55,8 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int ki
     g.k = material_conductor_k_at(scene->materials, sp->material);
     lane_float ior = material_ior_at(scene->materials, sp->material);
     lane_float exterior = material_exterior_ior_at(scene->materials, sp->material);
-    g.eta = select(1.0f, select(exterior / ior, ior / exterior, sp->front_face), g.dielectric);  // bsdf.h, material_eta
+    g.eta = select((lane_float)(1.0f), select(exterior / ior, ior / exterior, sp->front_face),  // bsdf.h, material_eta
+                   g.dielectric);
     g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
 #endif
     return g;
