@@ -3,6 +3,8 @@
 // records of the pass's samples (params->frame.w of them) of the traced pixels (params->tile)
 // within the filter's reach to their sums: xyz sum of w L, w sum of w. Each pixel adds its
 // neighbours' records in the same order (sample, then row, then column) whatever LANES is.
+// sum_samples, below, serves sample items (integrator.cl): a pixel's own records into its
+// accumulator.
 #include "portability.h"
 #include "lanes.h"
 #include "types.h"
