@@ -35,10 +35,10 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     a rough mirror). The
     spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
-    lights and materials (features.packets_cover): their scene keeps only the rectangle light,
-    and DIELECTRIC adds the smooth glass, the copper mirror and two rough mirrors without energy
-    compensation (Beckmann with separable masking, as Mitsuba's scenes have them, and GGX); it
-    needs its features when the renderer asks for packets."""
+    materials (features.packets_cover): with DIELECTRIC their scene has the smooth glass, the
+    copper mirror and two rough mirrors without energy compensation (Beckmann with separable
+    masking, as Mitsuba's scenes have them, and GGX); it needs its features when the renderer
+    asks for packets."""
     materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
                  {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
     shapes = [{"name": "floor", "type": "rectangle", "material": "white",
@@ -59,10 +59,7 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
                        "radius": radius, **tessellation, **extra})
 
     packets = features.get("LANES", 1) > 1
-    if packets:
-        lights = []
-    else:
-        sphere("bulb", "lamp", [1.3, 0.9, -0.9], 0.15)
+    sphere("bulb", "lamp", [1.3, 0.9, -0.9], 0.15)
     if features["ENVIRONMENT"] != ENVIRONMENT_MODES["none"]:
         lights.append({"type": "environment", "radiance": [0.3, 0.4, 0.5]})
     if features["DIELECTRIC"] and packets:

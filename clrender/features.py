@@ -42,7 +42,7 @@ FEATURE_VALUES = {
 PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
 
 # The lights (besides emitting shapes) that the packet integrator samples.
-PACKET_LIGHTS = ("point", "directional")
+PACKET_LIGHTS = ("point", "spot", "directional")
 
 SPECULAR_MATERIALS = ("dielectric", "conductor", "thin_dielectric", "plastic", "principled")
 
@@ -97,8 +97,8 @@ def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
     features, every material some shape uses diffuse (emissive included), dielectric reflecting
     untinted or conductor (rough ones without energy compensation), emitting triangles and
-    spheres, point and directional lights (no spot or environment lights), path tracing (not the
-    direct integrator) and emitters visible to the camera."""
+    spheres, point, spot and directional lights (no environment), path tracing (not the direct
+    integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     if scene.render.integrator != "path" or scene.render.hide_emitters:

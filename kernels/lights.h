@@ -12,6 +12,7 @@
 #include "sphere.h"
 #include "triangle_lights.h"
 #include "area_lights.h"
+#include "delta_lights.h"
 #include "textures/texture.h"
 
 typedef struct {
@@ -216,35 +217,11 @@ float3 area_emitter_radiance(const Scene* scene, __global const Emitter* e, floa
 }
 
 // ----- point, spot and directional lights ----------------------------------------------------
-// Mitsuba's spot falloff along the unit direction d from the light: 1 within the beam width,
-// then linear in the angle down to 0 at the cutoff angle, and 0 beyond (both tests on cosines,
-// as Mitsuba makes them).
-float spot_falloff(__global const Emitter* e, float3 d) {
-    float cos_theta = dot(d, e->e1.xyz);
-    if (!(cos_theta > e->e1.w)) return 0.0f;
-    if (cos_theta >= e->e2.x) return 1.0f;
-    return (e->e2.y - acos(cos_theta)) * e->e2.z;
-}
-
-// The light arriving at p from a point, spot or directional emitter, with pdf_w = pmf (the
-// probability of having chosen it). Returns false for other kinds or a point or spot light at p.
+// The light arriving at p from a point, spot or directional emitter (delta_lights.h), with pdf_w =
+// pmf (the probability of having chosen it). Returns false for other kinds or a point or spot
+// light at p.
 bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSample* ls) {
-    int kind = e->kind.x;
-    if (kind == EMITTER_POINT || kind == EMITTER_SPOT) {
-        float3 d = e->p0.xyz - p;
-        float dist2 = dot(d, d);
-        if (!(dist2 > 0.0f)) return false;
-        ls->dist = sqrt(dist2);
-        ls->wi = d / ls->dist;
-        ls->radiance = e->radiance.xyz / dist2;
-        if (kind == EMITTER_SPOT) ls->radiance *= spot_falloff(e, -ls->wi);
-    } else if (kind == EMITTER_DIRECTIONAL) {
-        ls->wi = e->p0.xyz;
-        ls->dist = INFINITY;
-        ls->radiance = e->radiance.xyz;
-    } else {
-        return false;
-    }
+    if (!delta_light_arriving(e, 0, p, &ls->wi, &ls->dist, &ls->radiance)) return false;
     ls->pdf_w = pmf;
     ls->delta = true;
     return true;

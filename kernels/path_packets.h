@@ -2,7 +2,7 @@
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
 // diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation),
-// triangle and sphere emitters, point and directional lights, no media, environment or toon. A
+// triangle and sphere emitters, point, spot and directional lights, no media, environment or toon. A
 // lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
@@ -16,6 +16,7 @@
 #include "scene.h"
 #include "triangle_lights.h"
 #include "area_lights.h"
+#include "delta_lights.h"
 #include "materials/material.h"
 #include "materials/diffuse.h"
 #include "materials/dielectric_smooth.h"
@@ -119,8 +120,8 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
 
 // The lanes' light samples from p (lights.h, sample_light), from the 2D draw u: an emitter picked
 // (light_selection.py; its probability in *pmf) and the direction *wi to it, the distance *dist
-// (not > 0: no sample), the solid-angle density *pdf_w of that direction (1 for a point or
-// directional light, a delta), the radiance arriving; where *delta, a point or directional light.
+// (not > 0: no sample), the solid-angle density *pdf_w of that direction (1 for a point, spot or
+// directional light, a delta), the radiance arriving; where *delta, such a light (delta_lights.h).
 lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u, lane_float3* wi, lane_float* dist,
                                lane_float* pdf_w, lane_float* pmf, lane_int* delta) {
     lane_float u_on_emitter;
@@ -129,12 +130,11 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
     lane_float2 u_emitter = make_lane_float2(u_on_emitter, u.y);
     lane_int kind = LANE_LOAD_INT(scene->emitters, index, .kind.x);
     lane_int triangle = kind == EMITTER_TRIANGLE, sphere = kind == EMITTER_SPHERE;
-    lane_int point = kind == EMITTER_POINT, directional = kind == EMITTER_DIRECTIONAL;
     lane_float3 radiance = LANE_LOAD3(scene->emitters, index, .radiance);
     *wi = l3_splat(0.0f);
     *dist = 0.0f;
     *pdf_w = 0.0f;
-    *delta = point | directional;
+    *delta = (kind == EMITTER_POINT) | (kind == EMITTER_SPOT) | (kind == EMITTER_DIRECTIONAL);
     if (lane_any(triangle)) {
         lane_float triangle_dist, triangle_pdf_w;
         lane_float3 w = sample_triangle_emitter(scene, index, p, u_emitter, &triangle_dist, &triangle_pdf_w);
@@ -150,20 +150,14 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
         *dist = select(*dist, sphere_dist, sphere);
         *pdf_w = select(*pdf_w, sphere_pdf_w, sphere);
     }
-    if (lane_any(point)) {   // lights.h, delta_light_sample
-        lane_float3 d = l3_sub(LANE_LOAD3(scene->emitters, index, .p0), p);
-        lane_float dist2 = l3_dot(d, d);
-        lane_float point_dist = sqrt(dist2);
-        point &= dist2 > 0.0f;
-        *wi = l3_select(*wi, l3_div(d, point_dist), point);
-        *dist = select(*dist, point_dist, point);
-        *pdf_w = select(*pdf_w, (lane_float)(1.0f), point);
-        radiance = l3_select(radiance, l3_div(radiance, dist2), point);
-    }
-    if (lane_any(directional)) {
-        *wi = l3_select(*wi, LANE_LOAD3(scene->emitters, index, .p0), directional);
-        *dist = select(*dist, (lane_float)(INFINITY), directional);
-        *pdf_w = select(*pdf_w, (lane_float)(1.0f), directional);
+    if (lane_any(*delta)) {
+        lane_float3 delta_wi, delta_radiance;
+        lane_float delta_dist;
+        lane_int arrives = delta_light_arriving(scene->emitters, index, p, &delta_wi, &delta_dist, &delta_radiance);
+        *wi = l3_select(*wi, delta_wi, arrives);
+        *dist = select(*dist, delta_dist, arrives);
+        *pdf_w = select(*pdf_w, (lane_float)(1.0f), arrives);
+        radiance = l3_select(radiance, delta_radiance, *delta);
     }
     return radiance;
 }

@@ -31,7 +31,7 @@ def example(name, resolution=(40, 32), **render):
     # gold (Beckmann, separable masking) and a tinted GGX one, one-sided, no energy compensation
     bulbs = name.startswith("bulbs_")           # two emitting spheres beside the ceiling's light
     frosted = name.startswith("frosted_")       # the glass rough: Beckmann, separable, uncompensated
-    lit = name.startswith("lit_")               # a point light in the room, a directional one through its front
+    lit = name.startswith("lit_")               # point and spot lights in the room, a directional one
     base = name
     for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_"):
         base = base.removeprefix(prefix)
@@ -61,6 +61,9 @@ def example(name, resolution=(40, 32), **render):
                 material.update(roughness=0.15, distribution="beckmann", masking="separable", energy_compensation=False)
     if lit:
         data["lights"] = [{"type": "point", "position": [0.4, 1.5, 0.5], "intensity": [0.8, 0.7, 0.5]},
+                          # its beam's edge (the falloff's transition) crosses the floor in view
+                          {"type": "spot", "position": [-0.3, 1.8, 0.2], "direction": [0.2, -1.0, 0.1],
+                           "intensity": 3.0, "cutoff_angle": 35, "beam_width": 20},
                           {"type": "directional", "direction": [0.1, -0.4, -1.0], "irradiance": [0.6, 0.7, 0.9]}]
     if bulbs:
         data["materials"] += [{"name": "bulb", "type": "emissive", "radiance": [8.0, 6.0, 3.0]},
@@ -104,8 +107,8 @@ def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
     # analytic glass sphere; copper and tinted mirror blocks; rough gold and brass blocks; two
     # emitting spheres, one flipped around the scene (sampled by area, from inside); the sphere
-    # and the prism of frosted glass (rough: reflection and refraction, from both sides); a point
-    # and a directional light beside the emitting triangle. The
+    # and the prism of frosted glass (rough: reflection and refraction, from both sides); a point,
+    # a spot and a directional light beside the emitting triangle. The
     # independent sampler checks that a smooth lane gives back the number its lobe choice does not
     # take, and that a rough lane draws the lobe number it does not use (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
@@ -192,11 +195,11 @@ def test_packets_are_used_only_where_they_cover_the_scene():
         change(data)
         return clrender.load_scene_dict(data, base_dir=SCENES)
 
-    def spot_light(data):
-        data["lights"] = [{"type": "spot", "position": [0, 1.5, 0], "direction": [0, -1, 0], "intensity": 1}]
+    def environment(data):
+        data["lights"] = [{"type": "environment", "radiance": [0.2, 0.3, 0.4]}]
 
     def rough_conductor(data):   # energy compensation (the default): its tables are not in the packets
         data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
 
-    for change in (spot_light, rough_conductor):
+    for change in (environment, rough_conductor):
         assert lanes(variant(change)) == 1, change.__name__
