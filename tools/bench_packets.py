@@ -12,8 +12,6 @@ import argparse
 import glob
 import os
 import sys
-import warnings
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -44,12 +42,7 @@ def default_scenes():
 def scenes(args):
     """name -> Scene or scene file of the scenes asked for."""
     found = {Path(path).parent.name or path: path for path in args.scenes}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for xml in real_scenes.scene_files(args.real_scenes) if args.real_scenes else []:
-            scene = clrender.load_scene(xml, real_scenes.parameters(xml))
-            size = real_scenes.film_size(scene.camera.resolution, args.size)
-            found[real_scenes.scene_name(xml)] = replace(scene, camera=replace(scene.camera, resolution=size))
+    found.update(real_scenes.sized_scenes(args.real_scenes, args.size) if args.real_scenes else {})
     return found or {Path(path).parent.name or path: path for path in default_scenes()}
 
 

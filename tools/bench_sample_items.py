@@ -12,8 +12,6 @@ and mode, the samples and seconds of each launch of one more render.
 """
 import argparse
 import sys
-import warnings
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -27,15 +25,8 @@ from clrender.bench import interleaved, median, round_ratios, timed  # noqa: E40
 
 def scenes(args):
     """name -> Scene of the scenes asked for."""
-    found = {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for xml in real_scenes.scene_files(args.real_scenes) if args.real_scenes else []:
-            scene = clrender.load_scene(xml, real_scenes.parameters(xml))
-            size = real_scenes.film_size(scene.camera.resolution, args.size)
-            found[real_scenes.scene_name(xml)] = replace(scene, camera=replace(scene.camera, resolution=size))
-        for path in args.scenes:
-            found[Path(path).stem] = clrender.load_scene(path)
+    found = real_scenes.sized_scenes(args.real_scenes, args.size) if args.real_scenes else {}
+    found.update({Path(path).stem: clrender.load_scene(path) for path in args.scenes})
     return found
 
 

@@ -64,6 +64,25 @@ def film_size(resolution, longest):
     return tuple(max(8, 8 * round(side * scale / 8)) for side in (width, height))
 
 
+def sized_scenes(paths, longest):
+    """name -> clrender Scene of each real scene in `paths` (scene_files), loaded from its XML as
+    shipped (with `parameters`), its film's longer side `longest` (film_size): the scenes as
+    tools/peers.py renders them, for benchmarks that run clrender alone in one process."""
+    import warnings
+    from dataclasses import replace
+
+    import clrender
+
+    scenes = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for xml in scene_files(paths):
+            scene = clrender.load_scene(xml, parameters(xml))
+            size = film_size(scene.camera.resolution, longest)
+            scenes[scene_name(xml)] = replace(scene, camera=replace(scene.camera, resolution=size))
+    return scenes
+
+
 def mirror(xml, folder, size, sampler, rfilter=None):
     """The scene file `xml` mirrored into `folder` (see the module's docstring) with its film
     `size` (width, height) and every sampler of type `sampler`; with `rfilter` (a filter type), every
