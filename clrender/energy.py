@@ -1,7 +1,8 @@
 """Energy-compensation tables of rough specular materials (kernels/materials/energy.h).
 
 Each table is the directional albedo E(mu_o) of a material's single-scattering lobe, computed on
-the device by the kernel code that renders it, so host and kernel cannot disagree. Tables depend
+the device by the kernel code that renders it (kernels/tables.cl: the scalar microfacet code of
+every render program, packets included), so host and kernel cannot disagree. Tables depend
 only on the lobe (kind, indices, the microfacet model) and are cached for the session, and on
 disk per program build (disk_cache.py).
 """
@@ -9,7 +10,8 @@ import numpy as np
 import pyopencl as cl
 
 from . import disk_cache, layout, plastic
-from .device import program_key
+from .device import build_program, program_key
+from .features import TABLE_FEATURES
 
 _cache = {}  # (device, *TABLE_FIELDS) -> float32 (sides, ALBEDO_TABLE_SIZE)
 
@@ -36,9 +38,13 @@ def _sides(material):
     return 2 if _field(material, "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
 
 
-def fill_albedo_tables(queue, program, arrays):
+def fill_albedo_tables(queue, arrays):
     """Fill arrays.specular_albedo for the materials in arrays.table_materials (plastic's coat
-    tables: clrender/plastic.py)."""
+    tables: clrender/plastic.py), with the tables' program (built only for a scene that has
+    some)."""
+    if not arrays.table_materials:
+        return
+    program = build_program(queue.context, TABLE_FEATURES, entry="tables.cl")
     materials = arrays.materials
     is_plastic = lambda index: _field(materials[index], "kind") == layout.MATERIAL_KINDS["plastic"]  # noqa: E731
     plastic.fill_coat_tables(queue, program, arrays, [i for i in arrays.table_materials if is_plastic(i)])

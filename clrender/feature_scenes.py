@@ -36,9 +36,10 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     spheres are analytic (they share BVH leaves with the triangles), or
     icospheres of level `subdivisions` (0..7) when it is given. Packets (LANES 8) cover fewer
     materials (features.packets_cover): with DIELECTRIC their scene has the smooth glass, the
-    copper mirror and two rough mirrors without energy compensation (Beckmann with separable
-    masking, as Mitsuba's scenes have them, and GGX); it needs its features when the renderer
-    asks for packets."""
+    copper mirror, two rough mirrors without energy compensation (Beckmann with separable
+    masking, as Mitsuba's scenes have them, and GGX) and the two plastics; with TEXTURES only
+    colours come from textures (the floor's, the box's and the plastics'); it needs its features
+    when the renderer asks for packets."""
     materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
                  {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
     shapes = [{"name": "floor", "type": "rectangle", "material": "white",
@@ -77,6 +78,11 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         sphere("rough_tint", "rough_tint", [-0.45, -0.75, 1.6], 0.25)
         shapes.append({"name": "prism", "type": "box", "material": "glass",
                        "transform": {"scale": 0.3, "rotate": [20, 40, 0], "translate": [-0.2, -0.6, 0.9]}})
+        materials += [{"name": "plastic", "type": "plastic", "diffuse": [0.8, 0.3, 0.2]},
+                      {"name": "rough_plastic", "type": "plastic", "alpha": 0.15, "distribution": "beckmann",
+                       "nonlinear": True, "diffuse": [0.2, 0.4, 0.7]}]
+        sphere("plastic", "plastic", [0.6, -0.8, 1.6], 0.2)
+        sphere("rough_plastic", "rough_plastic", [-0.9, -0.7, 1.2], 0.3)
     elif features["DIELECTRIC"]:
         materials += [{"name": "glass", "type": "dielectric", "ior": 1.5, "reflection_tint": [0.9, 0.95, 1.0]},
                       {"name": "rough_glass", "type": "dielectric", "ior": 1.33, "roughness": 0.4,
@@ -102,7 +108,9 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         sphere("plastic", "plastic", [0.2, -0.75, 1.4], 0.25)
         sphere("rough_plastic", "rough_plastic", [-0.9, -0.7, 1.2], 0.3)
     textures = []
-    if features["TEXTURES"]:
+    if features["TEXTURES"] and packets:
+        _add_colour_textures(textures, materials, shapes, features["DIELECTRIC"])
+    elif features["TEXTURES"]:
         _add_textures(textures, materials, shapes, sphere, features["DIELECTRIC"])
     if features["TOON"]:
         materials.append({"name": "toon", "type": "toon", "color": [0.9, 0.4, 0.2]})
@@ -134,6 +142,22 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
         scene.environment.rotation = meshes.transform_matrix(rotate=[25, 70, 0])[:3, :3]
     method = _METHODS[features["GRID_MEDIA"]] if features["GRID_MEDIA"] else None
     return scene, method
+
+
+def _add_colour_textures(textures, materials, shapes, dielectric):
+    """Textures on colours alone, as packets take them: the floor (a checkerboard) and the box
+    (an 8-bit sRGB bitmap, mirrored beyond [0, 1]); with `dielectric`, the plastics' diffuse
+    reflectance (the sRGB bitmap on the smooth plastic sphere, the checkerboard on the rough)."""
+    rng = np.random.default_rng(7)
+    textures += [{"name": "checks", "type": "checkerboard", "to_uv": [[4, 0, 0], [0, 4, 0.5]]},
+                 {"name": "painted", "type": "bitmap", "wrap": "mirror", "to_uv": [[3, 0, -1], [0, 2.5, -0.7]],
+                  "image": rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)}]
+    materials += [{"name": "checked", "type": "diffuse", "albedo": {"texture": "checks"}},
+                  {"name": "painted", "type": "diffuse", "albedo": {"texture": "painted"}}]
+    shapes[0]["material"], shapes[1]["material"] = "checked", "painted"
+    if dielectric:
+        next(m for m in materials if m["name"] == "plastic")["diffuse"] = {"texture": "painted"}
+        next(m for m in materials if m["name"] == "rough_plastic")["diffuse"] = {"texture": "checks"}
 
 
 def _add_textures(textures, materials, shapes, sphere, dielectric):

@@ -10,7 +10,7 @@ import itertools
 import numpy as np
 
 from .arrays import active_environment
-from .textures import scene_uses_textures
+from .textures import detail_beyond_textures, scene_uses_textures
 from .errors import ArgumentError
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 
@@ -38,11 +38,16 @@ FEATURE_VALUES = {
     "LANES": (1, 8),
 }
 
-# What the packet integrator (LANES 8) leaves out: every other feature.
-PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0, "TEXTURES": 0}
+# What the packet integrator (LANES 8) leaves out: every other feature. (Of TEXTURES it takes
+# colours alone: packets_cover.)
+PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0}
 
 # The lights (besides emitting shapes) that the packet integrator samples.
 PACKET_LIGHTS = ("point", "spot", "directional")
+
+# The defines of the tables' program (kernels/tables.cl, clrender/energy.py): the microfacet code
+# of every render program, at one path per work-item.
+TABLE_FEATURES = {**{name: values[0] for name, values in FEATURE_VALUES.items()}, "DIELECTRIC": 1}
 
 SPECULAR_MATERIALS = ("dielectric", "conductor", "thin_dielectric", "plastic", "principled")
 
@@ -96,16 +101,19 @@ def gather_features(packets):
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
     features, every material some shape uses diffuse (emissive included), dielectric reflecting
-    untinted or conductor (rough ones without energy compensation), emitting triangles and
-    spheres, point, spot and directional lights (no environment), path tracing (not the direct
-    integrator) and emitters visible to the camera."""
+    untinted, conductor (rough ones without energy compensation) or plastic, its colour
+    alone from a texture (no other textured parameter, mask, bump or normal map or back
+    material), emitting triangles and spheres, point, spot and directional lights (no
+    environment), path tracing (not the direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     if scene.render.integrator != "path" or scene.render.hide_emitters:
         return False
     for shape in scene.shapes:
         material = scene.materials[shape.material]
-        if material.type not in ("diffuse", "emissive", "dielectric", "conductor"):
+        if material.type not in ("diffuse", "emissive", "dielectric", "conductor", "plastic"):
+            return False
+        if set(material.textures) - {"color"} or detail_beyond_textures(material):
             return False
         if material.type in ("dielectric", "conductor") and not _is_smooth(material) and material.energy_compensation:
             return False

@@ -328,7 +328,7 @@ class Renderer:
         self.local_size = local_size
         self.pass_seconds = pass_seconds
         self.spectral_mis = spectral_mis
-        fill_albedo_tables(self.queue, program, self.arrays)
+        fill_albedo_tables(self.queue, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
         self._gather = splatting.Gather(self.context, scene.camera.filter, packets) if splatting.splats(scene) else None
         if sample_items is None:

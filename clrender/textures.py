@@ -263,6 +263,11 @@ def scene_uses_textures(scene):
 
 
 def has_surface_detail(material):
-    """Textured parameters, an opacity below 1, a bump or normal map, or a back material."""
-    return bool(material.textures or material.opacity < 1 or material.bump_map >= 0
-                or material.normal_map >= 0 or material.back >= 0 or principled.needs_tangents(material))
+    """Textured parameters, or detail_beyond_textures."""
+    return bool(material.textures) or detail_beyond_textures(material)
+
+
+def detail_beyond_textures(material):
+    """An opacity below 1, a bump or normal map, a back material, or tangent-dependent lobes."""
+    return bool(material.opacity < 1 or material.bump_map >= 0 or material.normal_map >= 0 or material.back >= 0
+                or principled.needs_tangents(material))

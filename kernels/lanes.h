@@ -46,6 +46,7 @@ typedef float3 lane_float3;
 #define l3_mul(a, b) ((a) * (b))
 #define l3_scale(a, s) ((a) * (s))
 #define l3_div(a, s) ((a) / (s))
+#define l3_div3(a, b) ((a) / (b))
 #define l3_madd(a, s, c) ((a) * (s) + (c))
 #define l3_neg(a) (-(a))
 #define l3_abs(a) fabs(a)
@@ -84,6 +85,7 @@ lane_float3 l3_sub(lane_float3 a, lane_float3 b) { return make_lane_float3(a.x -
 lane_float3 l3_mul(lane_float3 a, lane_float3 b) { return make_lane_float3(a.x * b.x, a.y * b.y, a.z * b.z); }
 lane_float3 l3_scale(lane_float3 a, float8 s) { return make_lane_float3(a.x * s, a.y * s, a.z * s); }
 lane_float3 l3_div(lane_float3 a, float8 s) { return make_lane_float3(a.x / s, a.y / s, a.z / s); }
+lane_float3 l3_div3(lane_float3 a, lane_float3 b) { return make_lane_float3(a.x / b.x, a.y / b.y, a.z / b.z); }
 lane_float3 l3_madd(lane_float3 a, float8 s, lane_float3 c) {
     return make_lane_float3(fma(a.x, s, c.x), fma(a.y, s, c.y), fma(a.z, s, c.z));
 }

@@ -1,9 +1,10 @@
 // Path tracing of LANES paths at once (lanes.h: 8 on CPUs), each lane a camera path: path.h's
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
-// diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation),
-// triangle and sphere emitters, point, spot and directional lights, no media, environment or toon. A
-// lane's path ends by clearing its bit of `alive`; the loop runs while any lane lives.
+// diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation), plastic,
+// colours from textures, triangle and sphere emitters, point, spot and directional lights, no
+// media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs
+// while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
 #ifndef CLRENDER_PATH_PACKETS_H
@@ -23,18 +24,22 @@
 #include "materials/conductor_smooth.h"
 #include "materials/conductor.h"
 #include "materials/dielectric.h"
+#include "materials/plastic.h"
+#include "materials/textured_params.h"
 
 // The lanes' glossy lobes (bsdf.h's rough dielectrics and conductors, without energy
-// compensation): where `rough`, a microfacet surface about the specular normal n (bsdf.h,
-// specular_normal); where also `dielectric` an interface of relative index eta, transmission
-// tinted by `tint` and reflection untinted (features.py), else a conductor of tint `tint` and
-// complex index eta_rgb + i k. One-sided backs are black: both tints 0.
+// compensation, and plastic), about the specular normal n (bsdf.h, specular_normal): where
+// `rough`, a microfacet surface; where also `dielectric` an interface of relative index eta,
+// transmission tinted by `tint` and reflection untinted (features.py), else a conductor of tint
+// `tint` and complex index eta_rgb + i k; where `plastic`, the plastic p (its base coloured by
+// `tint`). One-sided backs are black: both tints 0, and no plastic.
 typedef struct {
-    lane_int rough, dielectric;
+    lane_int rough, dielectric, plastic;
 #if DIELECTRIC
     lane_float3 tint, reflect_tint, eta_rgb, k, n;
     lane_float eta;
     Microfacet mf;
+    Plastic p;
 #endif
 } GlossyLanes;
 
@@ -43,9 +48,16 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int ki
     GlossyLanes g;
     g.rough = 0;
     g.dielectric = 0;
+    g.plastic = 0;
 #if DIELECTRIC
     lane_int specular = (kind == MATERIAL_CONDUCTOR) | (kind == MATERIAL_DIELECTRIC);
-    if (!lane_any(specular)) return g;
+    lane_int plastic = (kind == MATERIAL_PLASTIC) & !black_back;
+    if (!lane_any(specular | plastic)) return g;
+    g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
+    if (lane_any(plastic)) {
+        g.plastic = plastic;
+        g.p = plastic_lanes(scene, sp->material, plastic, tint);
+    }
     g.mf = material_microfacet_at(scene->materials, sp->material);
     g.rough = specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
     if (!lane_any(g.rough)) return g;
@@ -58,20 +70,24 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int ki
     lane_float exterior = material_exterior_ior_at(scene->materials, sp->material);
     g.eta = select((lane_float)(1.0f), select(exterior / ior, ior / exterior, sp->front_face),  // bsdf.h, material_eta
                    g.dielectric);
-    g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
 #endif
     return g;
 }
 
-// bsdf.h's eval_bsdf and sample_bsdf_pdf at the rough lanes: f * cos of direction wi and the
-// density of sampling it, 0 where the normals disagree.
+// bsdf.h's eval_bsdf and sample_bsdf_pdf at the rough and plastic lanes of `lanes`: f * cos of
+// direction wi and the density of sampling it, 0 where the normals disagree.
 lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane_float3 wo, lane_float3 wi,
-                              lane_float* pdf_w) {
+                              lane_float* pdf_w, lane_int lanes) {
     lane_float3 f = l3_splat(0.0f);
     *pdf_w = 0.0f;
 #if DIELECTRIC
-    lane_int agree = g->rough & sides_agree(l3_dot(wi, sp->ng), l3_dot(wi, g->n));
-    lane_int dielectric = agree & g->dielectric, conductor = agree & !g->dielectric;
+    lane_int agree = lanes & sides_agree(l3_dot(wi, sp->ng), l3_dot(wi, g->n));
+    lane_int dielectric = agree & g->rough & g->dielectric, conductor = agree & g->rough & !g->dielectric;
+    lane_int plastic = agree & g->plastic;
+    if (lane_any(plastic)) {
+        f = l3_select(f, eval_plastic(&g->p, g->n, wo, wi), plastic);
+        *pdf_w = select(*pdf_w, sample_plastic_pdf(&g->p, g->n, wo, wi), plastic);
+    }
     if (lane_any(dielectric)) {
         f = l3_select(f, eval_dielectric(g->reflect_tint, g->tint, g->eta, g->mf, g->n, wo, wi), dielectric);
         *pdf_w = select(*pdf_w, sample_dielectric_pdf(g->eta, g->mf, g->n, wo, wi), dielectric);
@@ -84,22 +100,35 @@ lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane
     return f;
 }
 
-// bsdf.h's sample_specular_bsdf at the rough lanes (`rough`), from the lobe's numbers rnl and rn.
+// bsdf.h's sample_specular_bsdf and sample_plastic_bsdf at the rough and plastic lanes of
+// `lanes`, from the lobe's numbers rnl and rn.
 BsdfSample sample_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane_float3 wo, lane_float rnl,
-                               lane_float2 rn, lane_int rough) {
+                               lane_float2 rn, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
 #if DIELECTRIC
-    lane_float3 wi = l3_splat(0.0f);
-    lane_int dielectric = rough & g->dielectric, conductor = rough & !g->dielectric;
-    if (lane_any(dielectric)) wi = l3_select(wi, sample_dielectric(g->eta, g->mf, g->n, wo, rnl, rn), dielectric);
-    if (lane_any(conductor)) wi = l3_select(wi, sample_conductor(g->mf, g->n, wo, rn), conductor);
-    lane_float pdf_w;
-    lane_float3 f = eval_glossy_lanes(g, sp, wo, wi, &pdf_w);
-    lane_int valid = pdf_w > 0.0f;   // also rejects the zero vector: its cosines are 0
-    bs.wi = wi;
-    bs.pdf_w = select((lane_float)(0.0f), pdf_w, valid);
-    bs.weight = l3_select(l3_splat(0.0f), l3_div(f, pdf_w), valid);
-    bs.eta = select((lane_float)(1.0f), g->eta, l3_dot(wi, sp->ng) < 0.0f);
+    lane_int rough = lanes & g->rough, plastic = lanes & g->plastic;
+    if (lane_any(rough)) {
+        lane_float3 wi = l3_splat(0.0f);
+        lane_int dielectric = rough & g->dielectric, conductor = rough & !g->dielectric;
+        if (lane_any(dielectric)) wi = l3_select(wi, sample_dielectric(g->eta, g->mf, g->n, wo, rnl, rn), dielectric);
+        if (lane_any(conductor)) wi = l3_select(wi, sample_conductor(g->mf, g->n, wo, rn), conductor);
+        lane_float pdf_w;
+        lane_float3 f = eval_glossy_lanes(g, sp, wo, wi, &pdf_w, rough);
+        lane_int valid = pdf_w > 0.0f;   // also rejects the zero vector: its cosines are 0
+        bs.wi = l3_select(bs.wi, wi, rough);
+        bs.pdf_w = select(bs.pdf_w, pdf_w, valid);
+        bs.weight = l3_select(bs.weight, l3_div(f, pdf_w), valid);
+        bs.eta = select(bs.eta, g->eta, rough & (l3_dot(wi, sp->ng) < 0.0f));
+    }
+    if (lane_any(plastic)) {
+        BsdfSample scattered = sample_plastic(&g->p, g->n, sp->ng, wo, rnl, rn);
+        // A scattered (not mirrored) direction counts where the normals agree.
+        plastic &= (scattered.delta != 0) | sides_agree(l3_dot(scattered.wi, sp->ng), l3_dot(scattered.wi, g->n));
+        bs.wi = l3_select(bs.wi, scattered.wi, plastic);
+        bs.pdf_w = select(bs.pdf_w, scattered.pdf_w, plastic);
+        bs.weight = l3_select(bs.weight, scattered.weight, plastic);
+        bs.delta = select(bs.delta, scattered.delta, plastic);
+    }
 #endif
     return bs;
 }
@@ -162,8 +191,8 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
     return radiance;
 }
 
-// Next-event estimation at the diffuse and rough vertices of `lanes` (path.h, direct_light), from
-// the 2D draw u: a light sample, a shadow ray.
+// Next-event estimation at the diffuse, rough and plastic vertices of `lanes` (path.h,
+// direct_light), from the 2D draw u: a light sample, a shadow ray.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
                                const GlossyLanes* glossy, lane_float3 wo, lane_float2 u, lane_int lanes) {
     lane_float3 radiance = l3_splat(0.0f);
@@ -175,10 +204,11 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     lane_float light_pdf_w = pmf * pdf_w;
     lane_float3 f = eval_diffuse(albedo, sp, wi);
     lane_float bsdf_pdf_w = sample_diffuse_pdf(sp, wi);
-    if (lane_any(glossy->rough & lanes)) {
+    lane_int glossy_lanes = (glossy->rough | glossy->plastic) & lanes;
+    if (lane_any(glossy_lanes)) {
         lane_float glossy_pdf_w;
-        f = l3_select(f, eval_glossy_lanes(glossy, sp, wo, wi, &glossy_pdf_w), glossy->rough);
-        bsdf_pdf_w = select(bsdf_pdf_w, glossy_pdf_w, glossy->rough);
+        f = l3_select(f, eval_glossy_lanes(glossy, sp, wo, wi, &glossy_pdf_w, glossy_lanes), glossy_lanes);
+        bsdf_pdf_w = select(bsdf_pdf_w, glossy_pdf_w, glossy_lanes);
     }
     lane_int lit = lanes & (dist > 0.0f) & (light_pdf_w > 0.0f) & !is_black(le) & !is_black(f);
     if (!lane_any(lit)) return radiance;
@@ -190,8 +220,8 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
 
 // The scattering of the lanes' vertices: the diffuse lobe; where `smooth`, the smooth
 // dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl), or where also `conductor`
-// the conductor's mirror; where glossy->rough, the glossy lobe (sample_glossy_lanes, its lobe
-// chosen with u_glossy_lobe).
+// the conductor's mirror; where glossy->rough or glossy->plastic, the glossy lobes
+// (sample_glossy_lanes, the lobe chosen with u_glossy_lobe).
 BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
                              lane_int smooth, lane_int conductor, const GlossyLanes* glossy, lane_float u_lobe,
                              lane_float u_glossy_lobe, lane_float2 u, lane_int lanes) {
@@ -201,13 +231,14 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
     // For cosine sampling f * cos / pdf is the albedo itself.
     bs.weight = l3_select(l3_splat(0.0f), color, bs.pdf_w > 0.0f);
 #if DIELECTRIC
-    lane_int rough = glossy->rough & lanes;
-    if (lane_any(rough)) {
-        BsdfSample glossy_bs = sample_glossy_lanes(glossy, sp, wo, u_glossy_lobe, u, rough);
-        bs.wi = l3_select(bs.wi, glossy_bs.wi, rough);
-        bs.pdf_w = select(bs.pdf_w, glossy_bs.pdf_w, rough);
-        bs.weight = l3_select(bs.weight, glossy_bs.weight, rough);
-        bs.eta = select(bs.eta, glossy_bs.eta, rough);
+    lane_int glossy_lanes = (glossy->rough | glossy->plastic) & lanes;
+    if (lane_any(glossy_lanes)) {
+        BsdfSample glossy_bs = sample_glossy_lanes(glossy, sp, wo, u_glossy_lobe, u, glossy_lanes);
+        bs.wi = l3_select(bs.wi, glossy_bs.wi, glossy_lanes);
+        bs.pdf_w = select(bs.pdf_w, glossy_bs.pdf_w, glossy_lanes);
+        bs.weight = l3_select(bs.weight, glossy_bs.weight, glossy_lanes);
+        bs.eta = select(bs.eta, glossy_bs.eta, glossy_lanes);
+        bs.delta = select(bs.delta, glossy_bs.delta, glossy_lanes);   // plastic's mirror
     }
     smooth &= lanes;
     if (!lane_any(smooth)) return bs;
@@ -232,7 +263,7 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
         bs.weight = l3_select(bs.weight, mirror.weight, conductor);
         bs.pdf_w = select(bs.pdf_w, mirror.pdf_w, conductor);
     }
-    bs.delta = smooth;
+    bs.delta |= smooth;
 #endif
     return bs;
 }
@@ -280,13 +311,13 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        // Smooth dielectrics and conductors: delta lobes; rough ones: glossy lobes.
+        // Smooth dielectrics and conductors: delta lobes; rough ones and plastic: glossy lobes.
         lane_int kind = material_kind_at(scene->materials, sp.material);
         lane_int conductor = kind == MATERIAL_CONDUCTOR;
         // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
         // reaches it, and the path ends there.
         lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
-        lane_float3 color = l3_select(material_color_at(scene->materials, sp.material), l3_splat(0.0f), black_back);
+        lane_float3 color = l3_select(surface_color_lanes(scene, &hit, sp.material, alive), l3_splat(0.0f), black_back);
         lane_float3 wo = l3_neg(ray.direction);
         GlossyLanes glossy = glossy_lanes(scene, &sp, kind, color, black_back, wo);
         lane_int smooth = ((kind == MATERIAL_DIELECTRIC) | conductor) & !glossy.rough;
@@ -294,19 +325,20 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
         if (depth == max_depth) break;
-        // A diffuse or rough vertex draws its light sample, a smooth one its lobe (rng_float, the
+        // A diffuse, rough or plastic vertex draws its light sample, a smooth one its lobe (rng_float, the
         // first coordinate of the same dimension); the independent sampler's 2D draw takes two
         // numbers where rng_float takes one, so the smooth lanes give one back.
         lane_float2 u_light = rng_float2(rng);
         if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
         lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth);
-        // A rough vertex then draws its lobe's number as a smooth one did (bsdf.h, sample_bsdf:
-        // a dielectric's reflection or refraction; a conductor does not use it); the other lanes
-        // give it back.
+        // A rough or plastic vertex then draws its lobe's number as a smooth one did (bsdf.h,
+        // sample_bsdf: a dielectric's reflection or refraction, plastic's coat or base; a
+        // conductor does not use it); the other lanes give it back.
         lane_float u_glossy_lobe = 0.0f;
-        if (lane_any(glossy.rough)) {
+        lane_int glossy_lobes = glossy.rough | glossy.plastic;
+        if (lane_any(glossy_lobes)) {
             u_glossy_lobe = rng_float(rng);
-            rng->counter -= select((lane_uint)(1u), (lane_uint)(0u), glossy.rough);
+            rng->counter -= select((lane_uint)(1u), (lane_uint)(0u), glossy_lobes);
         }
         // Selected, not added everywhere: the throughput of a finished lane may be anything.
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);

@@ -56,7 +56,7 @@ typedef struct {
     lane_int object;
     lane_int emitter;
     lane_int media;    // packed media behind / in front of the front face (TriangleInfo.w)
-#if TEXTURES   // (never with LANES > 1: features.py)
+#if TEXTURES && LANES == 1   // (packets look their textures up lane by lane: path_packets.h)
     float2 uv;         // texture coordinates, as Mitsuba's (surface_uv)
     float3 dpdu, dpdv; // the surface's derivatives along u and v (kernel lengths per unit uv)
     float3 ns_unbent;  // ns before a bump or normal map bent it (materials/shading_maps.h)
@@ -172,6 +172,14 @@ float2 triangle_uv(const Scene* scene, int prim, float b1, float b2) {
     return corners[0] * (1.0f - b1 - b2) + corners[1] * b1 + corners[2] * b2;
 }
 
+// The uv of a hit alone (the packets' texture lookups).
+float2 hit_uv(const Scene* scene, const Hit* hit) {
+    float3 dpdu, dpdv;   // unused
+    if (hit->sphere) return sphere_uv(scene->triangles + hit->prim, normalize(hit->from_centre), &dpdu, &dpdv);
+    return triangle_uv(scene, hit->prim, hit->b1, hit->b2);
+}
+
+#if LANES == 1
 void surface_uv(const Scene* scene, const Hit* hit, SurfacePoint* sp) {
     __global const Triangle* slot = scene->triangles + hit->prim;
     if (hit->sphere) {
@@ -190,6 +198,7 @@ void surface_uv(const Scene* scene, const Hit* hit, SurfacePoint* sp) {
         make_basis(sp->ns, &sp->dpdu, &sp->dpdv);
     }
 }
+#endif
 #endif
 
 INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_float3 dir) {
@@ -248,7 +257,7 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
     sp.object = LANE_LOAD_INT(scene->info, prim, .info.y);
     sp.emitter = LANE_LOAD_INT(scene->info, prim, .info.z);
     sp.media = LANE_LOAD_INT(scene->info, prim, .info.w);
-#if TEXTURES
+#if TEXTURES && LANES == 1
     surface_uv(scene, hit, &sp);
 #endif
     return sp;

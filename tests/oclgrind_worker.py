@@ -153,7 +153,7 @@ def run_test_kernels(case, device):
     wo = float4([[0.3, 0.1, 0.9], [0.6, 0.0, 0.8], [0.1, -0.2, -0.97], [0.99, 0.0, 0.14]])
     wo[:, :3] /= np.linalg.norm(wo[:, :3], axis=1, keepdims=True)
     if features["DIELECTRIC"]:
-        fill_albedo_tables(queue, program, arrays)
+        fill_albedo_tables(queue, arrays)
     albedo = upload(context, arrays.specular_albedo if arrays.specular_albedo.size else np.zeros(1, np.float32))
     names = [m.name for m in scene.materials]
     kinds = ["white"]

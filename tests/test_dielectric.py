@@ -61,7 +61,7 @@ class Bsdf:
             "camera": camera(), "materials": [dict(material, name="m")],
             "shapes": [{"type": "rectangle", "material": "m"}]})
         arrays = build_scene_arrays(scene)
-        fill_albedo_tables(queue, program, arrays)
+        fill_albedo_tables(queue, arrays)
         self.queue, self.program = queue, program
         self.record = arrays.materials[:1].copy()
         self.tables = arrays.specular_albedo

@@ -12,7 +12,7 @@ import clrender
 from clrender import arrays, disk_cache, energy, obj_reader, plastic, ploc
 from clrender.arrays import build_scene_arrays
 from clrender.energy import fill_albedo_tables
-from conftest import build_test_kernels, camera
+from conftest import camera
 
 
 @pytest.fixture
@@ -193,11 +193,6 @@ TABLE_MATERIALS = [
 ]
 
 
-@pytest.fixture(scope="module")
-def kernels(context):
-    return build_test_kernels(context, DIELECTRIC=1)
-
-
 def table_arrays():
     scene = clrender.load_scene_dict({
         "camera": camera(), "materials": TABLE_MATERIALS,
@@ -205,30 +200,30 @@ def table_arrays():
     return build_scene_arrays(scene)
 
 
-def filled_tables(queue, program):
+def filled_tables(queue):
     arrays = table_arrays()
-    fill_albedo_tables(queue, program, arrays)
+    fill_albedo_tables(queue, arrays)
     return arrays.specular_albedo
 
 
-def test_tables_read_from_disk_are_the_computed_ones(cache, queue, kernels, monkeypatch):
+def test_tables_read_from_disk_are_the_computed_ones(cache, queue, monkeypatch):
     monkeypatch.setattr(plastic, "_cache", {})
     monkeypatch.setattr(energy, "_cache", {})
-    computed = filled_tables(queue, kernels)
+    computed = filled_tables(queue)
     assert len(list((cache / "tables").iterdir())) == len(TABLE_MATERIALS)
     # A new process: nothing in memory; the device must not be asked.
     monkeypatch.setattr(plastic, "_cache", {})
     monkeypatch.setattr(energy, "_cache", {})
     monkeypatch.setattr(cl, "Kernel", lambda *a: pytest.fail("a table was computed again"))
-    stored = filled_tables(queue, kernels)
+    stored = filled_tables(queue)
     assert np.isfinite(computed).all() and computed.any()
     assert np.array_equal(stored, computed)
 
 
-def test_tables_of_a_program_without_a_build_key_stay_off_disk(cache, queue, kernels, monkeypatch):
+def test_tables_of_a_program_without_a_build_key_stay_off_disk(cache, queue, monkeypatch):
     monkeypatch.setattr(plastic, "_cache", {})
     monkeypatch.setattr(energy, "_cache", {})
     monkeypatch.setattr(plastic, "program_key", lambda program: None)
     monkeypatch.setattr(energy, "program_key", lambda program: None)
-    filled_tables(queue, kernels)
+    filled_tables(queue)
     assert not (cache / "tables").exists()

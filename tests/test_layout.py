@@ -86,7 +86,8 @@ def test_lane_accessors_read_the_same_lanes(context, queue):
     # materials/material.h's *_at accessors (the packet kernel's, over lanes.h) against the
     # scalar accessors of the same fields, at one lane.
     fields = ("kind", "one_sided", "color", "emission", "ior", "exterior_ior", "conductor_eta", "conductor_k", "alpha",
-              "distribution", "masking")
+              "distribution", "masking", "reflection_tint", "albedo_tables", "nonlinear", "specular_sampling_weight",
+              "coat_alpha_range", "coat_alpha_rows")
     record = np.zeros(1, layout.MATERIAL)
     raw = record.view(np.uint8)
     for member in record.dtype.names:   # distinct small values, exact as float and as int

@@ -32,8 +32,9 @@ def example(name, resolution=(40, 32), **render):
     bulbs = name.startswith("bulbs_")           # two emitting spheres beside the ceiling's light
     frosted = name.startswith("frosted_")       # the glass rough: Beckmann, separable, uncompensated
     lit = name.startswith("lit_")               # point and spot lights in the room, a directional one
+    plastic = name.startswith("plastic_")       # back wall, floor and tall block plastic, coloured by textures
     base = name
-    for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_"):
+    for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_", "plastic_"):
         base = base.removeprefix(prefix)
     data = json.loads((SCENES / f"{base}.json").read_text())
     if one_sided:
@@ -55,6 +56,26 @@ def example(name, resolution=(40, 32), **render):
         for shape in data["shapes"]:
             if shape["name"] in ("short_block", "tall_block"):
                 shape["material"] = "gold" if shape["name"] == "tall_block" else "brass"
+    if plastic:
+        rng = np.random.default_rng(3)
+        data["textures"] = [{"name": "checks", "type": "checkerboard", "to_uv": [[5, 0, 0], [0, 5, 0.3]]},
+                            {"name": "grain", "type": "bitmap", "wrap": "mirror", "to_uv": [[2, 0, -0.5], [0, 3, 0]],
+                             "image": rng.integers(0, 256, (6, 9, 3), dtype=np.uint8)}]
+        # Mitsuba's plastic (a smooth coat: its mirror is a delta lobe) and roughplastic (coat
+        # tables), one-sided, as Mitsuba's are.
+        data["materials"] += [{"name": "varnish", "type": "plastic", "diffuse": {"texture": "checks"},
+                               "two_sided": False},
+                              {"name": "lacquer", "type": "plastic", "alpha": 0.1, "distribution": "ggx",
+                               "nonlinear": True, "diffuse": {"texture": "grain"}, "two_sided": False},
+                              {"name": "parquet", "type": "diffuse", "albedo": {"texture": "grain"}},
+                              {"name": "sky", "type": "emissive", "radiance": [0.2, 0.25, 0.3]}]
+        roles = {"back": "varnish", "floor": "varnish", "tall_block": "lacquer", "short_block": "parquet"}
+        for shape in data["shapes"]:
+            shape["material"] = roles.get(shape["name"], shape["material"])
+        # Around the open box, emitting inwards: the back wall mirrors it (the mirror's
+        # emission weighted as a delta lobe's).
+        data["shapes"].append({"name": "sky", "type": "sphere", "material": "sky", "center": [0.0, 1.0, 0.0],
+                               "radius": 12.0, "flip_normals": True})
     if frosted:
         for material in data["materials"]:
             if material["type"] == "dielectric":
@@ -101,14 +122,17 @@ def both(scene, device, spp=8, **settings):
 
 @pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box",
                                   "mirror_cornell_box", "rough_mirror_cornell_box", "bulbs_cornell_box",
-                                  "frosted_cornell_glass", "frosted_tir_prism", "lit_cornell_glass"])
+                                  "frosted_cornell_glass", "frosted_tir_prism", "lit_cornell_glass",
+                                  "plastic_cornell_box", "plastic_cornell_glass"])
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
     # analytic glass sphere; copper and tinted mirror blocks; rough gold and brass blocks; two
     # emitting spheres, one flipped around the scene (sampled by area, from inside); the sphere
     # and the prism of frosted glass (rough: reflection and refraction, from both sides); a point,
-    # a spot and a directional light beside the emitting triangle. The
+    # a spot and a directional light beside the emitting triangle; a smooth plastic back wall and
+    # floor mirroring an emitting sky and a rough plastic block, coloured by a checkerboard and an
+    # 8-bit bitmap, as is the diffuse short block. The
     # independent sampler checks that a smooth lane gives back the number its lobe choice does not
     # take, and that a rough lane draws the lobe number it does not use (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
@@ -185,6 +209,7 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     assert lanes(example("bulbs_cornell_box")) == 8
     assert lanes(example("frosted_cornell_glass")) == 8
     assert lanes(example("lit_cornell_glass")) == 8
+    assert lanes(example("plastic_cornell_box")) == 8
     assert scene_features(example("cornell_box"), packets=False)["LANES"] == 1
     assert lanes(example("cornell_box"), sample_aovs=True) == 8
     for name in ("rough_glass", "smoke_cornell_box", "toon_cornell_box", "cloud_low_sun", "fog_beam"):
@@ -201,5 +226,25 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     def rough_conductor(data):   # energy compensation (the default): its tables are not in the packets
         data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
 
-    for change in (environment, rough_conductor):
+    def textured_roughness(data):   # a texture on a parameter other than the colour
+        data["textures"] = [{"name": "t", "type": "checkerboard"}]
+        data["materials"][0] = {"name": "white", "type": "plastic", "alpha": {"texture": "t"}}
+
+    def textured_emission(data):
+        data["textures"] = [{"name": "t", "type": "checkerboard"}]
+        light = next(m for m in data["materials"] if m["type"] == "emissive")
+        light["radiance"] = {"texture": "t"}
+
+    def bumps(data):
+        data["textures"] = [{"name": "t", "type": "checkerboard"}]
+        data["materials"][0]["bump"] = {"texture": "t"}
+
+    def masked(data):
+        data["materials"][0]["opacity"] = 0.5
+
+    def back_material(data):
+        data["materials"].append({"name": "back", "type": "diffuse"})
+        data["materials"][0]["back"] = "back"
+
+    for change in (environment, rough_conductor, textured_roughness, textured_emission, bumps, masked, back_material):
         assert lanes(variant(change)) == 1, change.__name__

@@ -157,10 +157,10 @@ def mitsuba_coat_tables(alpha, distribution, ior, exterior_ior):
     return np.array([value(linear, max(m, 1e-7), 1.0) / (scale * t_normal) for m in mu]), r
 
 
-def our_coat_tables(queue, kernels, material, texture_list=()):
+def our_coat_tables(queue, material, texture_list=()):
     """The rows (T(mu_0..), r) of a plastic material's coat tables."""
     arrays = build_scene_arrays(scene_with(material, texture_list))
-    fill_albedo_tables(queue, kernels, arrays)
+    fill_albedo_tables(queue, arrays)
     return arrays.specular_albedo.reshape(-1, SIZE + 1).astype(float)
 
 
@@ -170,15 +170,15 @@ COATS = [(0.1, "beckmann", 1.49, 1.000277), (0.3, "beckmann", 1.5, 1.0), (1.0, "
 
 
 @pytest.mark.parametrize("alpha,distribution,ior,exterior_ior", COATS)
-def test_coat_tables_are_mitsubas(queue, kernels, alpha, distribution, ior, exterior_ior):
+def test_coat_tables_are_mitsubas(queue, alpha, distribution, ior, exterior_ior):
     # The same quadrature of the same integrals; they differ by (measured, docs/materials-plastic.md)
     # GGX: up to 6.3e-4 in T and 7e-4 relative in r: Mitsuba samples visible GGX normals with
     # another map of the random numbers (its concentric-disk sample_visible_11), so the same
     # Gauss-Legendre nodes fall on other normals; Beckmann: up to 1.7e-3 (2e-3 relative) where
     # Mitsuba's rational approximation of Smith's G1 (its own bound: 0.35 %) departs from the exact
     # one, 1e-6 elsewhere.
-    ours = our_coat_tables(queue, kernels, {"alpha": alpha, "distribution": distribution, "ior": ior,
-                                            "exterior_ior": exterior_ior})
+    ours = our_coat_tables(queue, {"alpha": alpha, "distribution": distribution, "ior": ior,
+                                   "exterior_ior": exterior_ior})
     assert ours.shape == (1, SIZE + 1)
     t, r = mitsuba_coat_tables(alpha, distribution, ior, exterior_ior)
     tolerance = 1e-3 if distribution == "ggx" else 2.5e-3
@@ -187,7 +187,7 @@ def test_coat_tables_are_mitsubas(queue, kernels, alpha, distribution, ior, exte
 
 
 @pytest.mark.parametrize("low,high", [(0.05, 0.5), (0.001, 1.0)])
-def test_textured_alpha_tables_interpolate_within_mitsubas_own_accuracy(queue, kernels, low, high):
+def test_textured_alpha_tables_interpolate_within_mitsubas_own_accuracy(queue, low, high):
     # A textured alpha (Mitsuba's roughplastic takes none) gets rows evenly spaced in sqrt(alpha)
     # over the texture's values, at most COAT_SQRT_ALPHA_STEP apart, interpolated linearly.
     # Against the exact table at alphas midway between rows (GGX: fast to tabulate), the error in
@@ -198,7 +198,7 @@ def test_textured_alpha_tables_interpolate_within_mitsubas_own_accuracy(queue, k
     # relative to 1 - r (its effect on the diffuse lobe) below 1e-3, a tenth of the error of
     # Mitsuba's own 64-point rule for r against the integral it stands for (1.3-1.5 % of r).
     image = np.array([[low, high]], np.float32)
-    rows = our_coat_tables(queue, kernels, {"alpha": {"texture": "a"}},
+    rows = our_coat_tables(queue, {"alpha": {"texture": "a"}},
                            [{"name": "a", "type": "bitmap", "image": image}])
     count = plastic.alpha_rows(np.float32(low), np.float32(high))
     assert rows.shape == (count, SIZE + 1) and count == 1 + np.ceil((np.sqrt(high) - np.sqrt(low)) * 32)
@@ -207,7 +207,7 @@ def test_textured_alpha_tables_interpolate_within_mitsubas_own_accuracy(queue, k
     worst_t = worst_weighted = worst_r = 0.0
     for k in range(0, count - 1, 2):
         s = (nodes[k] + nodes[k + 1]) / 2
-        (exact,) = our_coat_tables(queue, kernels, {"alpha": float(s * s)})
+        (exact,) = our_coat_tables(queue, {"alpha": float(s * s)})
         between = (rows[k] + rows[k + 1]) / 2
         error = np.abs(between[:SIZE] - exact[:SIZE])
         worst_t = max(worst_t, error.max())

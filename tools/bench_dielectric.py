@@ -44,7 +44,7 @@ def renderer_for(scene_file, resolution, device, force=None, diffuse_sphere=Fals
         renderer.features = {**renderer.features, **force}
         program = build_program(renderer.context, renderer.features)
         renderer.kernel = cl.Kernel(program, "render_pass")
-        fill_albedo_tables(renderer.queue, program, renderer.arrays)
+        fill_albedo_tables(renderer.queue, renderer.arrays)
     if max_depth:
         renderer.scene.render.max_depth = max_depth
     return renderer

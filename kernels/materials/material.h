@@ -94,6 +94,24 @@ lane_int material_distribution_at(__global const Material* materials, lane_int i
 lane_int material_masking_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD_INT(materials, index, .maps.w);
 }
+lane_float3 material_reflection_tint_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD3(materials, index, .slot[3]);
+}
+lane_int material_albedo_tables_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD_INT(materials, index, .kind.w);
+}
+lane_int material_nonlinear_at(__global const Material* materials, lane_int index) {
+    return lane_float_to_int(LANE_LOAD(materials, index, .slot[2].z));
+}
+lane_float material_specular_sampling_weight_at(__global const Material* materials, lane_int index) {
+    return LANE_LOAD(materials, index, .slot[4].x);
+}
+lane_float2 material_coat_alpha_range_at(__global const Material* materials, lane_int index) {
+    return make_lane_float2(LANE_LOAD(materials, index, .slot[4].y), LANE_LOAD(materials, index, .slot[4].z));
+}
+lane_int material_coat_alpha_rows_at(__global const Material* materials, lane_int index) {
+    return lane_float_to_int(LANE_LOAD(materials, index, .slot[5].x));
+}
 
 // An index-matched boundary (an interface, or a dielectric with the same index on both sides):
 // only separates media and transmits its colour, not a path vertex.

@@ -17,6 +17,7 @@
 // normal on wo's side (wo: towards the viewer, Mitsuba's si.wi).
 #ifndef CLRENDER_PLASTIC_H
 #define CLRENDER_PLASTIC_H
+#include "lanes.h"
 #include "math.h"
 #include "sampling.h"
 #include "scene.h"
@@ -28,16 +29,18 @@
 #include "materials/plastic_coat.h"
 #if DIELECTRIC
 
+// Over the lane types (lanes.h): each lane its plastic.
 typedef struct {
-    float3 diffuse;         // diffuse_reflectance of the base
-    float3 specular;        // specular_reflectance of the coat
-    Microfacet mf;          // the rough coat's microfacets (separable masking: Mitsuba's)
-    float specular_weight;  // specular_sampling_weight
-    int nonlinear;
-    int mirror;             // the specular lobe is a delta lobe
+    lane_float3 diffuse;         // diffuse_reflectance of the base
+    lane_float3 specular;        // specular_reflectance of the coat
+    Microfacet mf;               // the rough coat's microfacets (separable masking: Mitsuba's)
+    lane_float specular_weight;  // specular_sampling_weight
+    lane_int nonlinear;
+    lane_int mirror;             // the specular lobe is a delta lobe
     PlasticCoat coat;
 } Plastic;
 
+#if LANES == 1
 // The plastic of material m, its textures resolved.
 Plastic plastic_at(const Scene* scene, const Material* m) {
     Plastic p;
@@ -50,59 +53,96 @@ Plastic plastic_at(const Scene* scene, const Material* m) {
     p.mirror = p.coat.smooth || microfacet_is_smooth(p.mf.alpha);
     return p;
 }
+#endif
 
-// The probability of the specular lobe for wo at cos_o.
-float plastic_specular_probability(const Plastic* p, float cos_o) {
-    float t = coat_transmittance(&p->coat, cos_o);
-    float specular = (1.0f - t) * p->specular_weight, diffuse = t * (1.0f - p->specular_weight);
-    return specular + diffuse > 0.0f ? specular / (specular + diffuse) : p->specular_weight;
+// The plastic of each lane's material `index` where `plastic`, of base colour `diffuse` (its
+// texture's value: the packets resolve no other parameter from textures, features.py).
+Plastic plastic_lanes(const Scene* scene, lane_int index, lane_int plastic, lane_float3 diffuse) {
+    Plastic p;
+    p.diffuse = diffuse;
+    p.specular = material_reflection_tint_at(scene->materials, index);
+    p.mf = material_microfacet_at(scene->materials, index);
+    p.specular_weight = material_specular_sampling_weight_at(scene->materials, index);
+    p.nonlinear = material_nonlinear_at(scene->materials, index);
+    p.coat = plastic_coat_at(scene, index, plastic, p.mf.alpha);
+    p.mirror = p.coat.smooth | (p.mf.alpha < MICROFACET_MIN_ALPHA);   // microfacet_is_smooth
+    return p;
 }
 
-float3 eval_plastic(const Plastic* p, float3 n, float3 wo, float3 wi) {
-    float cos_o = dot(n, wo), cos_i = dot(n, wi);
-    if (cos_o <= 0.0f || cos_i <= 0.0f) return (float3)(0.0f);
+// The probability of the specular lobe for wo at cos_o.
+lane_float plastic_specular_probability(const Plastic* p, lane_float cos_o) {
+    lane_float t = coat_transmittance(&p->coat, cos_o);
+    lane_float specular = (1.0f - t) * p->specular_weight, diffuse = t * (1.0f - p->specular_weight);
+    return select(p->specular_weight, specular / (specular + diffuse), specular + diffuse > 0.0f);
+}
+
+lane_float3 eval_plastic(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
+    lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
+    if (!lane_any(lit)) return l3_splat(0.0f);
     const PlasticCoat* c = &p->coat;
-    float r = coat_internal_reflectance(c);
-    float3 internal = p->nonlinear ? p->diffuse * r : (float3)(r);
-    float3 value = p->diffuse / (1.0f - internal) *
-        (cos_i * INV_PI_F / (c->eta * c->eta) * coat_transmittance(c, cos_o) * coat_transmittance(c, cos_i));
-    if (p->mirror) return value;  // a delta lobe
-    float3 h = normalize(wo + wi);
-    float specular = fresnel_dielectric(dot(wo, h), c->eta) * microfacet_d(p->mf, n, h) *
-                     microfacet_g(p->mf, cos_o, cos_i) / (4.0f * cos_o);
-    return value + specular * p->specular;
+    lane_float r = coat_internal_reflectance(c);
+    lane_float3 internal = l3_select(make_lane_float3(r, r, r), l3_scale(p->diffuse, r), p->nonlinear != 0);
+    lane_float3 value = l3_scale(l3_div3(p->diffuse, l3_sub(l3_splat(1.0f), internal)),
+        cos_i * INV_PI_F / (c->eta * c->eta) * coat_transmittance(c, cos_o) * coat_transmittance(c, cos_i));
+    lane_int glossy = lit & !(p->mirror != 0);   // the mirror, a delta lobe, has no value here
+    if (lane_any(glossy)) {
+        lane_float3 h = l3_normalize(l3_add(wo, wi));
+        lane_float specular = fresnel_dielectric(l3_dot(wo, h), c->eta) * microfacet_d(p->mf, n, h) *
+                              microfacet_g(p->mf, cos_o, cos_i) / (4.0f * cos_o);
+        value = l3_select(value, l3_madd(p->specular, specular, value), glossy);
+    }
+    return l3_select(l3_splat(0.0f), value, lit);
 }
 
 // Density of sample_plastic (without a mirror, a delta lobe).
-float sample_plastic_pdf(const Plastic* p, float3 n, float3 wo, float3 wi) {
-    float cos_o = dot(n, wo), cos_i = dot(n, wi);
-    if (cos_o <= 0.0f || cos_i <= 0.0f) return 0.0f;
-    float specular = plastic_specular_probability(p, cos_o);
-    float pdf = (1.0f - specular) * sample_cosine_hemisphere_pdf_w(cos_i);
-    if (p->mirror) return pdf;
-    float3 h = normalize(wo + wi);
-    float cos_oh = dot(wo, h);
-    return cos_oh > 0.0f ? pdf + specular * sample_microfacet_visible_pdf(p->mf, n, wo, h) / (4.0f * cos_oh) : pdf;
+lane_float sample_plastic_pdf(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
+    lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
+    if (!lane_any(lit)) return 0.0f;
+    lane_float specular = plastic_specular_probability(p, cos_o);
+    lane_float pdf = (1.0f - specular) * sample_cosine_hemisphere_pdf_w(cos_i);
+    lane_int glossy = lit & !(p->mirror != 0);
+    if (lane_any(glossy)) {
+        lane_float3 h = l3_normalize(l3_add(wo, wi));
+        lane_float cos_oh = l3_dot(wo, h);
+        glossy &= cos_oh > 0.0f;
+        pdf = select(pdf, pdf + specular * sample_microfacet_visible_pdf(p->mf, n, wo, h) / (4.0f * cos_oh), glossy);
+    }
+    return select((lane_float)(0.0f), pdf, lit);
 }
 
 // ng: the geometric normal on wo's side (for the mirror, as sample_conductor_delta). A glossy
 // or diffuse sample weighs eval / pdf of its direction; the zero vector with pdf 0 is no sample.
-BsdfSample sample_plastic(const Plastic* p, float3 n, float3 ng, float3 wo, float rnl, float2 rn) {
-    float cos_o = dot(n, wo);
-    if (cos_o <= 0.0f) return bsdf_sample_none();
-    float specular = plastic_specular_probability(p, cos_o);
-    bool glossy = rnl < specular;
-    if (glossy && p->mirror) {
-        float f = 1.0f - coat_transmittance(&p->coat, cos_o);
-        // A perfect mirror (index 0 + 0i: Fresnel 1) of the coat's reflectance.
-        BsdfSample bs = sample_conductor_delta(p->specular * (f / specular), (float3)(0.0f), (float3)(0.0f), n, ng, wo);
-        bs.pdf_w = specular;
-        return bs;
-    }
+BsdfSample sample_plastic(const Plastic* p, lane_float3 n, lane_float3 ng, lane_float3 wo, lane_float rnl,
+                          lane_float2 rn) {
     BsdfSample bs = bsdf_sample_none();
-    bs.wi = glossy ? reflect(wo, sample_microfacet_visible(p->mf, n, wo, rn)) : to_world(sample_cosine_hemisphere(rn), n);
-    bs.pdf_w = sample_plastic_pdf(p, n, wo, bs.wi);
-    if (bs.pdf_w > 0.0f) bs.weight = eval_plastic(p, n, wo, bs.wi) / bs.pdf_w;
+    lane_float cos_o = l3_dot(n, wo);
+    lane_int valid = cos_o > 0.0f;
+    if (!lane_any(valid)) return bs;
+    lane_float specular = plastic_specular_probability(p, cos_o);
+    lane_int glossy = rnl < specular;
+    lane_int mirror = valid & glossy & (p->mirror != 0);
+    if (lane_any(mirror)) {
+        lane_float f = 1.0f - coat_transmittance(&p->coat, cos_o);
+        // A perfect mirror (index 0 + 0i: Fresnel 1) of the coat's reflectance.
+        BsdfSample reflected = sample_conductor_delta(l3_scale(p->specular, f / specular), l3_splat(0.0f),
+                                                      l3_splat(0.0f), n, ng, wo);
+        bs.wi = l3_select(bs.wi, reflected.wi, mirror);
+        bs.weight = l3_select(bs.weight, reflected.weight, mirror);
+        bs.pdf_w = select(bs.pdf_w, specular, mirror);
+        bs.delta = select(bs.delta, reflected.delta, mirror);
+    }
+    lane_int rough = valid & glossy & !mirror, diffuse = valid & !glossy;
+    if (!lane_any(rough | diffuse)) return bs;
+    lane_float3 wi = l3_splat(0.0f);
+    if (lane_any(diffuse)) wi = l3_select(wi, to_world(sample_cosine_hemisphere(rn), n), diffuse);
+    if (lane_any(rough)) wi = l3_select(wi, reflect(wo, sample_microfacet_visible(p->mf, n, wo, rn)), rough);
+    lane_float pdf_w = sample_plastic_pdf(p, n, wo, wi);
+    lane_int sampled = (rough | diffuse) & (pdf_w > 0.0f);
+    bs.wi = l3_select(bs.wi, wi, rough | diffuse);
+    bs.pdf_w = select(bs.pdf_w, pdf_w, rough | diffuse);
+    if (lane_any(sampled)) bs.weight = l3_select(bs.weight, l3_div(eval_plastic(p, n, wo, wi), pdf_w), sampled);
     return bs;
 }
 

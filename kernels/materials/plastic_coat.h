@@ -33,61 +33,93 @@
 #define COAT_NODES 128      // the most quadrature nodes per axis a table entry uses
 #endif
 
+// Over the lane types (lanes.h): each lane its coat.
 typedef struct {
-    float eta;                  // n(coat) / n(outside)
-    int smooth;
-    __global const float* row;  // rough: the tables' row at or below alpha
-    int next;                   // floats from that row to the next (0: one row)
-    float next_weight;          // linear interpolation weight of the next row
+    lane_float eta;                // n(coat) / n(outside)
+    lane_int smooth;
+    __global const float* tables;  // the scene's specular_albedo
+    lane_int row;                  // rough: the index in tables of the row at or below alpha
+    lane_int next;                 // floats from that row to the next (0: one row)
+    lane_float next_weight;        // linear interpolation weight of the next row
 } PlasticCoat;
 
 // Mitsuba's fresnel_diffuse_reflectance: the diffuse Fresnel reflectance of an interface of
 // relative index eta, by the fits of Egan and Hilgeman (eta < 1) and d'Eon and Irving.
-float fresnel_diffuse_reflectance(float eta) {
-    float x = 1.0f / eta;
-    if (eta < 1.0f) return 0.0636f * x + (eta * (eta * -1.4399f + 0.7099f) + 0.6681f);
-    return 0.919317f + x * (-3.4793f + x * (6.75335f + x * (-7.80989f + x * (4.98554f + x * -1.36881f))));
+lane_float fresnel_diffuse_reflectance(lane_float eta) {
+    lane_float x = 1.0f / eta;
+    return select(0.919317f + x * (-3.4793f + x * (6.75335f + x * (-7.80989f + x * (4.98554f + x * -1.36881f)))),
+                  0.0636f * x + (eta * (eta * -1.4399f + 0.7099f) + 0.6681f), eta < 1.0f);
 }
 
-// The coat of material m (its textures resolved) at alpha: smooth without tables (Mitsuba's
-// plastic; also a rough one that no shape uses).
-PlasticCoat plastic_coat(const Scene* scene, const Material* m, float alpha) {
+// The coat of relative index eta whose tables start at `offset` in the scene's specular_albedo
+// (< 0: smooth, no tables), `rows` rows spanning the alpha range `range`, at alpha.
+PlasticCoat make_plastic_coat(const Scene* scene, lane_float eta, lane_int offset, lane_float2 range, lane_int rows,
+                              lane_float alpha) {
     PlasticCoat c;
-    c.eta = material_ior(m) / material_exterior_ior(m);
-    int offset = material_albedo_tables(m);
+    c.eta = eta;
     c.smooth = offset < 0;
-    c.row = scene->specular_albedo + max(offset, 0);
+    c.tables = scene->specular_albedo;
+    c.row = max(offset, (lane_int)(0));
     c.next = 0;
     c.next_weight = 0.0f;
-    float2 range = sqrt(material_coat_alpha_range(m));
-    int rows = material_coat_alpha_rows(m);
-    if (!c.smooth && rows > 1) {
-        float x = clamp((sqrt(alpha) - range.x) / (range.y - range.x), 0.0f, 1.0f) * (float)(rows - 1);
-        int r = min((int)x, rows - 2);
-        c.row += r * COAT_ROW;
-        c.next = COAT_ROW;
-        c.next_weight = x - (float)r;
+    lane_int interpolated = !c.smooth & (rows > 1);
+    if (lane_any(interpolated)) {
+        lane_float low = sqrt(range.x), high = sqrt(range.y);
+        lane_float x = clamp((sqrt(alpha) - low) / (high - low), 0.0f, 1.0f) * lane_int_to_float(rows - 1);
+        lane_int r = min(lane_float_to_int(x), rows - 2);
+        c.row = select(c.row, c.row + r * COAT_ROW, interpolated);
+        c.next = select(c.next, (lane_int)(COAT_ROW), interpolated);
+        c.next_weight = select(c.next_weight, x - lane_int_to_float(r), interpolated);
     }
     return c;
 }
 
-// Entry k of the coat's row, interpolated in alpha.
-float coat_entry(const PlasticCoat* c, int k) {
-    return c->row[k] * (1.0f - c->next_weight) + c->row[k + c->next] * c->next_weight;
+#if LANES == 1
+// The coat of material m (its textures resolved) at alpha: smooth without tables (Mitsuba's
+// plastic; also a rough one that no shape uses).
+PlasticCoat plastic_coat(const Scene* scene, const Material* m, float alpha) {
+    return make_plastic_coat(scene, material_ior(m) / material_exterior_ior(m), material_albedo_tables(m),
+                             material_coat_alpha_range(m), material_coat_alpha_rows(m), alpha);
+}
+#endif
+
+// The same, of each lane's material `index` where `plastic` (the others: smooth, reading no table).
+PlasticCoat plastic_coat_at(const Scene* scene, lane_int index, lane_int plastic, lane_float alpha) {
+    lane_int offset = select((lane_int)(-1), material_albedo_tables_at(scene->materials, index), plastic);
+    return make_plastic_coat(scene, material_ior_at(scene->materials, index) /
+                             material_exterior_ior_at(scene->materials, index), offset,
+                             material_coat_alpha_range_at(scene->materials, index),
+                             material_coat_alpha_rows_at(scene->materials, index), alpha);
 }
 
-float coat_transmittance(const PlasticCoat* c, float mu) {
-    if (c->smooth) return 1.0f - fresnel_dielectric(mu, c->eta);
-    float x = clamp(mu, 0.0f, 1.0f) * (float)(COAT_TABLE_SIZE - 1);
-    int k = min((int)x, COAT_TABLE_SIZE - 2);
-    float w = x - (float)k;
-    return (1.0f - w) * coat_entry(c, k) + w * coat_entry(c, k + 1);
+// Entry k of the coat's row, interpolated in alpha (rough lanes).
+lane_float coat_entry(const PlasticCoat* c, lane_int k) {
+    return LANE_LOAD(c->tables, c->row + k, ) * (1.0f - c->next_weight) +
+           LANE_LOAD(c->tables, c->row + k + c->next, ) * c->next_weight;
 }
 
-float coat_internal_reflectance(const PlasticCoat* c) {
-    return c->smooth ? fresnel_diffuse_reflectance(1.0f / c->eta) : coat_entry(c, COAT_TABLE_SIZE);
+lane_float coat_transmittance(const PlasticCoat* c, lane_float mu) {
+    lane_float t = 0.0f;
+    if (lane_any(c->smooth)) t = 1.0f - fresnel_dielectric(mu, c->eta);
+    lane_int rough = !c->smooth;
+    if (lane_any(rough)) {
+        lane_float x = clamp(mu, 0.0f, 1.0f) * (float)(COAT_TABLE_SIZE - 1);
+        lane_int k = min(lane_float_to_int(x), (lane_int)(COAT_TABLE_SIZE - 2));
+        lane_float w = x - lane_int_to_float(k);
+        t = select(t, (1.0f - w) * coat_entry(c, k) + w * coat_entry(c, k + 1), rough);
+    }
+    return t;
 }
 
+lane_float coat_internal_reflectance(const PlasticCoat* c) {
+    lane_float r = 0.0f;
+    if (lane_any(c->smooth)) r = fresnel_diffuse_reflectance(1.0f / c->eta);
+    lane_int rough = !c->smooth;
+    if (lane_any(rough)) r = select(r, coat_entry(c, (lane_int)(COAT_TABLE_SIZE)), rough);
+    return r;
+}
+
+#if LANES == 1   // the tables' kernel (kernels/tables.cl)
 // Mitsuba's eval_transmittance (reflection false) or eval_reflectance (true) of a rough
 // interface of relative index eta, for light arriving at cos(theta) = mu; nodes: (x, weight) of
 // the Gauss-Legendre rule on [-1, 1].
@@ -143,5 +175,6 @@ KERNEL void plastic_coat_table(__global const Material* materials, int material,
                         fine ? nodes_128 : nodes_32, fine ? 128 : 32);
 }
 
+#endif
 #endif
 #endif

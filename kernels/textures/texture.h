@@ -55,24 +55,45 @@ float3 bitmap_texel(const Scene* scene, __global const Texture* t, int i, int j)
 }
 
 // The four texels bilinear filtering blends at st (between texel centres, at (i + 0.5) / width):
-// v00 at (i, j), v10 at (i + 1, j), v01 at (i, j + 1), v11; w the weights of the second ones.
-typedef struct { float3 v00, v10, v01, v11; float2 w; } TexelQuad;
+// columns i0, i1 = i0 + 1 and rows j0, j1 = j0 + 1 (wrapped), w the weights of i1 and j1.
+typedef struct { int i0, i1, j0, j1; float2 w; } TexelCorners;
 
-TexelQuad bilinear_texels(const Scene* scene, __global const Texture* t, float2 st) {
+TexelCorners bilinear_corners(__global const Texture* t, float2 st) {
     int width = t->info.z, height = t->info.w, wrap = t->format.w;
     float x = reduce_coordinate(st.x, wrap) * (float)width - 0.5f;
     float y = reduce_coordinate(st.y, wrap) * (float)height - 0.5f;
     float fx = floor(x), fy = floor(y);
     int i = (int)fx, j = (int)fy;
-    int i0 = wrap_texel(i, width, wrap), i1 = wrap_texel(i + 1, width, wrap);
-    int j0 = wrap_texel(j, height, wrap), j1 = wrap_texel(j + 1, height, wrap);
+    TexelCorners c;
+    c.i0 = wrap_texel(i, width, wrap);
+    c.i1 = wrap_texel(i + 1, width, wrap);
+    c.j0 = wrap_texel(j, height, wrap);
+    c.j1 = wrap_texel(j + 1, height, wrap);
+    c.w = (float2)(x - fx, y - fy);
+    return c;
+}
+
+// Their values: v00 at (i0, j0), v10 at (i1, j0), v01 at (i0, j1), v11.
+typedef struct { float3 v00, v10, v01, v11; float2 w; } TexelQuad;
+
+TexelQuad bilinear_texels_at(const Scene* scene, __global const Texture* t, TexelCorners c) {
     TexelQuad q;
-    q.v00 = bitmap_texel(scene, t, i0, j0);
-    q.v10 = bitmap_texel(scene, t, i1, j0);
-    q.v01 = bitmap_texel(scene, t, i0, j1);
-    q.v11 = bitmap_texel(scene, t, i1, j1);
-    q.w = (float2)(x - fx, y - fy);
+    q.v00 = bitmap_texel(scene, t, c.i0, c.j0);
+    q.v10 = bitmap_texel(scene, t, c.i1, c.j0);
+    q.v01 = bitmap_texel(scene, t, c.i0, c.j1);
+    q.v11 = bitmap_texel(scene, t, c.i1, c.j1);
+    q.w = c.w;
     return q;
+}
+
+TexelQuad bilinear_texels(const Scene* scene, __global const Texture* t, float2 st) {
+    return bilinear_texels_at(scene, t, bilinear_corners(t, st));
+}
+
+float3 blend_texels(TexelQuad q) {
+    float3 top = q.v00 * (1.0f - q.w.x) + q.v10 * q.w.x;
+    float3 bottom = q.v01 * (1.0f - q.w.x) + q.v11 * q.w.x;
+    return top * (1.0f - q.w.y) + bottom * q.w.y;
 }
 
 float3 eval_bitmap(const Scene* scene, __global const Texture* t, float2 st) {
@@ -82,10 +103,7 @@ float3 eval_bitmap(const Scene* scene, __global const Texture* t, float2 st) {
         float y = reduce_coordinate(st.y, wrap) * (float)height;
         return bitmap_texel(scene, t, wrap_texel((int)floor(x), width, wrap), wrap_texel((int)floor(y), height, wrap));
     }
-    TexelQuad q = bilinear_texels(scene, t, st);
-    float3 top = q.v00 * (1.0f - q.w.x) + q.v10 * q.w.x;
-    float3 bottom = q.v01 * (1.0f - q.w.x) + q.v11 * q.w.x;
-    return top * (1.0f - q.w.y) + bottom * q.w.y;
+    return blend_texels(bilinear_texels(scene, t, st));
 }
 
 // Whether st lies in a check of color0 (both fractions on the same side of 1/2).
