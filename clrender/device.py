@@ -148,24 +148,28 @@ def define_options(features):
 def build_program(context, features, entry=None):
     """Build the program for `features` (from `entry`, default the render kernel they select),
     or fetch it from the memory or disk cache."""
+    key, source, options, entry = _program_identity(context, features, entry)
+    programs = _memory_cache(context)
+    if key not in programs:
+        programs[key] = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
+    return programs[key]
+
+
+def program_key(context, features, entry=None):
+    """The build key (device, driver, options, source) of the program build_program makes for
+    these arguments, without building it: what the tables a program computes depend on
+    (disk_cache.py)."""
+    return _program_identity(context, features, entry)[0]
+
+
+def _program_identity(context, features, entry):
     from .features import entry_file
 
     entry = entry or entry_file(features)
     source = kernel_source(entry)
     options = f"{BUILD_OPTIONS} {define_options(features)}"
     identity = "\n".join([_device_identity(context.devices[0]), options, source])
-    key = hashlib.sha256(identity.encode()).hexdigest()
-    programs = _memory_cache(context)
-    if key not in programs:
-        programs[key] = _load_binary(context, key, options) or _build_from_source(context, source, options, key, entry)
-        programs[key].clrender_key = key
-    return programs[key]
-
-
-def program_key(program):
-    """The build key (device, driver, options, source) of a program build_program made, None
-    for any other: what the tables a program computes depend on (disk_cache.py)."""
-    return getattr(program, "clrender_key", None)
+    return hashlib.sha256(identity.encode()).hexdigest(), source, options, entry
 
 
 def _memory_cache(context):

@@ -138,12 +138,10 @@ def _path(kind, entry_key):
 
 def load_table(build_key, fields, shape):
     """A table of `shape` that the program of `build_key` (device.program_key) computed for
-    `fields` (what else it depends on), stored by an earlier process; None if there is none or
-    the program has no build key."""
-    return None if build_key is None else load("tables", key(build_key, *fields), shape)
+    `fields` (what else it depends on), stored by an earlier process; None if there is none."""
+    return load("tables", key(build_key, *fields), shape)
 
 
 def store_table(build_key, fields, table):
     """Store the table that the program of `build_key` computed for `fields` (see load_table)."""
-    if build_key is not None:
-        store("tables", key(build_key, *fields), table)
+    store("tables", key(build_key, *fields), table)

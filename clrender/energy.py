@@ -38,23 +38,34 @@ def _sides(material):
     return 2 if _field(material, "kind") == layout.MATERIAL_KINDS["dielectric"] else 1
 
 
+class TablesProgram:
+    """The tables' program (kernels/tables.cl) on a context: its build key (the disk cache's), and
+    its kernels, the program built (or loaded) only when a table has to be computed."""
+
+    def __init__(self, context):
+        self.context = context
+        self.key = program_key(context, TABLE_FEATURES, "tables.cl")
+
+    def kernel(self, name):
+        return cl.Kernel(build_program(self.context, TABLE_FEATURES, entry="tables.cl"), name)
+
+
 def fill_albedo_tables(queue, arrays):
     """Fill arrays.specular_albedo for the materials in arrays.table_materials (plastic's coat
-    tables: clrender/plastic.py), with the tables' program (built only for a scene that has
-    some)."""
+    tables: clrender/plastic.py)."""
     if not arrays.table_materials:
         return
-    program = build_program(queue.context, TABLE_FEATURES, entry="tables.cl")
+    tables = TablesProgram(queue.context)
     materials = arrays.materials
     is_plastic = lambda index: _field(materials[index], "kind") == layout.MATERIAL_KINDS["plastic"]  # noqa: E731
-    plastic.fill_coat_tables(queue, program, arrays, [i for i in arrays.table_materials if is_plastic(i)])
+    plastic.fill_coat_tables(queue, tables, arrays, [i for i in arrays.table_materials if is_plastic(i)])
     owners = [i for i in arrays.table_materials if not is_plastic(i)]
     if not owners:
         return
     size = layout.ALBEDO_TABLE_SIZE
     context = queue.context
     pending = []
-    build_key = program_key(program)
+    build_key = tables.key
     for index in owners:
         m = materials[index]
         key = _table_key(queue, m)
@@ -66,7 +77,7 @@ def fill_albedo_tables(queue, arrays):
         else:
             pending.append((index, key))
     if pending:
-        kernel = cl.Kernel(program, "specular_albedo_table")
+        kernel = tables.kernel("specular_albedo_table")
         mf = cl.mem_flags
         material_buffer = cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=materials)
         out = np.full_like(arrays.specular_albedo, np.nan)

@@ -7,7 +7,6 @@ import numpy as np
 import pyopencl as cl
 
 from . import disk_cache, layout
-from .device import program_key
 from .textures import LUMINANCE
 
 MIN_TABLE_ALPHA = np.float32(1e-4)   # Mitsuba's least microfacet width
@@ -110,15 +109,16 @@ def _disk_fields(key):
     return ("plastic coat",) + key[1:]
 
 
-def fill_coat_tables(queue, program, arrays, indices):
-    """Fill arrays.specular_albedo with the coat tables of the plastic materials `indices`."""
+def fill_coat_tables(queue, tables, arrays, indices):
+    """Fill arrays.specular_albedo with the coat tables of the plastic materials `indices`, from
+    the disk cache or computed by `tables` (energy.TablesProgram)."""
     materials = arrays.materials
     pending = {}
     for index in indices:
         key = _key(queue, materials[index])
         if key not in _cache:
             pending.setdefault(key, index)
-    build_key = program_key(program)
+    build_key = tables.key
     for key, index in list(pending.items()):
         stored = disk_cache.load_table(build_key, _disk_fields(key), (table_rows(materials[index]), COAT_ROW))
         if stored is not None:
@@ -127,7 +127,7 @@ def fill_coat_tables(queue, program, arrays, indices):
     if pending:
         context = queue.context
         mf = cl.mem_flags
-        kernel = cl.Kernel(program, "plastic_coat_table")
+        kernel = tables.kernel("plastic_coat_table")
         buffer = lambda array: cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)  # noqa: E731
         material_buffer = buffer(materials)
         nodes = (buffer(gauss_legendre(32)), buffer(gauss_legendre(128)))

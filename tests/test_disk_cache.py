@@ -5,7 +5,6 @@ parser or the builder is not asked again)."""
 import hashlib
 
 import numpy as np
-import pyopencl as cl
 import pytest
 
 import clrender
@@ -211,19 +210,10 @@ def test_tables_read_from_disk_are_the_computed_ones(cache, queue, monkeypatch):
     monkeypatch.setattr(energy, "_cache", {})
     computed = filled_tables(queue)
     assert len(list((cache / "tables").iterdir())) == len(TABLE_MATERIALS)
-    # A new process: nothing in memory; the device must not be asked.
+    # A new process: nothing in memory; the tables' program must not even be built.
     monkeypatch.setattr(plastic, "_cache", {})
     monkeypatch.setattr(energy, "_cache", {})
-    monkeypatch.setattr(cl, "Kernel", lambda *a: pytest.fail("a table was computed again"))
+    monkeypatch.setattr(energy, "build_program", lambda *a, **k: pytest.fail("the tables' program was built"))
     stored = filled_tables(queue)
     assert np.isfinite(computed).all() and computed.any()
     assert np.array_equal(stored, computed)
-
-
-def test_tables_of_a_program_without_a_build_key_stay_off_disk(cache, queue, monkeypatch):
-    monkeypatch.setattr(plastic, "_cache", {})
-    monkeypatch.setattr(energy, "_cache", {})
-    monkeypatch.setattr(plastic, "program_key", lambda program: None)
-    monkeypatch.setattr(energy, "program_key", lambda program: None)
-    filled_tables(queue)
-    assert not (cache / "tables").exists()
