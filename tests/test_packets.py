@@ -32,7 +32,7 @@ def example(name, resolution=(40, 32), **render):
     bulbs = name.startswith("bulbs_")           # two emitting spheres beside the ceiling's light
     frosted = name.startswith("frosted_")       # the glass rough: Beckmann, separable, uncompensated
     lit = name.startswith("lit_")               # point and spot lights in the room, a directional one
-    plastic = name.startswith("plastic_")       # back wall, floor and tall block plastic, coloured by textures
+    plastic = name.startswith("plastic_")       # back wall, floor, tall block, sphere: plastic, textured
     base = name
     for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_", "plastic_"):
         base = base.removeprefix(prefix)
@@ -69,7 +69,8 @@ def example(name, resolution=(40, 32), **render):
                                "nonlinear": True, "diffuse": {"texture": "grain"}, "two_sided": False},
                               {"name": "parquet", "type": "diffuse", "albedo": {"texture": "grain"}},
                               {"name": "sky", "type": "emissive", "radiance": [0.2, 0.25, 0.3]}]
-        roles = {"back": "varnish", "floor": "varnish", "tall_block": "lacquer", "short_block": "parquet"}
+        roles = {"back": "varnish", "floor": "varnish", "tall_block": "lacquer", "short_block": "parquet",
+                 "glass_sphere": "varnish"}   # the checkerboard at a sphere's uv
         for shape in data["shapes"]:
             shape["material"] = roles.get(shape["name"], shape["material"])
         # Around the open box, emitting inwards: the back wall mirrors it (the mirror's
