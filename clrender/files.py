@@ -50,11 +50,29 @@ def resolved(path):
     folders = _folders.get()
     if folders is None or path.name in ("", ".", ".."):
         return path.resolve()
-    parent = str(path.parent)
+    return Path(_resolved_in(str(path.parent), path.name, folders))
+
+
+# Links followed in a row before resolved() leaves the rest to os.path.realpath (Linux's limit).
+_MAX_LINKS = 40
+
+
+def _resolved_in(parent, name, folders, links=0):
+    """os.path.realpath(parent/name), folders from `folders` (resolved once each): a link in the
+    last component is followed from its folder the same way (a mirrored scene, as
+    tools/real_scenes.py makes one, links each of its files)."""
     if parent not in folders:
         folders[parent] = os.path.realpath(parent)
-    candidate = os.path.join(folders[parent], path.name)
-    return Path(os.path.realpath(candidate) if os.path.islink(candidate) else candidate)
+    candidate = os.path.join(folders[parent], name)
+    if not os.path.islink(candidate):
+        return candidate
+    try:
+        head, tail = os.path.split(os.path.join(folders[parent], os.readlink(candidate)))
+    except OSError:   # gone since islink: as realpath sees it now
+        return os.path.realpath(candidate)
+    if links >= _MAX_LINKS or tail in ("", ".", ".."):
+        return os.path.realpath(candidate)
+    return _resolved_in(head, tail, folders, links + 1)
 
 
 def not_a_file(path):
