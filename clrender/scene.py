@@ -1073,7 +1073,10 @@ def _read_transform(node):
         value = node.raw("matrix")
         matrix = None
         if _is_matrix(value):
-            matrix = np.array([[limits.number(x, node.at("matrix"), SceneError) for x in row] for row in value])
+            matrix = _finite_float32_matrix(value)
+            if matrix is None:   # some entry is not: its own message
+                where = node.at("matrix")
+                matrix = np.array([[limits.number(x, where, SceneError) for x in row] for row in value])
         if matrix is None or np.any(matrix[3] != [0, 0, 0, 1]):
             raise SceneError(node.at("matrix"), "must be a 4x4 affine matrix (rows; last row 0 0 0 1)")
     else:
@@ -1089,6 +1092,16 @@ def _read_transform(node):
                                      f"and {singular[-1]:.3g}, a ratio beyond {limits.MAX_TRANSFORM_CONDITION:g})")
     node.finish()
     return matrix
+
+
+def _finite_float32_matrix(rows):
+    """The matrix of number `rows` as floats when every entry is finite in float32 (as
+    limits.number reads each), else None. (A scene of hundreds of shapes has hundreds of matrices.)"""
+    try:
+        matrix = np.array(rows, float)
+    except OverflowError:   # an integer beyond float
+        return None
+    return matrix if np.all(np.abs(matrix) <= limits.FLOAT32_MAX) else None
 
 
 def _is_matrix(value):

@@ -195,6 +195,23 @@ def test_degenerate_triangles_are_dropped_and_counted(tmp_path):
     assert len(arrays.triangles) == 1 and arrays.degenerate_triangles == 2
 
 
+@pytest.mark.parametrize("entry,message", [(float("nan"), "must be finite, got nan"),
+                                           (1e39, "is beyond the float32 range"), (10**400, "is too large"),
+                                           (True, "must be a 4x4 affine matrix")])
+def test_a_transform_matrix_entry_is_checked_where_it_stands(entry, message):
+    rows = [[2, 0, 0, 1], [0, 2, 0, 0], [0, 0, 2, entry], [0, 0, 0, 1]]
+    text = error_of(base_scene(shapes=[{"type": "box", "material": "white", "transform": {"matrix": rows}}]))
+    assert text.startswith("shapes[0].transform.matrix: ") and message in text
+
+
+def test_a_transform_matrix_of_integers_and_floats_is_read_as_floats():
+    rows = [[2, 0, 0, 1], [0, 2.5, 0, 0], [0, 0, 2, -3], [0, 0, 0, 1]]
+    scene = clrender.load_scene_dict(base_scene(shapes=[{"type": "box", "material": "white",
+                                                         "transform": {"matrix": rows}}]))
+    lo, hi = scene.shapes[0].mesh.vertices.min(axis=0), scene.shapes[0].mesh.vertices.max(axis=0)
+    assert np.allclose(lo, [-1, -2.5, -5]) and np.allclose(hi, [3, 2.5, -1])
+
+
 def test_scene_file_round_trip(tmp_path):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(base_scene()))
