@@ -54,11 +54,11 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int ki
     lane_int plastic = (kind == MATERIAL_PLASTIC) & !black_back;
     if (!lane_any(specular | plastic)) return g;
     g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
+    g.mf = material_microfacet_at(scene->materials, sp->material);
     if (lane_any(plastic)) {
         g.plastic = plastic;
-        g.p = plastic_lanes(scene, sp->material, plastic, tint);
+        g.p = plastic_lanes(scene, sp->material, plastic, tint, g.mf);
     }
-    g.mf = material_microfacet_at(scene->materials, sp->material);
     g.rough = specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
     if (!lane_any(g.rough)) return g;
     g.dielectric = g.rough & (kind == MATERIAL_DIELECTRIC);

@@ -172,13 +172,6 @@ float2 triangle_uv(const Scene* scene, int prim, float b1, float b2) {
     return corners[0] * (1.0f - b1 - b2) + corners[1] * b1 + corners[2] * b2;
 }
 
-// The uv of a hit alone (the packets' texture lookups).
-float2 hit_uv(const Scene* scene, const Hit* hit) {
-    float3 dpdu, dpdv;   // unused
-    if (hit->sphere) return sphere_uv(scene->triangles + hit->prim, normalize(hit->from_centre), &dpdu, &dpdv);
-    return triangle_uv(scene, hit->prim, hit->b1, hit->b2);
-}
-
 #if LANES == 1
 void surface_uv(const Scene* scene, const Hit* hit, SurfacePoint* sp) {
     __global const Triangle* slot = scene->triangles + hit->prim;

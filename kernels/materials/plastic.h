@@ -56,12 +56,13 @@ Plastic plastic_at(const Scene* scene, const Material* m) {
 #endif
 
 // The plastic of each lane's material `index` where `plastic`, of base colour `diffuse` (its
-// texture's value: the packets resolve no other parameter from textures, features.py).
-Plastic plastic_lanes(const Scene* scene, lane_int index, lane_int plastic, lane_float3 diffuse) {
+// texture's value: the packets resolve no other parameter from textures, features.py) and
+// microfacets mf (material_microfacet_at, which the caller has).
+Plastic plastic_lanes(const Scene* scene, lane_int index, lane_int plastic, lane_float3 diffuse, Microfacet mf) {
     Plastic p;
     p.diffuse = diffuse;
     p.specular = material_reflection_tint_at(scene->materials, index);
-    p.mf = material_microfacet_at(scene->materials, index);
+    p.mf = mf;
     p.specular_weight = material_specular_sampling_weight_at(scene->materials, index);
     p.nonlinear = material_nonlinear_at(scene->materials, index);
     p.coat = plastic_coat_at(scene, index, plastic, p.mf.alpha);

@@ -78,11 +78,9 @@ lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int
         member[i] = scene->materials[index[i]].slot[0];
         uv[i] = (float2)(us[i], vs[i]);
         if (sphere[i]) {
-            Hit h;
-            h.prim = prim[i];
-            h.sphere = true;
-            h.from_centre = (float3)(from_centre[0][i], from_centre[1][i], from_centre[2][i]);
-            uv[i] = hit_uv(scene, &h);
+            float3 n = normalize((float3)(from_centre[0][i], from_centre[1][i], from_centre[2][i]));
+            float3 dpdu, dpdv;   // (unused)
+            uv[i] = sphere_uv(scene->triangles + prim[i], n, &dpdu, &dpdv);
         }
         int reference = (int)member[i].w;
         __global const Texture* t = scene->textures + (reference >> 1);
@@ -91,8 +89,8 @@ lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int
     }
     for (int i = 0; i < 8; ++i) {
         if (!lookup[i]) continue;
-        float4 value = bilinear[i] ? (float4)(blend_texels(bilinear_texels_at(scene, scene->textures + ((int)member[i].w >> 1),
-                                                                              corners[i])), 0.0f)
+        __global const Texture* t = scene->textures + ((int)member[i].w >> 1);
+        float4 value = bilinear[i] ? (float4)(blend_texels(bilinear_texels_at(scene, t, corners[i])), 0.0f)
                                    : textured_value(scene, member[i], uv[i]);
         rgb[0][i] = value.x;
         rgb[1][i] = value.y;
