@@ -280,18 +280,21 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     # Without spheres every slot is a triangle's: a slice writes the fields without index arrays.
     slots = np.flatnonzero(~is_sphere) if with_spheres else slice(None)
     tri = np.asarray(order)[slots]
+    # Written through plain float32 views of the records, (slots, 3 fields, 4 lanes): numpy's
+    # take and copies of whole rows, not a structured field and an index array per component.
     triangles = host_memory.zeros(len(order), layout.TRIANGLE)
+    records = triangles.view(np.float32).reshape(len(order), 3, 4)
     # Edges are differences of the float32 corners, not rounded float64 differences: then
     # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
     # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
     # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
-    a, b, c = (np.asarray(v, np.float32)[tri] for v in (v0, v1, v2))
-    triangles["v0"][slots, :3] = a
-    triangles["e1"][slots, :3] = b - a
-    triangles["e2"][slots, :3] = c - a
+    a = np.take(np.asarray(v0, np.float32), tri, axis=0)
+    records[slots, 0, :3] = a
+    records[slots, 1, :3] = np.take(np.asarray(v1, np.float32), tri, axis=0) - a
+    records[slots, 2, :3] = np.take(np.asarray(v2, np.float32), tri, axis=0) - a
     shading = host_memory.zeros(len(order), layout.TRIANGLE_SHADING)
-    for k, name in enumerate(("n0", "n1", "n2")):
-        shading[name][slots, :3] = np.asarray(normals)[tri, k]
+    corner_normals = np.take(np.asarray(normals, np.float32).reshape(-1, 9), tri, axis=0)
+    shading.view(np.float32).reshape(len(order), 3, 4)[slots, :, :3] = corner_normals.reshape(-1, 3, 3)
     if with_spheres:
         spheres = np.zeros(len(order), layout.SPHERE)
         index = np.asarray(order)[is_sphere] - n_triangles
@@ -309,9 +312,13 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
 
 def _slot_uvs(order, uvs):
     """The (slots * 3, 2) corner uv of each primitive slot (a sphere's computed in the kernel)."""
+    order = np.asarray(order)
     out = host_memory.zeros((len(order), 3, 2), np.float32)
-    triangle = np.asarray(order) < len(uvs)
-    out[triangle] = uvs[np.asarray(order)[triangle]]
+    triangle = np.flatnonzero(order < len(uvs))
+    if len(triangle) == len(order):
+        np.take(uvs, order, axis=0, out=out)
+    else:
+        out[triangle] = np.take(uvs, order[triangle], axis=0)
     return out.reshape(-1, 2)
 
 
@@ -359,9 +366,7 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
         for k, corner in enumerate((v0, v1, v2)):
             np.take(scaled, mesh.faces[:, k], axis=0, out=corner[at])
         if mesh.normals is not None:
-            vertex_normals = mesh.normals.astype(np.float32)
-            for k in range(3):
-                normals[at, k] = vertex_normals[mesh.faces[:, k]]
+            np.take(mesh.normals.astype(np.float32), mesh.faces, axis=0, out=normals[at])
         else:
             corners = mesh.vertices[mesh.faces] * scale
             flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
@@ -369,7 +374,10 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
         shape = scene.shapes[object_id]
         info[at] = [shape.material, object_id, -1, layout.pack_media(shape.interior, shape.exterior)]
         if with_uv:
-            uvs[at] = BARYCENTRIC_UV if mesh.uvs is None else mesh.uvs[mesh.faces]
+            if mesh.uvs is None:
+                uvs[at] = BARYCENTRIC_UV
+            else:
+                np.take(mesh.uvs.astype(np.float32), mesh.faces, axis=0, out=uvs[at])
     return v0, v1, v2, normals, info, uvs
 
 

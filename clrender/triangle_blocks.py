@@ -21,8 +21,10 @@ def triangle_blocks(nodes, triangles):
     blocks = host_memory.zeros(max(len(first), 1), layout.TRIANGLE_BLOCK)
     slots = first[:, None] + np.minimum(np.arange(LANES), count[:, None] - 1)   # (leaves, LANES)
     blocks["slot"][:len(first)] = slots
-    for name in ("v0", "e1", "e2"):
-        for axis, component in enumerate("xyz"):
-            blocks[f"{name}_{component}"][:len(first)] = triangles[name][slots, axis]
+    # One gather of the slots' records as float32 words (v0, e1, e2 as xyzw rows), then each
+    # block's (field, axis) rows of lanes: a transpose, not a fancy index per component.
+    words = np.take(triangles.view(np.float32).reshape(len(triangles), 3, 4)[:, :, :3], slots, axis=0)
+    lanes = blocks.view(np.float32).reshape(len(blocks), -1)[:len(first), :9 * LANES]
+    lanes.reshape(len(first), 9, LANES)[:] = words.reshape(len(first), LANES, 9).transpose(0, 2, 1)
     nodes["child"][leaf] = np.arange(len(first))
     return nodes, blocks
