@@ -204,6 +204,7 @@ def box():
 # shape does not, its serialized shape has no such option (and flips nothing). Formats Mitsuba
 # does not read come through trimesh, whose texture coordinates follow OBJ's convention.
 FLIP_TEX_COORDS = {".obj": True, ".ply": False, ".serialized": False}
+_FLIP_V_SCALE, _FLIP_V_OFFSET = np.array([1.0, -1.0]), np.array([0.0, 1.0])   # v -> 1 - v
 
 
 def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None, shape_index=0):
@@ -235,7 +236,7 @@ def load_mesh_file(path: Path, smooth: bool, flip_tex_coords=None, shape_index=0
         raise ValueError("the file holds no triangles")
     uvs = loaded.uvs
     if uvs is not None and (FLIP_TEX_COORDS.get(suffix, True) if flip_tex_coords is None else flip_tex_coords):
-        uvs = uvs * [1, -1] + [0, 1]
+        uvs = uvs * _FLIP_V_SCALE + _FLIP_V_OFFSET
     return _checked_mesh(loaded.positions, loaded.faces, smooth, loaded.normals, uvs)
 
 
@@ -267,9 +268,9 @@ def _checked_mesh(vertices, faces, smooth, normals=None, uvs=None):
     for name, values in (("vertex", vertices), ("texture coordinate", uvs)):
         if values is None:
             continue
-        bad = ~np.all(np.isfinite(values) & (np.abs(values) <= np.finfo(np.float32).max), axis=1)
-        if np.any(bad):
-            index = int(np.flatnonzero(bad)[0])
+        within = np.abs(values) <= limits.FLOAT32_MAX   # false for NaN and infinities too
+        if not within.all():
+            index = int(np.flatnonzero(~within.all(axis=1))[0])
             raise ValueError(f"{name} {index + 1} is not finite in float32: {values[index].tolist()}")
     if not smooth:
         return Mesh(vertices, faces, None, uvs)
