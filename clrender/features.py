@@ -92,10 +92,11 @@ def scene_features(scene, volume_method_override=None, sample_aovs=False, packet
     return features
 
 
-def gather_features(packets):
-    """The defines of splatting's gather (kernels/splat.cl): LANES pixels of a row per work-item,
-    8 where the device wants camera paths in packets (a CPU), else 1."""
-    return {"LANES": FEATURE_VALUES["LANES"][-1] if packets else 1}
+def gather_features(packets, sample_aovs=False):
+    """The defines of splatting's gather and the sum of sample items (kernels/splat.cl): LANES
+    pixels of a row per work-item, 8 where the device wants camera paths in packets (a CPU), else
+    1; AOVS where sample items' sums take the sample-level AOVs too."""
+    return {"LANES": FEATURE_VALUES["LANES"][-1] if packets else 1, "AOVS": int(bool(sample_aovs))}
 
 
 def packets_cover(scene, features):

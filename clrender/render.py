@@ -334,6 +334,7 @@ class Renderer:
         if sample_items is None:
             sample_items = sample_items_module.wanted(self.device, self.features)
         self._sample_sums = sample_items_module.SampleSums(self.context, packets) if sample_items else None
+        self._aov_sample_sums = None   # the one that adds the sample-level AOVs too, when asked for
         # The render pass's records argument when it does not splat.
         self._no_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
 
@@ -459,9 +460,12 @@ class Renderer:
                     if state.aov_sums is not None else np.zeros(1, layout.AOV_SUMS))
         aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=aov_sums)
         splat = self._splat_buffers(state, traced, samples)
-        # The sample-level AOVs are summed in each pixel's loop: no sample items for them.
-        items = self._sample_sums is not None and state.aov_sums is None
+        items = self._sample_sums is not None
         records, most = self._pass_records(splat, items, traced, samples)
+        # With sample items the sample-level AOVs are records too, summed with the colour's.
+        aov_records, sums_of_samples = None, self._sample_sums
+        if items and state.aov_sums is not None:
+            aov_records, most, sums_of_samples = self._aov_records(traced, most)
         kernel, lanes = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
 
@@ -486,11 +490,13 @@ class Renderer:
                     band = min(rows, tile_height - first_row)
                     start = time.perf_counter()
                     global_size, local_size = self._launch_size(tile_width, band, lanes, items_of_pass)
+                    aovs_argument = aov_records if items_of_pass > 1 and aov_records is not None else aov_buffer
                     kernel(self.queue, global_size, local_size, params_buffer, *self._buffers, accum_buffer,
-                           discarded_buffer, *aux_buffers, aov_buffer, records, np.int32(first_row))
+                           discarded_buffer, *aux_buffers, aovs_argument, records, np.int32(first_row))
                     if first_row + band >= tile_height:
                         if items_of_pass > 1:
-                            self._sample_sums(self.queue, traced, params_buffer, records, accum_buffer)
+                            sums_of_samples(self.queue, traced, params_buffer, records, accum_buffer,
+                                            *(() if aov_records is None else (aov_records, aov_buffer)))
                         if splat:
                             self._gather(self.queue, state.tile, params_buffer, splat.records, splat.filtered)
                     self.queue.finish()
@@ -542,6 +548,17 @@ class Renderer:
         most = min(samples, splatting.samples_per_pass_limit(traced, 0))
         size = most * traced[2] * traced[3] * splatting.record_bytes(0)
         return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size), most
+
+    def _aov_records(self, traced, most):
+        """(buffer of a pass's AOV records, most samples per pass, the sums' kernel that adds them)
+        for sample items over the pixels `traced` that accumulate the sample-level AOVs: a record
+        per pixel and sample (layout.AOV_SUMS), within the records' budget."""
+        pixels = traced[2] * traced[3]
+        most = min(most, max(1, splatting.RECORDS_BUDGET // (layout.AOV_SUMS.itemsize * pixels)))
+        if self._aov_sample_sums is None:
+            self._aov_sample_sums = sample_items_module.SampleSums(self.context, sample_aovs=True)
+        buffer = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, most * pixels * layout.AOV_SUMS.itemsize)
+        return buffer, most, self._aov_sample_sums
 
     def _check_depths(self, max_depth, rr_depth):
         """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""

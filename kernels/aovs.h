@@ -38,6 +38,7 @@
 
 #include "types.h"
 #include "math.h"
+#include "aov_sums.h"
 #include "scene.h"
 #include "lights.h"
 #include "materials/material.h"
@@ -122,22 +123,24 @@ void aov_weight(AovSample* aov, float weight) {
     aov->emission *= weight;
 }
 
-// Adds one sample: its AOVs, and its colour `value` to the squared deviations (Welford's update,
-// exact in order and far less prone to cancellation than a sum of squares); `sum` is the pixel's
-// colour sum before this sample (w: its sample count), the same floats the colour accumulates.
-// A non-finite sample counts as black in the colour, so its emission does too.
+// Adds one sample to the pixel's sums (aov_sums.h); a non-finite sample counts as black in the
+// colour, so its emission does too.
 #if AOVS
 void accumulate_aovs(AovSums* sums, const AovSample* aov, float3 value, bool finite, float4 sum) {
-    sums->albedo.xyz += aov->albedo;
-    sums->normal.xyz += aov->normal;
-    sums->emission.xyz += finite ? aov->emission : (float3)(0.0f);
-    // The deviations from the means before and after, value - sum / n, as (n value - sum) / n:
-    // exactly 0 for a pixel whose samples are all equal (and add up exactly) however the device
-    // rounds division, where sum / n may differ from value (GPUs divide to 2.5 ulp by default).
-    float n = sum.w;
-    float3 before = n > 0.0f ? (n * value - sum.xyz) / n : (float3)(0.0f);
-    float3 after = ((n + 1.0f) * value - (sum.xyz + value)) / (n + 1.0f);
-    sums->colour_m2.xyz += before * after;
+    add_sample_aovs(sums, aov->albedo, aov->normal, finite ? aov->emission : (float3)(0.0f), value, sum);
+}
+
+// With sample items (integrator.cl): the sample's AOVs as the record of the pass's `index`-th
+// sample of the pixel in `slot`, which sum_samples (splat.cl) adds in sample order with the
+// colour's deviations (those it computes from the radiance record).
+void write_sample_aovs(__constant RenderParams* params, __global AovSums* records, int index, int slot,
+                       const AovSample* aov, bool finite) {
+    AovSums record;
+    record.albedo = (float4)(aov->albedo, 0.0f);
+    record.normal = (float4)(aov->normal, 0.0f);
+    record.emission = (float4)(finite ? aov->emission : (float3)(0.0f), 0.0f);
+    record.colour_m2 = (float4)(0.0f);
+    records[index * params->tile.z * params->tile.w + slot] = record;
 }
 #endif
 

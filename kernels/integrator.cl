@@ -7,8 +7,9 @@
 //
 // Launched over a third dimension (sample items, clrender/sample_items.py: GPUs, whose threads
 // a small image would not fill), work-item k of that dimension takes sample `frame.z + k` alone
-// and writes it as a record; splat.cl's sum_samples then adds each pixel's records to its
-// accumulator in sample order, so the sums are the same bits as the loop's.
+// and writes it as a record (with AOVS its AOVs too, into `aov_sums`, which is then the pass's
+// AOV records); splat.cl's sum_samples then adds each pixel's records to its sums in sample
+// order, so the sums are the same bits as the loop's.
 #include "portability.h"
 #include "rng.h"
 #include "camera.h"
@@ -34,7 +35,8 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
     float4 sum = (float4)(0.0f);
     if (!sample_items) sum = accumulator[slot];
 #if AOVS
-    AovSums aovs = aov_sums[slot];
+    AovSums aovs;
+    if (!sample_items) aovs = aov_sums[slot];
 #endif
     int discarded = 0;
     bool splatting = SPLATTING(params);
@@ -56,13 +58,14 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
         else if (sample_items) write_sample_radiance(params, splat_records, index, slot, 1, value);
 #if AOVS
         aov_weight(&aov, camera.weight);
-        accumulate_aovs(&aovs, &aov, value, finite, sum);
+        if (sample_items) write_sample_aovs(params, aov_sums, index, slot, &aov, finite);
+        else accumulate_aovs(&aovs, &aov, value, finite, sum);
 #endif
         sum += (float4)(value, 1.0f);
     }
     if (!sample_items) accumulator[slot] = sum;
 #if AOVS
-    aov_sums[slot] = aovs;
+    if (!sample_items) aov_sums[slot] = aovs;
 #endif
     if (discarded > 0) atomic_add(discarded_samples, discarded);
 }

@@ -9,6 +9,7 @@
 #include "lanes.h"
 #include "types.h"
 #include "splat.h"
+#include "aov_sums.h"
 
 // Element q of `a` in each lane: one vector load where the lanes' indices are consecutive (all
 // but a row's first and last work-items, whose neighbours beyond the traced pixels are clamped).
@@ -67,8 +68,14 @@ KERNEL void gather_splats(__constant RenderParams* params, __global const float*
 }
 
 // After a pass of sample items (integrator.cl): each traced pixel adds its own records' radiance
-// to its accumulator in sample order, as the render pass's loop adds them.
-KERNEL void sum_samples(__constant RenderParams* params, __global const float* records, __global float4* accumulator) {
+// to its accumulator in sample order, as the render pass's loop adds them; with AOVS, the
+// records' AOVs and the colour's deviations to its AOV sums too (aov_sums.h, as the loop adds
+// them).
+KERNEL void sum_samples(__constant RenderParams* params, __global const float* records, __global float4* accumulator
+#if AOVS
+                        , __global const AovSums* aov_records, __global AovSums* aov_sums
+#endif
+                        ) {
     int tx = get_global_id(0), ty = get_global_id(1);
     int4 traced = params->tile;
     if (tx >= traced.z || ty >= traced.w) return;
@@ -76,7 +83,19 @@ KERNEL void sum_samples(__constant RenderParams* params, __global const float* r
     int slot = ty * traced.z + tx;
     __global const float* record = records + slot;
     float4 sum = accumulator[slot];
-    for (int s = 0; s < params->frame.w; ++s, record += SPLAT_COMPONENTS(params->splat_reach.x) * pixels)
-        sum += (float4)(record[0], record[pixels], record[2 * pixels], 1.0f);
+#if AOVS
+    AovSums aovs = aov_sums[slot];
+#endif
+    for (int s = 0; s < params->frame.w; ++s, record += SPLAT_COMPONENTS(params->splat_reach.x) * pixels) {
+        float3 value = (float3)(record[0], record[pixels], record[2 * pixels]);
+#if AOVS
+        AovSums sample = aov_records[s * pixels + slot];
+        add_sample_aovs(&aovs, sample.albedo.xyz, sample.normal.xyz, sample.emission.xyz, value, sum);
+#endif
+        sum += (float4)(value, 1.0f);
+    }
     accumulator[slot] = sum;
+#if AOVS
+    aov_sums[slot] = aovs;
+#endif
 }

@@ -76,9 +76,10 @@ def run_combination(case, device):
         info = add(info, render(with_albedo_grid(small), device, method, launches=1,
                                 aovs=SAMPLE_AOVS if features["AOVS"] else ()))
     if not packets:
-        info = add(info, render(small, device, method, launches=2, sample_items=True))
+        sample_aovs = SAMPLE_AOVS if features["AOVS"] else ()   # their records summed by sum_samples
+        info = add(info, render(small, device, method, launches=2, aovs=sample_aovs, sample_items=True))
         info = add(info, render(replace(small, render=replace(small.render, filter_method="importance")), device,
-                                method, launches=2, sample_items=True))
+                                method, launches=2, aovs=sample_aovs, sample_items=True))
         small.render = replace(small.render, hide_emitters=True)
         info = add(info, render(small, device, method, launches=1))
     if not (packets or features["MEDIA"] or features["TOON"]):

@@ -83,13 +83,24 @@ def test_sample_items_accumulate_strips_as_one_render(device, name):
     assert np.array_equal(merge_strips(scene, states).sums, whole.sums)
 
 
-def test_renders_with_sample_aovs_take_the_pixel_loop(device):
-    per_pixel, items = renderers(cornell_box("gaussian"), device)
-    expected = per_pixel.render(spp=4, seed=1, aovs=["albedo", "variance"])
-    result = items.render(spp=4, seed=1, samples_per_pass=4, aovs=["albedo", "variance"])
-    assert_same_result(expected, result)
-    for name in ("albedo", "variance"):
-        assert np.array_equal(expected.aovs[name], result.aovs[name]), name
+@pytest.mark.parametrize("name", list(FILTERS))
+def test_sample_items_accumulate_the_sample_aovs(device, name, monkeypatch):
+    # Each sample's AOVs are records beside its radiance, summed in sample order with the
+    # colour's deviations: the loop's bits, in passes of several samples and of one.
+    per_pixel, items = renderers(cornell_box(name), device)
+    sums = []
+    monkeypatch.setattr(sample_items.SampleSums, "__call__",
+                        lambda self, *a, _call=sample_items.SampleSums.__call__: sums.append(len(a)) or _call(self, *a))
+    names = ["albedo", "normal", "emission", "variance"]
+    expected = per_pixel.render(spp=5, seed=1, aovs=names)
+    for passes in (5, 3, 1):
+        result = items.render(spp=5, seed=1, samples_per_pass=passes, aovs=names)
+        assert_same_result(expected, result)
+        for aov in names:
+            assert np.array_equal(expected.aovs[aov], result.aovs[aov]), (passes, aov)
+    # The passes of several samples summed their AOV records (7 arguments: 5 and the two AOV buffers).
+    assert sums == [7, 7, 7]
+    assert np.any(expected.aovs["variance"] > 0) and np.any(expected.aovs["albedo"] > 0)
 
 
 def test_sample_items_are_for_the_megakernel_on_gpus(device):
