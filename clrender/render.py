@@ -461,11 +461,9 @@ class Renderer:
         aov_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=aov_sums)
         splat = self._splat_buffers(state, traced, samples)
         items = self._sample_sums is not None
-        records, most = self._pass_records(splat, items, traced, samples)
         # With sample items the sample-level AOVs are records too, summed with the colour's.
-        aov_records, sums_of_samples = None, self._sample_sums
-        if items and state.aov_sums is not None:
-            aov_records, most, sums_of_samples = self._aov_records(traced, most)
+        records, aov_records, most = self._pass_records(splat, items, traced, samples, state.aov_sums is not None)
+        sums_of_samples = self._sums_of_samples(aov_records) if items else None
         kernel, lanes = self._kernel(state.aov_sums is not None)
         params_buffer = cl.Buffer(self.context, mf.READ_ONLY, layout.RENDER_PARAMS.itemsize)
 
@@ -537,28 +535,33 @@ class Renderer:
                                        hostbuf=np.ascontiguousarray(filtered, dtype=np.float32)),
                              state.samples, most)
 
-    def _pass_records(self, splat, items, traced, samples):
-        """(records buffer, most samples per pass) of an accumulation of `samples` over the pixels
-        `traced`: the splatting records when the film splats (`splat`), else with sample items
-        (`items`) a buffer of their radiance, else a placeholder and no limit."""
-        if splat:
-            return splat.records, splat.samples_per_pass
+    def _pass_records(self, splat, items, traced, samples, sample_aovs):
+        """(records, AOV records, most samples per pass) of an accumulation of `samples` over the
+        pixels `traced`: the splatting records when the film splats (`splat`), else with sample
+        items (`items`) a buffer of their radiance, else a placeholder and no limit; with sample
+        items accumulating the sample-level AOVs (`sample_aovs`), a buffer of the samples' AOV
+        records (layout.AOV_SUMS), else None. Within the records' budget; where it allows one
+        sample per pass, the passes are plain ones, which write no sample records."""
         if not items:
-            return self._no_records, MAX_SPP
-        most = min(samples, splatting.samples_per_pass_limit(traced, 0))
-        size = most * traced[2] * traced[3] * splatting.record_bytes(0)
-        return cl.Buffer(self.context, cl.mem_flags.READ_WRITE, size), most
-
-    def _aov_records(self, traced, most):
-        """(buffer of a pass's AOV records, most samples per pass, the sums' kernel that adds them)
-        for sample items over the pixels `traced` that accumulate the sample-level AOVs: a record
-        per pixel and sample (layout.AOV_SUMS), within the records' budget."""
+            return (splat.records, None, splat.samples_per_pass) if splat else (self._no_records, None, MAX_SPP)
         pixels = traced[2] * traced[3]
-        most = min(most, max(1, splatting.RECORDS_BUDGET // (layout.AOV_SUMS.itemsize * pixels)))
+        most = splat.samples_per_pass if splat else min(samples, splatting.samples_per_pass_limit(traced, 0))
+        if sample_aovs:
+            most = min(most, max(1, splatting.RECORDS_BUDGET // (layout.AOV_SUMS.itemsize * pixels)))
+        records = (splat.records if splat else self._no_records if most == 1
+                   else cl.Buffer(self.context, cl.mem_flags.READ_WRITE, most * pixels * splatting.record_bytes(0)))
+        aov_records = (cl.Buffer(self.context, cl.mem_flags.READ_WRITE, most * pixels * layout.AOV_SUMS.itemsize)
+                       if sample_aovs and most > 1 else None)
+        return records, aov_records, most
+
+    def _sums_of_samples(self, aov_records):
+        """The sum_samples kernel for a pass's records: the one adding AOV records too where there
+        are some (built when first asked for)."""
+        if aov_records is None:
+            return self._sample_sums
         if self._aov_sample_sums is None:
             self._aov_sample_sums = sample_items_module.SampleSums(self.context, sample_aovs=True)
-        buffer = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, most * pixels * layout.AOV_SUMS.itemsize)
-        return buffer, most, self._aov_sample_sums
+        return self._aov_sample_sums
 
     def _check_depths(self, max_depth, rr_depth):
         """Path depths given for a scene of the direct integrator, which has none (ArgumentError)."""

@@ -8,7 +8,7 @@ import pyopencl as cl
 import pytest
 
 import clrender
-from clrender import sample_items
+from clrender import layout, sample_items, splatting
 from clrender.distributed import merge_strips
 from clrender.errors import ArgumentError
 from clrender.features import scene_features
@@ -101,6 +101,29 @@ def test_sample_items_accumulate_the_sample_aovs(device, name, monkeypatch):
     # The passes of several samples summed their AOV records (7 arguments: 5 and the two AOV buffers).
     assert sums == [7, 7, 7]
     assert np.any(expected.aovs["variance"] > 0) and np.any(expected.aovs["albedo"] > 0)
+
+
+@pytest.mark.parametrize("name", ["gaussian", "importance"])
+def test_sample_items_keep_their_records_within_the_budget(device, name, monkeypatch):
+    # The AOV records (64 bytes per pixel and sample) limit a pass to what the budget holds: two
+    # samples, or one, which makes the passes plain ones (no records, no sums).
+    scene = cornell_box(name)
+    per_pixel, items = renderers(scene, device)
+    names = ["albedo", "variance"]
+    expected = per_pixel.render(spp=5, seed=2, aovs=names)
+    reach = splatting.reach(scene.camera.filter) if splatting.splats(scene) else 0
+    traced = (24 + 2 * reach) * (18 + 2 * reach)   # the pixels traced: the image and the filter's reach
+    sums = []
+    monkeypatch.setattr(sample_items.SampleSums, "__call__",
+                        lambda self, *a, _call=sample_items.SampleSums.__call__: sums.append(len(a)) or _call(self, *a))
+    for samples_per_pass, calls in ((2, [7, 7]), (1, [])):
+        sums.clear()
+        monkeypatch.setattr(splatting, "RECORDS_BUDGET", samples_per_pass * layout.AOV_SUMS.itemsize * traced)
+        result = items.render(spp=5, seed=2, samples_per_pass=5, aovs=names)
+        assert_same_result(expected, result)
+        for aov in names:
+            assert np.array_equal(expected.aovs[aov], result.aovs[aov]), (samples_per_pass, aov)
+        assert sums == calls
 
 
 def test_sample_items_are_for_the_megakernel_on_gpus(device):
