@@ -314,11 +314,10 @@ def _slot_uvs(order, uvs):
     """The (slots * 3, 2) corner uv of each primitive slot (a sphere's computed in the kernel)."""
     order = np.asarray(order)
     out = host_memory.zeros((len(order), 3, 2), np.float32)
-    triangle = np.flatnonzero(order < len(uvs))
-    if len(triangle) == len(order):
-        np.take(uvs, order, axis=0, out=out)
-    else:
-        out[triangle] = np.take(uvs, order[triangle], axis=0)
+    triangle = order < len(uvs)
+    # Without spheres every slot is a triangle's: a slice, as in primitive_slots.
+    slots = slice(None) if triangle.all() else np.flatnonzero(triangle)
+    out[slots] = np.take(uvs, order[slots], axis=0)
     return out.reshape(-1, 2)
 
 

@@ -528,7 +528,7 @@ class Renderer:
                                          "accumulated by splatting")
         filtered = state.filtered if state.filtered is not None else np.zeros((n, 4), np.float32)
         mf = cl.mem_flags
-        most = min(samples, splatting.samples_per_pass_limit(traced, self._gather.reach))
+        most = min(samples, splatting.samples_per_pass_limit(traced, splatting.record_bytes(self._gather.reach)))
         records = most * traced[2] * traced[3]
         return _SplatBuffers(cl.Buffer(self.context, mf.READ_WRITE, records * splatting.record_bytes(self._gather.reach)),
                              cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR,
@@ -545,9 +545,10 @@ class Renderer:
         if not items:
             return (splat.records, None, splat.samples_per_pass) if splat else (self._no_records, None, MAX_SPP)
         pixels = traced[2] * traced[3]
-        most = splat.samples_per_pass if splat else min(samples, splatting.samples_per_pass_limit(traced, 0))
+        most = (splat.samples_per_pass if splat
+                else min(samples, splatting.samples_per_pass_limit(traced, splatting.record_bytes(0))))
         if sample_aovs:
-            most = min(most, max(1, splatting.RECORDS_BUDGET // (layout.AOV_SUMS.itemsize * pixels)))
+            most = min(most, splatting.samples_per_pass_limit(traced, layout.AOV_SUMS.itemsize))
         records = (splat.records if splat else self._no_records if most == 1
                    else cl.Buffer(self.context, cl.mem_flags.READ_WRITE, most * pixels * splatting.record_bytes(0)))
         aov_records = (cl.Buffer(self.context, cl.mem_flags.READ_WRITE, most * pixels * layout.AOV_SUMS.itemsize)

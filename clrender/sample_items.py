@@ -9,8 +9,8 @@ record (kernels/splat.h: the splatting record, or its radiance alone when the fi
 splat), and `sum_samples` (kernels/splat.cl) adds each pixel's records to its accumulator in
 sample order: the sums are the bits of the per-pixel loop. A render that accumulates the
 sample-level AOVs (kernels/aovs.h) writes each sample's AOVs as a record too (layout.AOV_SUMS),
-and sum_samples adds them and the colour's deviations in the same order. On an H100 1.2-3.3 times faster on the
-real scenes at 128 pixels; blocks of 4 or 16 samples per work-item were slower
+and sum_samples adds them and the colour's deviations in the same order. On an H100 1.2-3.3
+times faster on the real scenes at 128 pixels; blocks of 4 or 16 samples per work-item were slower
 (docs/performance.md). CPUs keep one work-item per pixel (or packet), whose loop already fills
 their few cores."""
 import pyopencl as cl

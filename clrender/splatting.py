@@ -67,9 +67,10 @@ def record_bytes(distance):
     return 4 * (3 + 2 * (2 * distance + 1))
 
 
-def samples_per_pass_limit(traced, distance):
-    """The most samples per pixel a pass over `traced` may take: their records within RECORDS_BUDGET."""
-    return max(1, RECORDS_BUDGET // (record_bytes(distance) * traced[2] * traced[3]))
+def samples_per_pass_limit(traced, sample_bytes):
+    """The most samples per pixel a pass over `traced` may take: their records, `sample_bytes`
+    each, within RECORDS_BUDGET."""
+    return max(1, RECORDS_BUDGET // (sample_bytes * traced[2] * traced[3]))
 
 
 class Gather:
