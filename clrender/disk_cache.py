@@ -9,6 +9,7 @@ import contextlib
 import functools
 import hashlib
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -48,7 +49,7 @@ def load(kind, entry_key, shape, dtype=np.float32):
     """The array of `shape` and `dtype` stored under `entry_key`, or None (absent, unreadable,
     damaged or of another size)."""
     payload = _payload(kind, entry_key)
-    if payload is None or len(payload) != int(np.prod(shape)) * np.dtype(dtype).itemsize:
+    if payload is None or len(payload) != math.prod(shape) * np.dtype(dtype).itemsize:
         return None
     return np.frombuffer(payload, dtype).reshape(shape)
 
@@ -73,7 +74,7 @@ def load_arrays(kind, entry_key):
             if dtype is None:
                 arrays[name] = None
                 continue
-            size = int(np.prod(shape)) * np.dtype(dtype).itemsize
+            size = math.prod(shape) * np.dtype(dtype).itemsize   # (np.prod: 9 ms over 774 meshes)
             arrays[name] = np.frombuffer(payload[offset:offset + size], dtype).reshape(shape)
             offset += size
     except (ValueError, TypeError):
