@@ -40,10 +40,10 @@ FEATURE_VALUES = {
 
 # What the packet integrator (LANES 8) leaves out: every other feature. (Of TEXTURES it takes
 # colours alone: packets_cover.)
-PACKET_FEATURES = {"ENVIRONMENT": 0, "MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0}
+PACKET_FEATURES = {"MEDIA": 0, "TOON": 0, "GRID_MEDIA": 0}
 
 # The lights (besides emitting shapes) that the packet integrator samples.
-PACKET_LIGHTS = ("point", "spot", "directional")
+PACKET_LIGHTS = ("environment", "point", "spot", "directional")
 
 # The defines of the tables' program (kernels/tables.cl, clrender/energy.py): the microfacet code
 # of every render program, at one path per work-item.
@@ -104,8 +104,8 @@ def packets_cover(scene, features):
     features, every material some shape uses diffuse (emissive included), dielectric reflecting
     untinted, conductor (rough ones without energy compensation) or plastic, its colour
     alone from a texture (no other textured parameter, mask, bump or normal map or back
-    material), emitting triangles and spheres, point, spot and directional lights (no
-    environment), path tracing (not the direct integrator) and emitters visible to the camera."""
+    material), emitting triangles and spheres, point, spot and directional lights and the
+    environment, path tracing (not the direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
     if scene.render.integrator != "path" or scene.render.hide_emitters:

@@ -55,6 +55,7 @@ typedef float3 lane_float3;
 #define l3_normalize(a) normalize(a)
 #define l3_length(a) length(a)
 #define l3_select(a, b, m) ((m) != 0 ? (b) : (a))
+#define l3_mix(a, b, t) mix((a), (b), (t))
 // Per-lane loads of element INDEX of ARRAY, then FIELD (a member path such as .v0.x, or
 // nothing): LANE_LOAD a float, LANE_LOAD_INT an int, LANE_LOAD3 a float4 member's xyz.
 #define LANE_LOAD(ARRAY, INDEX, FIELD) ((ARRAY)[INDEX] FIELD)
@@ -99,6 +100,9 @@ lane_float3 l3_normalize(lane_float3 a) { return l3_scale(a, rsqrt(l3_dot(a, a))
 lane_float l3_length(lane_float3 a) { return sqrt(l3_dot(a, a)); }
 lane_float3 l3_select(lane_float3 a, lane_float3 b, int8 m) {
     return make_lane_float3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m));
+}
+lane_float3 l3_mix(lane_float3 a, lane_float3 b, float8 t) {
+    return make_lane_float3(mix(a.x, b.x, t), mix(a.y, b.y, t), mix(a.z, b.z, t));
 }
 #define LANE_EACH_(ARRAY, INDEX, FIELD) ((ARRAY)[(INDEX).s0] FIELD, (ARRAY)[(INDEX).s1] FIELD, \
     (ARRAY)[(INDEX).s2] FIELD, (ARRAY)[(INDEX).s3] FIELD, (ARRAY)[(INDEX).s4] FIELD, \

@@ -68,18 +68,18 @@ void sincos_2pi(lane_float u, lane_float* s, lane_float* c) {
 // library calls with their own argument reduction; this is Cephes' atanf (about 1 ulp): the
 // ratio of the smaller to the larger magnitude, in [0, 1], taken past tan(pi/8) to
 // (t - 1) / (t + 1) (an eighth of a turn on), then an odd polynomial, then the octant.
-float atan2_turns(float y, float x) {
-    float ax = fabs(x), ay = fabs(y);
-    float big = fmax(ax, ay), small = fmin(ax, ay);
-    float t = big > 0.0f ? small / big : 0.0f;
-    bool past = t > 0.41421356f;
-    float z = past ? (t - 1.0f) / (t + 1.0f) : t;
-    float z2 = z * z;
-    float a = z + z * z2 * (-3.33329491539e-1f + z2 * (1.99777106478e-1f + z2 * (-1.38776856032e-1f + z2 * 8.05374449538e-2f)));
-    a = a * (0.5f * INV_PI_F) + (past ? 0.125f : 0.0f);
-    a = ay > ax ? 0.25f - a : a;
-    a = x < 0.0f ? 0.5f - a : a;
-    return y < 0.0f ? -a : a;
+lane_float atan2_turns(lane_float y, lane_float x) {
+    lane_float ax = fabs(x), ay = fabs(y);
+    lane_float big = fmax(ax, ay), small = fmin(ax, ay);
+    lane_float t = select((lane_float)(0.0f), small / big, big > 0.0f);
+    lane_int past = t > 0.41421356f;
+    lane_float z = select(t, (t - 1.0f) / (t + 1.0f), past);
+    lane_float z2 = z * z;
+    lane_float a = z + z * z2 * (-3.33329491539e-1f + z2 * (1.99777106478e-1f + z2 * (-1.38776856032e-1f + z2 * 8.05374449538e-2f)));
+    a = a * (0.5f * INV_PI_F) + select((lane_float)(0.0f), (lane_float)(0.125f), past);
+    a = select(a, 0.25f - a, ay > ax);
+    a = select(a, 0.5f - a, x < 0.0f);
+    return select(a, -a, y < 0.0f);
 }
 
 // exp(x) for x in [-87, 0] as a polynomial (PoCL's exp is as slow as its sin; floor, unlike

@@ -29,20 +29,6 @@
 #include "media/transport.h"
 #include "aovs.h"
 
-// Radiance from the environment along an escaped ray; the MIS weight uses the pdf with which
-// the previous vertex sampled this direction.
-float3 escaped_radiance(const Scene* scene, float3 dir, float prev_pdf_w, bool prev_delta) {
-#if ENVIRONMENT != ENVIRONMENT_NONE
-    if (prev_delta) return environment_radiance(scene, dir);
-    float pdf_w;
-    float3 le = environment_radiance_pdf_w(scene, dir, &pdf_w);
-    float light_pdf_w = emitter_selection_pmf(scene, scene->params->environment.x) * pdf_w;
-    return le * power_heuristic(prev_pdf_w, light_pdf_w);
-#else
-    return (float3)(0.0f);
-#endif
-}
-
 // Emission at a surface hit from the previous vertex prev_p (null boundaries may lie between).
 INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
                                float3 prev_p, float3 dir, float prev_pdf_w, bool prev_delta) {

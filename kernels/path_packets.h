@@ -2,8 +2,8 @@
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
 // diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation), plastic,
-// colours from textures, triangle and sphere emitters, point, spot and directional lights, no
-// media, environment or toon. A lane's path ends by clearing its bit of `alive`; the loop runs
+// colours from textures, triangle and sphere emitters, point, spot and directional lights, the
+// environment (constant or image), no media or toon. A lane's path ends by clearing its bit of `alive`; the loop runs
 // while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
@@ -18,6 +18,7 @@
 #include "triangle_lights.h"
 #include "area_lights.h"
 #include "delta_lights.h"
+#include "environment.h"
 #include "materials/material.h"
 #include "materials/diffuse.h"
 #include "materials/dielectric_smooth.h"
@@ -151,8 +152,11 @@ lane_float3 emitted_radiance_lanes(const Scene* scene, const SurfacePoint* sp, l
 // (light_selection.py; its probability in *pmf) and the direction *wi to it, the distance *dist
 // (not > 0: no sample), the solid-angle density *pdf_w of that direction (1 for a point, spot or
 // directional light, a delta), the radiance arriving; where *delta, such a light (delta_lights.h).
+// Where *environment, the environment: its radiance 1 until the caller looks up its (u, v) *env_uv
+// (environment_radiance_at) once the shadow ray has passed, as lights.h's light_sample_radiance.
 lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u, lane_float3* wi, lane_float* dist,
-                               lane_float* pdf_w, lane_float* pmf, lane_int* delta) {
+                               lane_float* pdf_w, lane_float* pmf, lane_int* delta, lane_int* environment,
+                               lane_float2* env_uv) {
     lane_float u_on_emitter;
     lane_int index = sample_discrete_cdf_reuse(scene->emitter_cdf, scene->params->config.w, u.x, &u_on_emitter);
     *pmf = emitter_selection_pmf(scene, index);
@@ -179,6 +183,20 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
         *dist = select(*dist, sphere_dist, sphere);
         *pdf_w = select(*pdf_w, sphere_pdf_w, sphere);
     }
+    *environment = kind == EMITTER_ENVIRONMENT;
+    *env_uv = make_lane_float2(0.0f, 0.0f);   // a valid (u, v) in every lane
+#if ENVIRONMENT != ENVIRONMENT_NONE
+    if (lane_any(*environment)) {
+        lane_float env_pdf_w;
+        lane_float2 uv;
+        lane_float3 w = sample_environment_direction(scene, u_emitter, &env_pdf_w, &uv);
+        *wi = l3_select(*wi, w, *environment);
+        *dist = select(*dist, (lane_float)(INFINITY), *environment);
+        *pdf_w = select(*pdf_w, env_pdf_w, *environment);
+        *env_uv = make_lane_float2(select(env_uv->x, uv.x, *environment), select(env_uv->y, uv.y, *environment));
+        radiance = l3_select(radiance, l3_splat(1.0f), *environment);
+    }
+#endif
     if (lane_any(*delta)) {
         lane_float3 delta_wi, delta_radiance;
         lane_float delta_dist;
@@ -199,8 +217,9 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     if (scene->params->config.w == 0 || !lane_any(lanes)) return radiance;
     lane_float3 wi;
     lane_float dist, pdf_w, pmf;
-    lane_int delta;
-    lane_float3 le = sample_light_lanes(scene, sp->p, u, &wi, &dist, &pdf_w, &pmf, &delta);
+    lane_int delta, environment;
+    lane_float2 env_uv;
+    lane_float3 le = sample_light_lanes(scene, sp->p, u, &wi, &dist, &pdf_w, &pmf, &delta, &environment, &env_uv);
     lane_float light_pdf_w = pmf * pdf_w;
     lane_float3 f = eval_diffuse(albedo, sp, wi);
     lane_float bsdf_pdf_w = sample_diffuse_pdf(sp, wi);
@@ -214,6 +233,9 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     if (!lane_any(lit)) return radiance;
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
     lit &= !any_hits(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit);
+#if ENVIRONMENT != ENVIRONMENT_NONE
+    if (lane_any(lit & environment)) le = l3_select(le, environment_radiance_at(scene, env_uv), environment);
+#endif
     lane_float weight = select(power_heuristic(light_pdf_w, bsdf_pdf_w), (lane_float)(1.0f), delta);
     return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
 }
@@ -269,8 +291,7 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
 }
 
 // The sample-level AOVs of the lanes' paths (aovs.h, AovSample): those of the first non-delta
-// vertex; a path that escapes or ends before one records zeros, as aovs.h's do without an
-// environment.
+// vertex or of the escape (aov_record_escapes); a path that ends before either records zeros.
 typedef struct {
     lane_float3 albedo;
     lane_float3 normal;
@@ -295,6 +316,25 @@ void aov_record_surfaces(const Scene* scene, AovLanes* aov, const SurfacePoint* 
     aov->found |= lanes;
 }
 
+#if ENVIRONMENT != ENVIRONMENT_NONE
+// aovs.h, aov_record_escape, at the escaping rays of `lanes` that record nothing yet; `visible`:
+// whether they see the environment (not camera rays where it is hidden from them). (Without an
+// environment an escape records zeros, as the lanes start.)
+void aov_record_escapes(const Scene* scene, AovLanes* aov, lane_float3 dir, lane_float3 throughput,
+                        lane_float eta_scale, bool visible, lane_int lanes) {
+    lanes &= !aov->found;
+    if (!AOVS || !lane_any(lanes)) return;
+    lane_float3 le = visible ? environment_radiance(scene, dir) : l3_splat(0.0f);
+    lane_float3 filter = make_lane_float3(clamp(throughput.x * eta_scale, 0.0f, 1.0f),
+                                          clamp(throughput.y * eta_scale, 0.0f, 1.0f),
+                                          clamp(throughput.z * eta_scale, 0.0f, 1.0f));
+    aov->albedo = l3_select(aov->albedo, l3_mul(filter, l3_scale(le, 1.0f / fmax(max_component(le), 1.0f))), lanes);
+    aov->normal = l3_select(aov->normal, l3_splat(0.0f), lanes);
+    aov->emission = l3_select(aov->emission, l3_mul(throughput, le), lanes);
+    aov->found |= lanes;
+}
+#endif
+
 // The radiance of the lanes' camera paths (0 in lanes not `alive` at the start); with AOVS,
 // *aov receives their sample-level AOVs.
 lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, AovLanes* aov) {
@@ -308,7 +348,20 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
     lane_float eta_scale = 1.0f;       // path.h: roulette on the throughput without eta^2
     for (int depth = 1; depth <= max_depth; ++depth) {
         LaneHit hit;
+        lane_int escaped = alive;
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
+#if ENVIRONMENT != ENVIRONMENT_NONE
+        escaped &= !alive;
+        if (lane_any(escaped)) {
+            // As path.h: camera rays do not see a hidden environment (it still lights the scene).
+            bool visible = depth > 1 || (scene->params->environment.w & HIDE_ENVIRONMENT) == 0;
+            aov_record_escapes(scene, aov, ray.direction, throughput, eta_scale, visible, escaped);
+            if (visible) {
+                lane_float3 le = escaped_radiance(scene, ray.direction, prev_pdf_w, prev_delta);
+                radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, le)), escaped);
+            }
+        }
+#endif
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
         // Smooth dielectrics and conductors: delta lobes; rough ones and plastic: glossy lobes.

@@ -172,9 +172,9 @@ def test_features_follow_the_volume_method_and_combinations_stay_valid():
     combinations = list(all_feature_combinations())
     assert all(c["MEDIA"] == 1 for c in combinations if c["GRID_MEDIA"])
     # Kept small: every one is compiled by test_compile.py (AOVS and TEXTURES doubled it twice;
-    # packets add the 8 of DIELECTRIC x AOVS x TEXTURES without the other features).
-    assert len(combinations) == 2 * 96 + 8
-    assert all(not (c["MEDIA"] or c["TOON"] or c["ENVIRONMENT"]) for c in combinations if c["LANES"] > 1)
+    # packets add the 24 of ENVIRONMENT x DIELECTRIC x AOVS x TEXTURES without media or toon).
+    assert len(combinations) == 2 * 96 + 24
+    assert all(not (c["MEDIA"] or c["TOON"]) for c in combinations if c["LANES"] > 1)
 
 
 def test_medium_records_point_into_the_shared_buffers():

@@ -33,8 +33,11 @@ def example(name, resolution=(40, 32), **render):
     frosted = name.startswith("frosted_")       # the glass rough: Beckmann, separable, uncompensated
     lit = name.startswith("lit_")               # point and spot lights in the room, a directional one
     plastic = name.startswith("plastic_")       # back wall, floor, tall block, sphere: plastic, textured
+    sky = next((kind for kind in ("skymap", "skytexels", "sky")   # an environment
+                if name.startswith(f"{kind}_") or f"_{kind}_" in name), None)
     base = name
-    for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_", "plastic_"):
+    for prefix in ("one_sided_", "rough_mirror_", "mirror_", "bulbs_", "frosted_", "lit_", "plastic_", "sky_",
+                   "skymap_", "skytexels_"):
         base = base.removeprefix(prefix)
     data = json.loads((SCENES / f"{base}.json").read_text())
     if one_sided:
@@ -95,6 +98,14 @@ def example(name, resolution=(40, 32), **render):
                            # flipped: emitting inwards, onto the room and the camera inside it
                            {"name": "sky", "type": "sphere", "material": "sky", "center": [0.0, 1.0, 0.0],
                             "radius": 12.0, "flip_normals": True}]
+    if sky == "sky":   # constant, beside the emitting triangle
+        data["lights"] = [{"type": "environment", "radiance": [0.3, 0.4, 0.5]}]
+    elif sky:   # a lat-long image with a bright sun (sampled by luminance), turned, by either lookup
+        rng = np.random.default_rng(7)
+        image = rng.uniform(0.05, 0.6, (16, 32, 3)).astype(np.float32)
+        image[4:6, 9:12] = [40.0, 36.0, 30.0]
+        data["lights"] = [{"type": "environment", "image": image, "lookup": "mitsuba" if sky == "skymap" else "texel",
+                           "transform": {"rotate": [0, 35, 0]}}]
     data["camera"]["resolution"] = list(resolution)
     # The prism stands on the floor: where two surfaces coincide, rounding decides which one a
     # ray meets, and the two kernels round differently (2 % of the pixels differed at 8 spp).
@@ -124,7 +135,8 @@ def both(scene, device, spp=8, **settings):
 @pytest.mark.parametrize("name", ["cornell_box", "tir_prism", "cornell_glass", "one_sided_cornell_box",
                                   "mirror_cornell_box", "rough_mirror_cornell_box", "bulbs_cornell_box",
                                   "frosted_cornell_glass", "frosted_tir_prism", "lit_cornell_glass",
-                                  "plastic_cornell_box", "plastic_cornell_glass"])
+                                  "plastic_cornell_box", "plastic_cornell_glass", "sky_cornell_box",
+                                  "skymap_cornell_glass", "frosted_skytexels_cornell_glass"])
 @pytest.mark.parametrize("sampler", ["sobol", "independent"])
 def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # Diffuse walls and an emitting triangle; a glass prism (total internal reflection); an
@@ -133,7 +145,9 @@ def test_packets_trace_the_megakernel_paths(device, name, sampler):
     # and the prism of frosted glass (rough: reflection and refraction, from both sides); a point,
     # a spot and a directional light beside the emitting triangle; a smooth plastic back wall and
     # floor mirroring an emitting sky and a rough plastic block, coloured by a checkerboard and an
-    # 8-bit bitmap, as is the diffuse short block. The
+    # 8-bit bitmap, as is the diffuse short block; a constant environment beside the emitting
+    # triangle, and environment images (a sun among noise, turned) looked up as Mitsuba does
+    # and texel by texel, seen through the box's open front, the glass and frosted glass. The
     # independent sampler checks that a smooth lane gives back the number its lobe choice does not
     # take, and that a rough lane draws the lobe number it does not use (path_packets.h).
     mega, packets = both(example(name), device, sampler=sampler)
@@ -168,6 +182,20 @@ def test_packets_write_the_pixel_centre_record(device):
         spp=1, seed=5, aovs=("depth", "object_id")).aovs
     assert np.array_equal(mega_aovs["object_id"], packet_aovs["object_id"])
     assert np.allclose(mega_aovs["depth"], packet_aovs["depth"], rtol=1e-5, atol=1e-6)
+
+
+def test_packets_see_the_environment_as_the_megakernel(device):
+    # Escaping rays' AOVs (the environment's radiance as emission, its albedo), and camera rays
+    # that do not see a hidden environment while it still lights the scene.
+    aovs = ("albedo", "normal", "emission", "variance")
+    results = [clrender.Renderer(example("skymap_cornell_glass"), device, packets=packets).render(spp=4, seed=5,
+                                                                                                 aovs=aovs)
+               for packets in (False, True)]
+    for name in aovs:
+        assert differing(results[0].aovs[name], results[1].aovs[name]) <= MAX_DIFFERING, name
+    hidden = both(example("skymap_cornell_glass", hide_environment=True), device)
+    assert differing(hidden[0].image, hidden[1].image) <= MAX_DIFFERING
+    assert hidden[1].image.sum() < results[1].image.sum()
 
 
 def test_packets_accumulate_the_megakernels_sample_aovs(device):
@@ -211,6 +239,7 @@ def test_packets_are_used_only_where_they_cover_the_scene():
     assert lanes(example("frosted_cornell_glass")) == 8
     assert lanes(example("lit_cornell_glass")) == 8
     assert lanes(example("plastic_cornell_box")) == 8
+    assert lanes(example("sky_cornell_box")) == lanes(example("skymap_cornell_glass")) == 8
     assert scene_features(example("cornell_box"), packets=False)["LANES"] == 1
     assert lanes(example("cornell_box"), sample_aovs=True) == 8
     for name in ("rough_glass", "smoke_cornell_box", "toon_cornell_box", "cloud_low_sun", "fog_beam"):
@@ -220,9 +249,6 @@ def test_packets_are_used_only_where_they_cover_the_scene():
         data = json.loads((SCENES / "cornell_box.json").read_text())
         change(data)
         return clrender.load_scene_dict(data, base_dir=SCENES)
-
-    def environment(data):
-        data["lights"] = [{"type": "environment", "radiance": [0.2, 0.3, 0.4]}]
 
     def rough_conductor(data):   # energy compensation (the default): its tables are not in the packets
         data["materials"][0] = {"name": "white", "type": "conductor", "roughness": 0.3}
@@ -247,5 +273,5 @@ def test_packets_are_used_only_where_they_cover_the_scene():
         data["materials"].append({"name": "back", "type": "diffuse"})
         data["materials"][0]["back"] = "back"
 
-    for change in (environment, rough_conductor, textured_roughness, textured_emission, bumps, masked, back_material):
+    for change in (rough_conductor, textured_roughness, textured_emission, bumps, masked, back_material):
         assert lanes(variant(change)) == 1, change.__name__
