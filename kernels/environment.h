@@ -94,13 +94,21 @@ lane_int environment_block_starts(int2 grid, lane_int row) {
     return select(marginal + env_cdf_blocks(grid.y) + row * env_cdf_blocks(grid.x), (lane_int)(marginal), row < 0);
 }
 
-// How many of cdf[first + 1 .. first + n - 1] are <= u, counted without branches: PoCL compiled a
+// How many of table[at + 1 .. at + n - 1] are <= u, counted without branches: PoCL compiled a
 // binary search's compare-and-select to a branch (LLVM's x86 cmov conversion), mispredicted half
-// the time. `within`: only the entries before first + within count (a CDF's last, short block).
-lane_int count_cdf_at_most(__global const float* cdf, lane_int first, int n, lane_int within, lane_float u) {
+// the time. No mask: at one lane these are contiguous loads the compiler vectorises.
+lane_int count_at_most(__global const float* table, lane_int at, int n, lane_float u) {
     lane_int count = 0;
-    for (int i = 1; i < n; i++)
-        count += select((lane_int)(0), (lane_int)(1), (i < within) & (LANE_LOAD(cdf, first + min(i, within - 1), ) <= u));
+    for (int i = 1; i < n; i++) count += select((lane_int)(0), (lane_int)(1), LANE_LOAD(table, at + i, ) <= u);
+    return count;
+}
+
+// The same over one block, table[at + 1 .. at + ENV_CDF_BLOCK - 1], where only the entries
+// before at + within count (a CDF's last, short block).
+lane_int count_block_at_most(__global const float* table, lane_int at, lane_int within, lane_float u) {
+    lane_int count = 0;
+    for (int i = 1; i < ENV_CDF_BLOCK; i++)
+        count += select((lane_int)(0), (lane_int)(1), (i < within) & (LANE_LOAD(table, at + min(i, within - 1), ) <= u));
     return count;
 }
 
@@ -108,9 +116,8 @@ lane_int count_cdf_at_most(__global const float* cdf, lane_int first, int n, lan
 // whose blocks start at `block_starts`, and u rescaled within i's interval (sample reuse).
 lane_int sample_blocked_cdf_reuse(__global const float* table, lane_int cdf, lane_int block_starts, int n,
                                   lane_float u, lane_float* rescaled) {
-    int blocks = env_cdf_blocks(n);
-    lane_int first = count_cdf_at_most(table, block_starts, blocks, (lane_int)(blocks), u) * ENV_CDF_BLOCK;
-    lane_int i = first + count_cdf_at_most(table, cdf + first, ENV_CDF_BLOCK, n - first, u);
+    lane_int first = count_at_most(table, block_starts, env_cdf_blocks(n), u) * ENV_CDF_BLOCK;
+    lane_int i = first + count_block_at_most(table, cdf + first, n - first, u);
     *rescaled = cdf_rescaled(u, LANE_LOAD(table, cdf + i, ), LANE_LOAD(table, cdf + i + 1, ));
     return i;
 }
@@ -192,6 +199,7 @@ lane_float3 sample_environment_direction(const Scene* scene, lane_float2 u, lane
 // pdf with which the previous vertex sampled this direction (none where that was a delta lobe).
 lane_float3 escaped_radiance(const Scene* scene, lane_float3 dir, lane_float prev_pdf_w, lane_int prev_delta) {
 #if ENVIRONMENT != ENVIRONMENT_NONE
+    if (lane_all(prev_delta)) return environment_radiance(scene, dir);   // no MIS behind delta lobes
     lane_float pdf_w;
     lane_float3 le = environment_radiance_pdf_w(scene, dir, &pdf_w);
     lane_float light_pdf_w = emitter_selection_pmf(scene, (lane_int)(scene->params->environment.x)) * pdf_w;

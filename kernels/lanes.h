@@ -26,6 +26,8 @@ typedef float3 lane_float3;
 #define as_lane_int(x) as_int(x)
 // Whether any lane's mask (a comparison's result) is set.
 #define lane_any(m) ((m) != 0)
+// Whether every lane's mask is set.
+#define lane_all(m) ((m) != 0)
 // A set lane mask, as comparisons give it.
 #define LANE_TRUE 1
 // Each lane's index, 0 .. LANES - 1.
@@ -73,6 +75,7 @@ typedef struct { float8 x, y, z; } lane_float3;
 #define as_lane_float(x) as_float8(x)
 #define as_lane_int(x) as_int8(x)
 #define lane_any(m) any(m)
+#define lane_all(m) all(m)
 #define LANE_TRUE ((int8)(-1))
 #define LANE_INDEX ((int8)(0, 1, 2, 3, 4, 5, 6, 7))
 #define lane_vload(p) vload8(0, (p))
