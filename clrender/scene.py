@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import grids, limits, meshes, textures
+from . import grids, limits, meshes, shapes_cache, textures
 from .principled import Principled, read_principled
 from .errors import ArgumentError, FileError, SceneError
 from .conductor_presets import CONDUCTOR_PRESETS
@@ -508,7 +508,7 @@ def _read_scene(root, base_dir, images):
         if medium_names.index(name) != i:
             raise SceneError(f"media[{i}].name", f"duplicate medium name {name!r}")
     scene_medium = _medium_reference(root, "medium", medium_names)
-    shapes = [_read_shape(node, names, medium_names, scene_medium, base_dir) for node in root.items("shapes")]
+    shapes = _read_shapes(root.items("shapes"), names, medium_names, scene_medium, base_dir)
     texture_list = [_read_texture(node, base_dir, images) for node in texture_nodes]
     _unique_names(texture_list, "textures")
     lights = [_read_light(node, base_dir, images) for node in root.items("lights")]
@@ -1005,6 +1005,19 @@ def _check_grid_media_are_placed(media, shapes, scene_medium, camera_medium):
                    for s in holders):
             raise SceneError(where, f"the box of grid medium {medium.name!r} ({lo.round(4).tolist()} to "
                                     f"{hi.round(4).tolist()}) lies outside every shape whose interior it is")
+
+
+def _read_shapes(nodes, material_names, medium_names, scene_medium, base_dir):
+    """The shapes, in one piece from the disk cache where the same descriptions of many shapes
+    were read before (shapes_cache.py), else each by _read_shape (and stored)."""
+    entry = shapes_cache.key([node.data for node in nodes], [material_names, medium_names, scene_medium], base_dir)
+    cached = shapes_cache.load(entry) if entry is not None else None
+    if cached is not None:
+        return [Shape(*fields) for fields in cached]
+    shapes = [_read_shape(node, material_names, medium_names, scene_medium, base_dir) for node in nodes]
+    if entry is not None:
+        shapes_cache.store(entry, [(s.name, s.material, s.mesh, s.interior, s.exterior) for s in shapes])
+    return shapes
 
 
 def _read_shape(node, material_names, medium_names, scene_medium, base_dir):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import clrender
-from clrender import arrays, disk_cache, energy, obj_reader, plastic, ploc
+from clrender import arrays, disk_cache, energy, meshes, obj_reader, plastic, ploc, shapes_cache
 from clrender.arrays import build_scene_arrays
 from clrender.energy import fill_albedo_tables
 from conftest import camera
@@ -217,3 +217,87 @@ def test_tables_read_from_disk_are_the_computed_ones(cache, queue, monkeypatch):
     stored = filled_tables(queue)
     assert np.isfinite(computed).all() and computed.any()
     assert np.array_equal(stored, computed)
+
+
+def many_shapes_scene(folder, count=shapes_cache.MIN_SHAPES):
+    """A scene of `count` shapes: OBJ files (a textured quad, smooth or not, moved), a sphere."""
+    (folder / "quad.obj").write_bytes(OBJ)
+    (folder / "other.obj").write_bytes(OBJ.replace(b"v 1 1 0", b"v 1 1 0.5"))
+    shapes = [{"type": "sphere", "center": [0, 0, -3], "radius": 0.5, "material": "white", "name": "ball"}]
+    for i in range(count - 1):
+        shapes.append({"type": "mesh", "file": "quad.obj" if i % 2 else "other.obj", "smooth": i % 3 == 0,
+                       "material": "white", "transform": {"translate": [0.1 * i, 0, 0], "rotate": [0, 7 * i, 0]}})
+    return {"camera": camera(), "materials": [{"name": "white", "type": "diffuse", "albedo": [0.8, 0.8, 0.8]}],
+            "shapes": shapes}
+
+
+def mesh_reads_counting(monkeypatch):
+    calls = []
+    read = meshes.load_mesh_file
+    monkeypatch.setattr(meshes, "load_mesh_file", lambda *a, **k: calls.append(a) or read(*a, **k))
+    return calls
+
+
+def assert_same_shapes(first, again):
+    assert len(first) == len(again)
+    for a, b in zip(first, again):
+        assert (a.name, a.material, a.interior, a.exterior) == (b.name, b.material, b.interior, b.exterior)
+        assert type(a.mesh) is type(b.mesh)
+        for name, x in vars(a.mesh).items():
+            y = getattr(b.mesh, name)
+            if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+                assert x.dtype == y.dtype and np.array_equal(x, y), name
+            else:
+                assert x == y, name
+
+
+def test_the_shapes_of_a_scene_of_many_are_read_once_per_content(cache, tmp_path, monkeypatch):
+    data = many_shapes_scene(tmp_path)
+    calls = mesh_reads_counting(monkeypatch)
+    first = clrender.load_scene_dict(data, tmp_path).shapes
+    assert len(calls) == len(first) - 1 and len(list((cache / "shapes").iterdir())) == 1
+    again = clrender.load_scene_dict(data, tmp_path).shapes
+    assert len(calls) == len(first) - 1   # one entry read instead
+    assert_same_shapes(first, again)
+    # Another file's bytes, another description, another material list: each is read again.
+    (tmp_path / "quad.obj").write_bytes(OBJ.replace(b"v 1 1 0", b"v 1 3 0"))
+    changed = clrender.load_scene_dict(data, tmp_path).shapes
+    assert len(calls) == 2 * (len(first) - 1) and changed[2].mesh.vertices[:, 1].max() > 2.9
+    data["shapes"][0]["radius"] = 0.25
+    assert clrender.load_scene_dict(data, tmp_path).shapes[0].mesh.radius == 0.25
+    data["materials"].insert(0, {"name": "black", "type": "diffuse", "albedo": [0, 0, 0]})
+    assert all(s.material == 1 for s in clrender.load_scene_dict(data, tmp_path).shapes)
+    assert len(calls) == 4 * (len(first) - 1)
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip"])
+def test_a_damaged_shapes_entry_is_read_again(cache, tmp_path, monkeypatch, damage):
+    data = many_shapes_scene(tmp_path)
+    first = clrender.load_scene_dict(data, tmp_path).shapes
+    entry = next((cache / "shapes").iterdir())
+    raw = bytearray(entry.read_bytes())
+    if damage == "truncate":
+        raw = raw[:len(raw) // 2]
+    else:
+        raw[-5] ^= 0x10
+    entry.write_bytes(bytes(raw))
+    calls = mesh_reads_counting(monkeypatch)
+    assert_same_shapes(first, clrender.load_scene_dict(data, tmp_path).shapes)
+    assert len(calls) == len(first) - 1
+
+
+def test_few_shapes_or_a_bad_file_are_read_shape_by_shape(cache, tmp_path):
+    data = many_shapes_scene(tmp_path, count=shapes_cache.MIN_SHAPES - 1)
+    clrender.load_scene_dict(data, tmp_path)
+    assert not (cache / "shapes").exists()
+    data = many_shapes_scene(tmp_path)
+    clrender.load_scene_dict(data, tmp_path)   # an entry for the scene as it was
+    data["shapes"][5]["file"] = "missing.obj"
+    with pytest.raises(clrender.SceneError, match=r"shapes\[5\]\.file.*not found"):
+        clrender.load_scene_dict(data, tmp_path)
+    data["shapes"][5]["file"] = str(tmp_path)   # a folder
+    with pytest.raises(clrender.SceneError, match=r"shapes\[5\]\.file"):
+        clrender.load_scene_dict(data, tmp_path)
+    data["shapes"][5]["file"] = 7
+    with pytest.raises(clrender.SceneError, match=r"shapes\[5\]\.file.*must be a string"):
+        clrender.load_scene_dict(data, tmp_path)
