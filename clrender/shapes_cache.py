@@ -12,12 +12,11 @@ shape reader then says what is wrong, with its place."""
 import hashlib
 import json
 import os
-import stat
 
 import numpy as np
 
 from . import disk_cache, limits, meshes, obj_reader, ply_reader, serialized
-from .files import resolved
+from .files import not_a_file, resolved
 
 # Below this many shapes the per-shape work is too little to pay for a second copy of the meshes.
 MIN_SHAPES = 32
@@ -57,10 +56,11 @@ def _plain(value):
 def _file_digest(path):
     """The SHA-256 of a mesh file's bytes, or None (not a regular file of a cached format within
     the size limit)."""
-    if os.path.splitext(path)[1].lower() not in _CACHED_SUFFIXES:
+    # not_a_file as the shape reader checks it: it records the file among the scene's inputs
+    # (files.recording_inputs) on a cache hit too.
+    if os.path.splitext(path)[1].lower() not in _CACHED_SUFFIXES or not_a_file(path) is not None:
         return None
-    info = os.stat(path)
-    if not stat.S_ISREG(info.st_mode) or info.st_size > limits.MAX_MESH_FILE_BYTES:
+    if os.stat(path).st_size > limits.MAX_MESH_FILE_BYTES:
         return None
     with open(path, "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()

@@ -11,6 +11,7 @@ import clrender
 from clrender import arrays, disk_cache, energy, meshes, obj_reader, plastic, ploc, shapes_cache
 from clrender.arrays import build_scene_arrays
 from clrender.energy import fill_albedo_tables
+from clrender.files import file_identity, recording_inputs
 from conftest import camera
 
 
@@ -301,3 +302,13 @@ def test_few_shapes_or_a_bad_file_are_read_shape_by_shape(cache, tmp_path):
     data["shapes"][5]["file"] = 7
     with pytest.raises(clrender.SceneError, match=r"shapes\[5\]\.file.*must be a string"):
         clrender.load_scene_dict(data, tmp_path)
+
+
+def test_a_scene_read_from_the_entry_still_names_its_mesh_files_among_its_inputs(cache, tmp_path):
+    """The CLI refuses an output that would replace a file the scene reads (files.recording_inputs)."""
+    data = many_shapes_scene(tmp_path)
+    for _ in range(2):   # shape by shape, then from the entry
+        with recording_inputs() as inputs:
+            clrender.load_scene_dict(data, tmp_path)
+        assert {file_identity(tmp_path / "quad.obj"), file_identity(tmp_path / "other.obj")} <= inputs
+    assert (cache / "shapes").exists()
