@@ -12,4 +12,14 @@
 // Other implementations treat the attribute as a hint only.
 #define KERNEL __kernel __attribute__((vec_type_hint(float4)))
 
+// Asks for the cache line at P ahead of its use: where a packet's lanes each read memory that
+// is likely not cached (a hit's triangle records, texels), asking for all lanes' lines first
+// lets the misses overlap. clang's builtin where the kernel is compiled for the CPU itself
+// (PoCL); nothing where it is compiled to SPIR (Intel's CPU runtime, Oclgrind) or for a GPU.
+#if defined(__x86_64__) || defined(__aarch64__)
+#define PREFETCH(P) __builtin_prefetch(P)
+#else
+#define PREFETCH(P) ((void)0)
+#endif
+
 #endif

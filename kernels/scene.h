@@ -4,6 +4,7 @@
 #define CLRENDER_SCENE_H
 #include "types.h"
 #include "math.h"
+#include "portability.h"
 #include "bvh.h"
 
 typedef struct {
@@ -104,6 +105,14 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
         h.sphere = false;
         h.from_centre = (float3)(0.0f);
         if (live[i]) intersect_scene(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i], &h);
+        if (h.prim >= 0) {   // what surface_point and the texture lookups read of it, after all lanes
+            PREFETCH(scene->triangles + h.prim);
+            PREFETCH(scene->shading + h.prim);
+            PREFETCH(scene->info + h.prim);
+#if TEXTURES
+            PREFETCH(scene->uvs + 3 * h.prim);
+#endif
+        }
         t[i] = h.t;
         b1[i] = h.b1;
         b2[i] = h.b2;

@@ -85,7 +85,10 @@ lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int
         int reference = (int)member[i].w;
         __global const Texture* t = scene->textures + (reference >> 1);
         bilinear[i] = (reference & 1) == 0 && t->info.x == TEXTURE_BITMAP && t->format.z != FILTER_NEAREST;
-        if (bilinear[i]) corners[i] = bilinear_corners(t, texture_st(t, uv[i]));
+        if (bilinear[i]) {
+            corners[i] = bilinear_corners(t, texture_st(t, uv[i]));
+            prefetch_bilinear_texels(scene, t, corners[i]);   // read in the next loop
+        }
     }
     for (int i = 0; i < 8; ++i) {
         if (!lookup[i]) continue;

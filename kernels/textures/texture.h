@@ -7,6 +7,7 @@
 #include "types.h"
 #include "math.h"
 #include "scene.h"
+#include "portability.h"
 #include "textures/srgb8.h"
 #if TEXTURES
 
@@ -36,16 +37,21 @@ float reduce_coordinate(float s, int mode) {
     return r < period ? r : 0.0f;   // s / period rounded up to the next integer
 }
 
+// The first byte of texel (i, j) of a bitmap.
+__global const uchar* bitmap_texel_bytes(const Scene* scene, __global const Texture* t, int i, int j) {
+    int bytes = t->format.x * (t->format.y == TEXEL_FLOAT32 ? 4 : 1);
+    return scene->texels + t->info.y + (j * t->info.z + i) * bytes;
+}
+
 // Linear RGB of texel (i, j) of a bitmap (grey repeated, alpha dropped).
 float3 bitmap_texel(const Scene* scene, __global const Texture* t, int i, int j) {
     int channels = t->format.x, encoding = t->format.y;
-    int first = (j * t->info.z + i) * channels;
+    __global const uchar* b = bitmap_texel_bytes(scene, t, i, j);
     float3 v;
     if (encoding == TEXEL_FLOAT32) {
-        __global const float* f = (__global const float*)(scene->texels + t->info.y) + first;
+        __global const float* f = (__global const float*)b;
         v = channels == 1 ? (float3)(f[0]) : (float3)(f[0], f[1], f[2]);
     } else {
-        __global const uchar* b = scene->texels + t->info.y + first;
         uchar3 c = channels == 1 ? (uchar3)(b[0]) : (uchar3)(b[0], b[1], b[2]);
         v = encoding == TEXEL_SRGB8
             ? (float3)(SRGB8_TO_LINEAR[c.x], SRGB8_TO_LINEAR[c.y], SRGB8_TO_LINEAR[c.z])
@@ -84,6 +90,12 @@ TexelQuad bilinear_texels_at(const Scene* scene, __global const Texture* t, Texe
     q.v11 = bitmap_texel(scene, t, c.i1, c.j1);
     q.w = c.w;
     return q;
+}
+
+// PREFETCH the lines of the texels at corners c (a row's two are next to each other).
+void prefetch_bilinear_texels(const Scene* scene, __global const Texture* t, TexelCorners c) {
+    PREFETCH(bitmap_texel_bytes(scene, t, c.i0, c.j0));
+    PREFETCH(bitmap_texel_bytes(scene, t, c.i0, c.j1));
 }
 
 TexelQuad bilinear_texels(const Scene* scene, __global const Texture* t, float2 st) {
