@@ -312,3 +312,25 @@ def test_a_scene_read_from_the_entry_still_names_its_mesh_files_among_its_inputs
             clrender.load_scene_dict(data, tmp_path)
         assert {file_identity(tmp_path / "quad.obj"), file_identity(tmp_path / "other.obj")} <= inputs
     assert (cache / "shapes").exists()
+
+
+def test_environment_tables_read_from_disk_are_the_computed_ones(cache, monkeypatch):
+    image = np.random.default_rng(5).random((32, 128, 3)).astype(np.float32)
+    tabulate = arrays._environment_tables
+    calls = []
+    monkeypatch.setattr(arrays, "_environment_tables", lambda *a: calls.append(a) or tabulate(*a))
+    tables = {}
+    for lookup in ("texel", "mitsuba"):
+        tables[lookup] = arrays._stored_environment_tables(image, lookup)
+        stored = arrays._stored_environment_tables(image, lookup)
+        assert len(calls) == len(tables)   # the second read from disk
+        for a, b in zip(tables[lookup], stored):
+            assert np.array_equal(a, b) and np.asarray(a).dtype == np.asarray(b).dtype
+    # Another image, or another sampling grid (a constant the key names besides the code): tabulated.
+    other = image.copy()
+    other[3, 5] += 1
+    assert not np.array_equal(arrays._stored_environment_tables(other, "texel")[1], tables["texel"][1])
+    monkeypatch.setattr(arrays, "ENV_SAMPLING_COLUMNS", 32)
+    coarse = arrays._stored_environment_tables(image, "texel")
+    assert len(calls) == 4 and np.array_equal(coarse[1], tabulate(image, "texel")[1])
+    assert coarse[1].size < tables["texel"][1].size
