@@ -94,22 +94,45 @@ lane_int environment_block_starts(int2 grid, lane_int row) {
     return select(marginal + env_cdf_blocks(grid.y) + row * env_cdf_blocks(grid.x), (lane_int)(marginal), row < 0);
 }
 
-// How many of table[at + 1 .. at + n - 1] are <= u, counted without branches: PoCL compiled a
-// binary search's compare-and-select to a branch (LLVM's x86 cmov conversion), mispredicted half
-// the time. No mask: at one lane these are contiguous loads the compiler vectorises.
+// How many of table[at + 1 .. at + n - 1] are <= u (table[at] <= u; the entries non-decreasing).
+// At one lane, counted without branches: contiguous loads the compiler vectorises (a binary
+// search's compare-and-select compiled to a branch, mispredicted half the time). In packets each
+// entry is a load per lane: there a branchless binary search, as sample_discrete_cdf's, reads
+// log2(n) of them instead of n.
 lane_int count_at_most(__global const float* table, lane_int at, int n, lane_float u) {
+#if LANES == 1
     lane_int count = 0;
     for (int i = 1; i < n; i++) count += select((lane_int)(0), (lane_int)(1), LANE_LOAD(table, at + i, ) <= u);
     return count;
+#else
+    lane_int lo = 0;   // invariant: the count lies in [lo, lo + len)
+    for (int len = n; len > 1;) {
+        int step = len >> 1;
+        lo = select(lo, lo + step, LANE_LOAD(table, at + lo + step, ) <= u);
+        len -= step;
+    }
+    return lo;
+#endif
 }
 
-// The same over one block, table[at + 1 .. at + ENV_CDF_BLOCK - 1], where only the entries
-// before at + within count (a CDF's last, short block).
+// The same over one block of a CDF, table[at + 1 .. at + ENV_CDF_BLOCK - 1], of which only the
+// entries before at + within belong to it (a CDF's last, short block). At at + within is the
+// CDF's final 1, above every u < 1: the binary search reads it in place of any entry beyond.
 lane_int count_block_at_most(__global const float* table, lane_int at, lane_int within, lane_float u) {
+#if LANES == 1
     lane_int count = 0;
     for (int i = 1; i < ENV_CDF_BLOCK; i++)
         count += select((lane_int)(0), (lane_int)(1), (i < within) & (LANE_LOAD(table, at + min(i, within - 1), ) <= u));
     return count;
+#else
+    lane_int lo = 0;
+    for (int len = ENV_CDF_BLOCK; len > 1;) {
+        int step = len >> 1;
+        lo = select(lo, lo + step, LANE_LOAD(table, at + min(lo + step, within), ) <= u);
+        len -= step;
+    }
+    return lo;
+#endif
 }
 
 // The last i < n with cdf[i] <= u in the CDF at `cdf` (n + 1 entries, non-decreasing, cdf[0] <= u)
