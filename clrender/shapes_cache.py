@@ -36,7 +36,7 @@ def key(descriptions, references, base_dir):
         text = json.dumps([descriptions, references], sort_keys=True, default=_plain)
         files = [_file_digest(resolved(base_dir / d["file"])) for d in descriptions
                  if isinstance(d, dict) and d.get("type") == "mesh"]
-    except (TypeError, ValueError, KeyError, OSError):
+    except (TypeError, ValueError, KeyError, OSError, RecursionError):   # hostile data: the reader says why
         return None
     if None in files:
         return None

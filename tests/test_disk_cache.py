@@ -334,3 +334,14 @@ def test_environment_tables_read_from_disk_are_the_computed_ones(cache, monkeypa
     coarse = arrays._stored_environment_tables(image, "texel")
     assert len(calls) == 4 and np.array_equal(coarse[1], tabulate(image, "texel")[1])
     assert coarse[1].size < tables["texel"][1].size
+
+
+def test_a_description_too_deep_to_key_is_read_shape_by_shape(cache, tmp_path):
+    data = many_shapes_scene(tmp_path)
+    deep = nested = []
+    for _ in range(5000):   # beyond the JSON encoder's recursion, not the scene reader's
+        nested.append([])
+        nested = nested[0]
+    data["shapes"][3]["extra"] = deep
+    with pytest.raises(clrender.SceneError, match=r"shapes\[3\]\.extra"):
+        clrender.load_scene_dict(data, tmp_path)
