@@ -20,6 +20,10 @@ from .files import not_a_file, resolved
 
 # Below this many shapes the per-shape work is too little to pay for a second copy of the meshes.
 MIN_SHAPES = 32
+# Beyond this many bytes of mesh files the entry would double a large scene's memory while it is
+# stored and its disk use, and hashing the files costs a second a gigabyte: such scenes are read
+# shape by shape (their time is in parsing and the BVH, not per shape).
+MAX_FILE_BYTES = 256 << 20
 
 # Mesh files by suffix whose readers the key's code digest covers (others come through trimesh).
 _CACHED_SUFFIXES = (".obj", ".ply", ".serialized")
@@ -28,17 +32,24 @@ _CACHED_SUFFIXES = (".obj", ".ply", ".serialized")
 def key(descriptions, references, base_dir):
     """The entry's key for the shape `descriptions` (the scene's "shapes" list) that name
     `references` (material names, medium names, the scene's medium) with relative paths from
-    `base_dir`, or None: too few shapes, or a description that is not plain data or names a mesh
-    file that is not a readable regular file within limits.MAX_MESH_FILE_BYTES."""
+    `base_dir`, or None: too few shapes, more than MAX_FILE_BYTES of mesh files, or a description
+    that is not plain data or names a mesh file that is not a readable regular file within
+    limits.MAX_MESH_FILE_BYTES."""
     if len(descriptions) < MIN_SHAPES:
         return None
     try:
         text = json.dumps([descriptions, references], sort_keys=True, default=_plain)
-        files = [_file_digest(resolved(base_dir / d["file"])) for d in descriptions
+        paths = [resolved(base_dir / d["file"]) for d in descriptions
                  if isinstance(d, dict) and d.get("type") == "mesh"]
+        sizes = [_cached_file_size(path) for path in paths]
+        if None in sizes or sum(sizes) > MAX_FILE_BYTES:
+            return None
+        digests = {}   # a file that many shapes name is read once
+        for path in paths:
+            if path not in digests:
+                digests[path] = _file_digest(path)
+        files = [digests[path] for path in paths]
     except (TypeError, ValueError, KeyError, OSError, RecursionError):   # hostile data: the reader says why
-        return None
-    if None in files:
         return None
     from . import scene   # the reader of the descriptions (which imports this module)
 
@@ -53,15 +64,19 @@ def _plain(value):
     raise TypeError(f"not plain data: {type(value).__name__}")
 
 
-def _file_digest(path):
-    """The SHA-256 of a mesh file's bytes, or None (not a regular file of a cached format within
-    the size limit)."""
+def _cached_file_size(path):
+    """The size of a mesh file, or None (not a regular file of a cached format within the size
+    limit)."""
     # not_a_file as the shape reader checks it: it records the file among the scene's inputs
     # (files.recording_inputs) on a cache hit too.
     if os.path.splitext(path)[1].lower() not in _CACHED_SUFFIXES or not_a_file(path) is not None:
         return None
-    if os.stat(path).st_size > limits.MAX_MESH_FILE_BYTES:
-        return None
+    size = os.stat(path).st_size
+    return size if size <= limits.MAX_MESH_FILE_BYTES else None
+
+
+def _file_digest(path):
+    """The SHA-256 of a file's bytes."""
     with open(path, "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()
 

@@ -345,3 +345,12 @@ def test_a_description_too_deep_to_key_is_read_shape_by_shape(cache, tmp_path):
     data["shapes"][3]["extra"] = deep
     with pytest.raises(clrender.SceneError, match=r"shapes\[3\]\.extra"):
         clrender.load_scene_dict(data, tmp_path)
+
+
+def test_the_shapes_of_large_mesh_files_are_read_shape_by_shape(cache, tmp_path, monkeypatch):
+    data = many_shapes_scene(tmp_path)
+    monkeypatch.setattr(shapes_cache, "MAX_FILE_BYTES", (shapes_cache.MIN_SHAPES - 1) * len(OBJ) - 1)
+    calls = mesh_reads_counting(monkeypatch)
+    for _ in range(2):
+        clrender.load_scene_dict(data, tmp_path)
+    assert len(calls) == 2 * (shapes_cache.MIN_SHAPES - 1) and not (cache / "shapes").exists()
