@@ -97,7 +97,7 @@ lane_int environment_block_starts(int2 grid, lane_int row) {
 // How many of table[at + 1 .. at + n - 1] are <= u (table[at] <= u; the entries non-decreasing).
 // At one lane, counted without branches: contiguous loads the compiler vectorises (a binary
 // search's compare-and-select compiled to a branch, mispredicted half the time). In packets each
-// entry is a load per lane: there a branchless binary search, as sample_discrete_cdf's, reads
+// entry is a load per lane: there the branchless binary search (sampling.h, last_at_most) reads
 // log2(n) of them instead of n.
 lane_int count_at_most(__global const float* table, lane_int at, int n, lane_float u) {
 #if LANES == 1
@@ -105,13 +105,7 @@ lane_int count_at_most(__global const float* table, lane_int at, int n, lane_flo
     for (int i = 1; i < n; i++) count += select((lane_int)(0), (lane_int)(1), LANE_LOAD(table, at + i, ) <= u);
     return count;
 #else
-    lane_int lo = 0;   // invariant: the count lies in [lo, lo + len)
-    for (int len = n; len > 1;) {
-        int step = len >> 1;
-        lo = select(lo, lo + step, LANE_LOAD(table, at + lo + step, ) <= u);
-        len -= step;
-    }
-    return lo;
+    return last_at_most(table, at, n, u);
 #endif
 }
 

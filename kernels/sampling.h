@@ -45,20 +45,21 @@ lane_float2 sample_triangle(lane_float2 u) {
     return make_lane_float2(1.0f - su, u.y * su);
 }
 
-// Index i with probability cdf[i+1] - cdf[i]; cdf has n+1 entries, cdf[0] = 0, cdf[n] = 1: the
-// last i < n with cdf[i] <= u. The searched length halves whatever u is, so every lane runs the
-// same number of steps and only a select depends on u.
-lane_int sample_discrete_cdf(__global const float* cdf, int n, lane_float u) {
+// The last i < n with table[at + i] <= u, for non-decreasing entries with table[at] <= u (each
+// lane its own `at`). The searched length halves whatever u is, so every lane runs the same
+// number of steps and only a select depends on u.
+lane_int last_at_most(__global const float* table, lane_int at, int n, lane_float u) {
     lane_int lo = 0;   // invariant: the answer lies in [lo, lo + len), lo + len <= n
     for (int len = n; len > 1;) {
         int step = len >> 1;
-        lo = select(lo, lo + step, LANE_LOAD(cdf, lo + step, ) <= u);
+        lo = select(lo, lo + step, LANE_LOAD(table, at + lo + step, ) <= u);
         len -= step;
     }
     return lo;
 }
 
-// The same choice, and *rescaled: u rescaled to [0, 1) within the chosen interval, a fresh
+// Index i with probability cdf[i+1] - cdf[i] (cdf has n+1 entries, cdf[0] = 0, cdf[n] = 1: the
+// last i < n with cdf[i] <= u), and *rescaled: u rescaled to [0, 1) within the chosen interval, a fresh
 // uniform number for the chosen item (sample reuse), so one 2D stratified draw both picks and
 // places a sample. It keeps log2(p * 2^24) of u's 24 bits for an item of probability p: an item
 // chosen less than once in 10^5 gets its numbers on a grid of under 170 steps (as in Mitsuba's
@@ -69,7 +70,7 @@ lane_float cdf_rescaled(lane_float u, lane_float low, lane_float high) {
 }
 
 lane_int sample_discrete_cdf_reuse(__global const float* cdf, int n, lane_float u, lane_float* rescaled) {
-    lane_int i = sample_discrete_cdf(cdf, n, u);
+    lane_int i = last_at_most(cdf, 0, n, u);
     *rescaled = cdf_rescaled(u, LANE_LOAD(cdf, i, ), LANE_LOAD(cdf, i + 1, ));
     return i;
 }
