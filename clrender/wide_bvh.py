@@ -7,7 +7,8 @@ interior child of largest surface area (the one rays enter most often) is replac
 two children (as Embree and pbrt collapse binary trees). Before that, a subtree of at most
 MAX_LEAF primitives of one kind in contiguous slots becomes one leaf (the kernel tests a leaf's
 triangles four at once, so fewer, fuller leaves cost fewer node visits for no more triangle
-tests). Done level by level with numpy (a million triangles in well under a second).
+tests), unless its box is much larger than its parts' (MERGED_AREA_LIMIT). Done level by level
+with numpy (a million triangles in well under a second).
 """
 import numpy as np
 
@@ -20,9 +21,9 @@ def collapse(bvh, sphere_slots=None):
     spheres (sphere_slots: bool per slot, True for a sphere) gets its count negated, the
     kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
     lo, hi, index, count = _binary_slots(bvh.nodes)
-    index, count = _merge_small_subtrees(index, count, sphere_slots)
-    interior = (count == 0) & (index >= 0)
     area = _slot_areas(lo, hi)
+    index, count = _merge_small_subtrees(index, count, area, sphere_slots)
+    interior = (count == 0) & (index >= 0)
     wide_of = np.full(len(bvh.nodes), -1, np.int64)  # binary node -> wide node
     levels, frontier, numbered = [], np.array([0]), 0
     while frontier.size:  # breadth first: a level's wide nodes are numbered together
@@ -45,6 +46,13 @@ def collapse(bvh, sphere_slots=None):
 WIDTH = 8
 # Primitives a merged leaf may hold: the lanes of layout.TRIANGLE_BLOCK.
 MAX_LEAF = 4
+# A subtree is merged only if its box's surface area is at most this times the summed areas of
+# the leaves it would otherwise be (rays enter a box in proportion to its area, so that sum is
+# the leaf tests it costs). Two walls meeting at a corner would merge into a leaf spanning the
+# room, entered by every ray instead of a third of them each: veach-bidir's room, 11 % of its
+# expected leaf tests (docs/performance.md, "Eleventh pass"). Slightly larger merged boxes are
+# still worth their saved lanes and nodes on fine meshes; 1.5 would merge the walls again.
+MERGED_AREA_LIMIT = 1.25
 
 
 def _greedy_slots(roots, area, index, interior, width=WIDTH):
@@ -73,11 +81,12 @@ def _greedy_slots(roots, area, index, interior, width=WIDTH):
     return nodes, sides
 
 
-def _merge_small_subtrees(index, count, sphere_slots, limit=MAX_LEAF):
+def _merge_small_subtrees(index, count, area, sphere_slots, limit=MAX_LEAF):
     """(index, count) of the binary tree's slots with every interior child whose subtree holds at
-    most `limit` primitives, all triangles or all spheres, in contiguous slots, made a leaf over
-    those slots. (PLOC lays every subtree's primitives out contiguously; the binned builder does
-    not always, and its subtrees that are not stay as they are.)"""
+    most `limit` primitives, all triangles or all spheres, in contiguous slots, and whose box
+    (`area`: per slot) is at most MERGED_AREA_LIMIT times the areas of the leaves below it, made a
+    leaf over those slots. (PLOC lays every subtree's primitives out contiguously; the binned
+    builder does not always, and its subtrees that are not stay as they are.)"""
     interior = (count == 0) & (index >= 0)
     leaf = count > 0
     sub_count = np.where(leaf, count, 0).astype(np.int64)
@@ -86,16 +95,22 @@ def _merge_small_subtrees(index, count, sphere_slots, limit=MAX_LEAF):
     spheres = np.zeros(index.shape, np.int64)   # spheres below each slot
     if sphere_slots is not None and np.any(sphere_slots):
         spheres[leaf] = np.where(np.asarray(sphere_slots)[index[leaf]], count[leaf], 0)
+    leaf_area = np.where(leaf, area, 0.0)   # summed areas of the leaves each slot becomes
+    merge = np.zeros(index.shape, bool)
     for level in _binary_levels(index, interior)[::-1]:   # bottom-up: children before parents
         for side in (0, 1):
             parents = level[interior[level, side]]
             child = index[parents, side]
-            sub_count[parents, side] = sub_count[child].sum(axis=1)
-            first[parents, side] = first[child].min(axis=1)
-            last[parents, side] = last[child].max(axis=1)
-            spheres[parents, side] = spheres[child].sum(axis=1)
-    pure = (spheres == 0) | (spheres == sub_count)
-    merge = interior & (sub_count <= limit) & (last - first + 1 == sub_count) & pure
+            slot = (parents, side)
+            sub_count[slot] = sub_count[child].sum(axis=1)
+            first[slot] = first[child].min(axis=1)
+            last[slot] = last[child].max(axis=1)
+            spheres[slot] = spheres[child].sum(axis=1)
+            apart = leaf_area[child].sum(axis=1)
+            pure = (spheres[slot] == 0) | (spheres[slot] == sub_count[slot])
+            merge[slot] = ((sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot]) & pure
+                           & (area[slot] <= MERGED_AREA_LIMIT * apart))
+            leaf_area[slot] = np.where(merge[slot], area[slot], apart)
     return np.where(merge, first, index), np.where(merge, sub_count, count)
 
 

@@ -35,3 +35,36 @@ def test_wide_tree_covers_every_triangle_once_inside_its_boxes(count):
         assert np.all(tri >= lo) and np.all(tri <= hi)
     # Each wide level pushes at most WIDTH - 1 siblings.
     assert depth <= binary.depth and (WIDTH - 1) * (MAX_DEPTH - 1) + 1 <= KERNEL_STACK
+
+
+def _leaf_boxes(nodes):
+    leaf = nodes["count"] > 0
+    lo = np.stack([nodes[n][leaf] for n in ("lo_x", "lo_y", "lo_z")], axis=-1)
+    hi = np.stack([nodes[n][leaf] for n in ("hi_x", "hi_y", "hi_z")], axis=-1)
+    return lo, hi, nodes["count"][leaf]
+
+
+def _square(corner, u, v):
+    """Two triangles (v0, v1, v2) spanning the square corner + [0, 1] u + [0, 1] v."""
+    corner, u, v = (np.array(a, float) for a in (corner, u, v))
+    return (np.array([corner, corner + u + v]), np.array([corner + u, corner + v]),
+            np.array([corner + u + v, corner + u]))
+
+
+@pytest.mark.parametrize("builder", ["binned", "ploc"])
+def test_small_subtrees_merge_into_one_leaf_unless_its_box_is_far_larger(builder):
+    from clrender.ploc import build_ploc_bvh
+    build = build_bvh if builder == "binned" else build_ploc_bvh
+    # A floor and a wall meeting at an edge (a leaf over both would span their whole cube and be
+    # entered by about twice the rays), and far away a strip of four adjacent small triangles
+    # (merged: their box is the sum of the pairs' boxes).
+    parts = [_square((0, 0, 0), (8, 0, 0), (0, 8, 0)), _square((0, 0, 0), (8, 0, 0), (0, 0, 8)),
+             _square((40, 40, 40), (0.1, 0, 0), (0, 0.1, 0)), _square((40.1, 40, 40), (0.1, 0, 0), (0, 0.1, 0))]
+    v0, v1, v2 = (np.concatenate([p[i] for p in parts]) for i in range(3))
+    nodes, _depth = collapse(build(v0, v1, v2, max_leaf_size=2))
+    lo, hi, counts = _leaf_boxes(nodes)
+    walls = hi[:, 0] <= 8
+    assert counts.sum() == 8
+    # each wall's leaf is flat: no leaf holds triangles of both
+    assert np.all(np.min(hi[walls] - lo[walls], axis=1) == 0)
+    assert list(counts[~walls]) == [4]
