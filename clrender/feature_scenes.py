@@ -38,8 +38,8 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
     materials (features.packets_cover): with DIELECTRIC their scene has the smooth glass, the
     copper mirror, two rough mirrors without energy compensation (Beckmann with separable
     masking, as Mitsuba's scenes have them, and GGX) and the two plastics; with TEXTURES only
-    colours come from textures (the floor's, the box's and the plastics'); it needs its features
-    when the renderer asks for packets."""
+    colours (the floor's, the box's and the plastics') and the leaf's opacity come from textures;
+    it needs its features when the renderer asks for packets."""
     materials = [{"name": "white", "type": "diffuse", "albedo": [0.7, 0.7, 0.6]},
                  {"name": "lamp", "type": "emissive", "radiance": [6.0, 5.0, 4.0]}]
     shapes = [{"name": "floor", "type": "rectangle", "material": "white",
@@ -145,9 +145,10 @@ def feature_scene(features, resolution=(8, 8), subdivisions=None):
 
 
 def _add_colour_textures(textures, materials, shapes, dielectric):
-    """Textures on colours alone, as packets take them: the floor (a checkerboard) and the box
-    (an 8-bit sRGB bitmap, mirrored beyond [0, 1]); with `dielectric`, the plastics' diffuse
-    reflectance (the sRGB bitmap on the smooth plastic sphere, the checkerboard on the rough)."""
+    """Textures on colours and opacity alone, as packets take them: the floor (a checkerboard),
+    the box (an 8-bit sRGB bitmap, mirrored beyond [0, 1]) and the masked leaf; with `dielectric`,
+    the plastics' diffuse reflectance (the sRGB bitmap on the smooth plastic sphere, the
+    checkerboard on the rough)."""
     rng = np.random.default_rng(7)
     textures += [{"name": "checks", "type": "checkerboard", "to_uv": [[4, 0, 0], [0, 4, 0.5]]},
                  {"name": "painted", "type": "bitmap", "wrap": "mirror", "to_uv": [[3, 0, -1], [0, 2.5, -0.7]],
@@ -155,6 +156,7 @@ def _add_colour_textures(textures, materials, shapes, dielectric):
     materials += [{"name": "checked", "type": "diffuse", "albedo": {"texture": "checks"}},
                   {"name": "painted", "type": "diffuse", "albedo": {"texture": "painted"}}]
     shapes[0]["material"], shapes[1]["material"] = "checked", "painted"
+    _add_masked_leaf(textures, materials, shapes, rng)
     if dielectric:
         next(m for m in materials if m["name"] == "plastic")["diffuse"] = {"texture": "painted"}
         next(m for m in materials if m["name"] == "rough_plastic")["diffuse"] = {"texture": "checks"}
@@ -188,24 +190,29 @@ def _add_textures(textures, materials, shapes, sphere, dielectric):
         principled.update(anisotropic={"texture": "bumps"}, metallic={"texture": "checks"})
 
 
+def _add_masked_leaf(textures, materials, shapes, rng):
+    """A masked panel between the rectangle light and the floor (an 8-bit opacity bitmap)."""
+    textures.append({"name": "leaf_mask", "type": "bitmap", "raw": True,
+                     "image": rng.integers(0, 256, (6, 5, 1), dtype=np.uint8)})
+    materials.append({"name": "leaf", "type": "diffuse", "albedo": [0.2, 0.6, 0.1], "opacity": {"texture": "leaf_mask"}})
+    shapes.append({"name": "leaf", "type": "rectangle", "material": "leaf",
+                   "transform": {"scale": 0.5, "rotate": [80, 20, 0], "translate": [0.1, 0.9, 0.1]}})
+
+
 def _add_surface_wrappers(textures, materials, shapes, sphere, rng, dielectric):
-    """A masked panel between the rectangle light and the floor (an 8-bit opacity bitmap), a
-    bump-mapped and a normal-mapped sphere, and a card whose back is another material."""
-    textures += [{"name": "leaf_mask", "type": "bitmap", "raw": True,
-                  "image": rng.integers(0, 256, (6, 5, 1), dtype=np.uint8)},
-                 {"name": "heights", "type": "bitmap", "image": rng.uniform(0, 0.2, (5, 6)).astype(np.float32)},
+    """The masked leaf, a bump-mapped and a normal-mapped sphere, and a card whose back is
+    another material."""
+    _add_masked_leaf(textures, materials, shapes, rng)
+    textures += [{"name": "heights", "type": "bitmap", "image": rng.uniform(0, 0.2, (5, 6)).astype(np.float32)},
                  {"name": "normals", "type": "bitmap", "raw": True,
                   "image": rng.integers(96, 256, (4, 4, 3), dtype=np.uint8)}]
-    materials += [{"name": "leaf", "type": "diffuse", "albedo": [0.2, 0.6, 0.1], "opacity": {"texture": "leaf_mask"}},
-                  {"name": "bumpy", "type": "diffuse", "albedo": [0.6, 0.5, 0.4],
+    materials += [{"name": "bumpy", "type": "diffuse", "albedo": [0.6, 0.5, 0.4],
                    "bump": {"texture": "heights", "scale": 0.5}},
                   {"name": "dented", "type": "diffuse", "albedo": [0.4, 0.5, 0.6], "normal_map": {"texture": "normals"}},
                   {"name": "card_back", "type": "conductor", "tint": [0.8, 0.6, 0.4], "roughness": 0.4}
                   if dielectric else {"name": "card_back", "type": "diffuse", "albedo": [0.1, 0.3, 0.7]},
                   {"name": "card", "type": "diffuse", "albedo": [0.8, 0.2, 0.2], "back": "card_back"}]
-    shapes += [{"name": "leaf", "type": "rectangle", "material": "leaf",
-                "transform": {"scale": 0.5, "rotate": [80, 20, 0], "translate": [0.1, 0.9, 0.1]}},
-               {"name": "card", "type": "rectangle", "material": "card",
+    shapes += [{"name": "card", "type": "rectangle", "material": "card",
                 "transform": {"scale": 0.35, "rotate": [0, 150, 0], "translate": [1.5, -0.5, 0.8]}}]
     sphere("bumpy", "bumpy", [-0.9, -0.7, 1.0], 0.3)
     sphere("dented", "dented", [0.6, -0.75, 1.4], 0.25)

@@ -102,8 +102,8 @@ def gather_features(packets, sample_aovs=False):
 def packets_cover(scene, features):
     """Whether the packet integrator (kernels/path_packets.h) renders `scene`: none of the other
     features, every material some shape uses diffuse (emissive included), dielectric reflecting
-    untinted, conductor (rough ones without energy compensation) or plastic, its colour
-    alone from a texture (no other textured parameter, mask, bump or normal map or back
+    untinted, conductor (rough ones without energy compensation) or plastic, its colour and its
+    opacity (a mask) alone from textures (no other textured parameter, bump or normal map or back
     material), emitting triangles and spheres, point, spot and directional lights and the
     environment, path tracing (not the direct integrator) and emitters visible to the camera."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
@@ -114,7 +114,7 @@ def packets_cover(scene, features):
         material = scene.materials[shape.material]
         if material.type not in ("diffuse", "emissive", "dielectric", "conductor", "plastic"):
             return False
-        if set(material.textures) - {"color"} or detail_beyond_textures(material):
+        if set(material.textures) - {"color", "opacity"} or detail_beyond_textures(material, masks=False):
             return False
         if material.type in ("dielectric", "conductor") and not _is_smooth(material) and material.energy_compensation:
             return False

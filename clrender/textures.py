@@ -267,7 +267,8 @@ def has_surface_detail(material):
     return bool(material.textures) or detail_beyond_textures(material)
 
 
-def detail_beyond_textures(material):
-    """An opacity below 1, a bump or normal map, a back material, or tangent-dependent lobes."""
-    return bool(material.opacity < 1 or material.bump_map >= 0 or material.normal_map >= 0 or material.back >= 0
-                or principled.needs_tangents(material))
+def detail_beyond_textures(material, masks=True):
+    """An opacity below 1 (if `masks`), a bump or normal map, a back material, or tangent-dependent
+    lobes."""
+    return bool((masks and material.opacity < 1) or material.bump_map >= 0 or material.normal_map >= 0
+                or material.back >= 0 or principled.needs_tangents(material))

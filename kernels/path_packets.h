@@ -2,8 +2,8 @@
 // estimator (next-event estimation and BSDF sampling combined by the power heuristic, Russian
 // roulette on the throughput without eta^2) for the scenes features.py gives this integrator:
 // diffuse, smooth and rough dielectric and conductor surfaces (no energy compensation), plastic,
-// colours from textures, triangle and sphere emitters, point, spot and directional lights, the
-// environment (constant or image), no media or toon. A lane's path ends by clearing its bit of `alive`; the loop runs
+// colours and masks (opacity) from textures, triangle and sphere emitters, point, spot and
+// directional lights, the environment (constant or image), no media or toon. A lane's path ends by clearing its bit of `alive`; the loop runs
 // while any lane lives.
 // Every lane draws the same sampler dimensions at each step, as each path of path.h does, so a
 // lane traces the path that path.h traces for its pixel (the images agree to float rounding).
@@ -209,6 +209,37 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
     return radiance;
 }
 
+#if TEXTURES
+// The fraction of light reaching dist along the `lanes`' shadow rays from origin (path.h's
+// shadow_ray): 1 where nothing is in the way, 0 where an unmasked surface is, else the product of
+// 1 - opacity over the masks crossed (media/transport.h, shadow_transmittance); 0 in other lanes.
+lane_float shadow_transmittance_lanes(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float dist,
+                                      lane_int lanes) {
+    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
+    lane_int blocker = occluders(scene, origin, dir, dist * (1.0f - 1e-4f), lanes);
+    lane_float tr = select((lane_float)(0.0f), (lane_float)(1.0f), lanes & (blocker < 0));
+    // Any blocker ends an unmasked shadow ray; a mask needs the surfaces in order.
+    lane_int through = (blocker >= 0) & material_masked_at(scene->materials, LANE_LOAD_INT(scene->info, max(blocker, (lane_int)(0)), .info.x));
+    if (!lane_any(through)) return tr;
+    tr = select(tr, (lane_float)(1.0f), through);
+    lane_float3 target = l3_add(origin, l3_scale(dir, dist));
+    for (int crossing = 0; crossing < MAX_NULL_CROSSINGS; ++crossing) {
+        lane_float remaining = select(l3_dot(l3_sub(target, origin), dir), (lane_float)(INFINITY), isinf(dist));
+        LaneHit hit;
+        lane_int found = closest_hits(scene, origin, dir, remaining * (1.0f - 1e-4f), through, &hit);
+        through &= found;
+        if (!lane_any(through)) return tr;
+        SurfacePoint sp = surface_point(scene, &hit, dir);
+        lane_int masked = material_masked_at(scene->materials, sp.material);
+        lane_float opacity = surface_opacity_lanes(scene, &hit, sp.material, through & masked);
+        tr = select(tr, tr * select((lane_float)(0.0f), 1.0f - opacity, masked), through);
+        through &= tr > 0.0f;
+        origin = l3_select(origin, spawn_ray_origin(&sp, dir), through);
+    }
+    return select(tr, (lane_float)(0.0f), through);
+}
+#endif
+
 // Next-event estimation at the diffuse, rough and plastic vertices of `lanes` (path.h,
 // direct_light), from the 2D draw u: a light sample, a shadow ray.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
@@ -231,8 +262,14 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     }
     lane_int lit = lanes & (dist > 0.0f) & (light_pdf_w > 0.0f) & !is_black(le) & !is_black(f);
     if (!lane_any(lit)) return radiance;
+#if TEXTURES
+    lane_float tr = shadow_transmittance_lanes(scene, spawn_ray_origin(sp, wi), wi, dist, lit);
+    lit &= tr > 0.0f;
+    f = l3_scale(f, tr);
+#else
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    lit &= !any_hits(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit);
+    lit &= occluders(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit) < 0;
+#endif
 #if ENVIRONMENT != ENVIRONMENT_NONE
     if (lane_any(lit & environment)) le = l3_select(le, environment_radiance_at(scene, env_uv), environment);
 #endif
@@ -335,6 +372,51 @@ void aov_record_escapes(const Scene* scene, AovLanes* aov, lane_float3 dir, lane
 }
 #endif
 
+#if TEXTURES
+// Mitsuba's masks as path.h crosses them (materials/mask.h): a lane whose ray stops at a masked
+// surface draws a number there (where the opacity is below 1; the other lanes give it back) and
+// passes with probability 1 - opacity, after the surface's emission and at the same depth (no
+// vertex, no AOVs): its ray goes on from there, until every lane's ray stops at a surface or
+// escapes. Returns the lanes stopped at a surface; *ended gets those that crossed more than
+// MAX_NULL_CROSSINGS surfaces (*crossings: per lane, over the path), ended there as in path.h.
+lane_int cross_masks(const Scene* scene, Ray* ray, lane_int alive, LaneHit* hit, lane_float3* radiance,
+                     lane_float3 throughput, lane_float3 prev_p, lane_float prev_pdf_w, lane_int prev_delta,
+                     lane_int* crossings, lane_int* ended, Rng* rng) {
+    // The lanes whose ray has just stopped at a surface not yet looked at: all, then those that passed.
+    for (lane_int arrived = alive;;) {
+        lane_int material = LANE_LOAD_INT(scene->info, hit->prim, .info.x);
+        lane_int masked = arrived & material_masked_at(scene->materials, material);
+        if (!lane_any(masked)) return alive;
+        lane_float opacity = surface_opacity_lanes(scene, hit, material, masked);
+        lane_int draws = masked & (opacity < 1.0f);
+        if (!lane_any(draws)) return alive;
+        lane_float u = rng_float(rng);
+        rng->counter -= select((lane_uint)(1u), (lane_uint)(0u), draws);
+        lane_int passing = draws & (u >= opacity);
+        if (!lane_any(passing)) return alive;
+        SurfacePoint sp = surface_point(scene, hit, ray->direction);
+        lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray->direction, prev_pdf_w, prev_delta);
+        *radiance = l3_select(*radiance, l3_add(*radiance, l3_mul(throughput, emitted)), passing);
+        *crossings += select((lane_int)(0), (lane_int)(1), passing);
+        lane_int over = passing & (*crossings > MAX_NULL_CROSSINGS);
+        *ended |= over;
+        alive &= !over;
+        passing &= !over;
+        ray->origin = l3_select(ray->origin, spawn_ray_origin(&sp, ray->direction), passing);
+        LaneHit beyond;
+        lane_int found = closest_hits(scene, ray->origin, ray->direction, INFINITY, passing, &beyond);
+        alive &= !passing | found;
+        arrived = passing & found;
+        hit->t = select(hit->t, beyond.t, passing);
+        hit->b1 = select(hit->b1, beyond.b1, passing);
+        hit->b2 = select(hit->b2, beyond.b2, passing);
+        hit->prim = select(hit->prim, beyond.prim, passing);
+        hit->sphere = select(hit->sphere, beyond.sphere, passing);
+        hit->from_centre = l3_select(hit->from_centre, beyond.from_centre, passing);
+    }
+}
+#endif
+
 // The radiance of the lanes' camera paths (0 in lanes not `alive` at the start); with AOVS,
 // *aov receives their sample-level AOVs.
 lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, AovLanes* aov) {
@@ -346,10 +428,19 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
     lane_float prev_pdf_w = 0.0f;
     lane_int prev_delta = LANE_TRUE;   // the camera ray sees emitters with full weight
     lane_float eta_scale = 1.0f;       // path.h: roulette on the throughput without eta^2
+#if TEXTURES
+    lane_int crossings = 0;            // masks passed (path.h's null_crossings)
+#endif
     for (int depth = 1; depth <= max_depth; ++depth) {
         LaneHit hit;
         lane_int escaped = alive;
         alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
+#if TEXTURES
+        lane_int ended = 0;
+        alive = cross_masks(scene, &ray, alive, &hit, &radiance, throughput, prev_p, prev_pdf_w, prev_delta,
+                            &crossings, &ended, rng);
+        escaped &= !ended;
+#endif
 #if ENVIRONMENT != ENVIRONMENT_NONE
         escaped &= !alive;
         if (lane_any(escaped)) {

@@ -133,19 +133,20 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
 #endif
 }
 
-// Whether anything lies between the lanes' origins and t_max along their rays (shadow rays),
-// for the `active` lanes; 0 in the others. (One path asks occluded() itself.)
+// The primitive slot of some surface (any, not the nearest: occluder) between the lanes' origins
+// and t_max along their rays (shadow rays), for the `active` lanes; -1 where there is none, and
+// in the other lanes.
 #if LANES > 1
-lane_int any_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float t_max, lane_int active) {
+lane_int occluders(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float t_max, lane_int active) {
     float o[3][8], d[3][8], t[8];
-    int live[8], blocked[8];
+    int live[8], blocker[8];
     vstore8(origin.x, 0, o[0]); vstore8(origin.y, 0, o[1]); vstore8(origin.z, 0, o[2]);
     vstore8(dir.x, 0, d[0]); vstore8(dir.y, 0, d[1]); vstore8(dir.z, 0, d[2]);
     vstore8(t_max, 0, t);
     vstore8(active, 0, live);
     for (int i = 0; i < 8; ++i)
-        blocked[i] = live[i] && occluded(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i]) ? -1 : 0;
-    return vload8(0, blocked);
+        blocker[i] = live[i] ? occluder(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i]) : -1;
+    return vload8(0, blocker);
 }
 #endif
 
@@ -264,6 +265,10 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
 #endif
     return sp;
 }
+
+// A path or shadow ray that keeps crossing index-matched boundaries or masks (e.g. coincident
+// surfaces) must still end.
+#define MAX_NULL_CROSSINGS 1024
 
 // Origin of a ray leaving sp in direction dir: offset to the side dir goes (through the surface
 // for transmission).

@@ -6,6 +6,10 @@
 #include "lanes.h"
 #include "types.h"
 
+// The slots of the texturable parameters the packets look up (textured_params.h).
+#define MATERIAL_COLOR_SLOT 0
+#define MATERIAL_OPACITY_SLOT 12
+
 int material_kind(const Material* m) { return m->kind.x; }
 int material_one_sided(const Material* m) { return m->kind.y; }
 int material_back_material(const Material* m) { return m->kind.z; }
@@ -14,9 +18,9 @@ int material_normal_map(const Material* m) { return m->maps.x; }
 int material_bump_map(const Material* m) { return m->maps.y; }
 int material_distribution(const Material* m) { return m->maps.z; }
 int material_masking(const Material* m) { return m->maps.w; }
-int material_masked(const Material* m) { return (int)m->slot[12].z; }
+int material_masked(const Material* m) { return (int)m->slot[MATERIAL_OPACITY_SLOT].z; }
 float3 material_emission(const Material* m) { return m->emission.xyz; }
-float3 material_color(const Material* m) { return m->slot[0].xyz; }
+float3 material_color(const Material* m) { return m->slot[MATERIAL_COLOR_SLOT].xyz; }
 float material_alpha(const Material* m) { return m->slot[1].x; }
 float material_ior(const Material* m) { return m->slot[2].x; }
 float material_exterior_ior(const Material* m) { return m->slot[2].y; }
@@ -27,7 +31,7 @@ int material_nonlinear(const Material* m) { return (int)m->slot[2].z; }
 float material_specular_sampling_weight(const Material* m) { return m->slot[4].x; }
 float2 material_coat_alpha_range(const Material* m) { return m->slot[4].yz; }
 int material_coat_alpha_rows(const Material* m) { return (int)m->slot[5].x; }
-float material_opacity(const Material* m) { return m->slot[12].x; }
+float material_opacity(const Material* m) { return m->slot[MATERIAL_OPACITY_SLOT].x; }
 float material_bump_scale(const Material* m) { return m->slot[12].y; }
 
 float3 material_toon_shadow_color(const Material* m) { return m->slot[3].xyz; }
@@ -65,10 +69,10 @@ lane_int material_one_sided_at(__global const Material* materials, lane_int inde
     return LANE_LOAD_INT(materials, index, .kind.y);
 }
 lane_int material_masked_at(__global const Material* materials, lane_int index) {
-    return LANE_LOAD(materials, index, .slot[12].z) != 0.0f;
+    return LANE_LOAD(materials, index, .slot[MATERIAL_OPACITY_SLOT].z) != 0.0f;
 }
 lane_float3 material_color_at(__global const Material* materials, lane_int index) {
-    return LANE_LOAD3(materials, index, .slot[0]);
+    return LANE_LOAD3(materials, index, .slot[MATERIAL_COLOR_SLOT]);
 }
 lane_float3 material_emission_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD3(materials, index, .emission);

@@ -43,16 +43,17 @@ Material surface_material(const Scene* scene, const SurfacePoint* sp) {
 }
 
 #else
-// The packets' surface_material: the colour parameter (material_color) of the lanes' materials
-// at their hits, from its texture where it has one, the only parameter the packets take from
-// textures (features.py). A lookup mostly waits for memory (the hit's uv, then texels): each
-// step is taken for every lane before the next, so that the lanes' loads are in flight together
-// (uv corners gathered at once; bilinear bitmaps' texel positions first, then their texels).
-lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int material, lane_int alive) {
-    lane_float3 color = material_color_at(scene->materials, material);
+// The packets' surface_material: the parameter in `slot` (material.h: the colour or the opacity,
+// the parameters the packets take from textures, features.py) of the lanes' materials at their
+// hits, from its texture where it has one (a number in x). A lookup mostly waits for memory (the
+// hit's uv, then texels): each step is taken for every lane before the next, so that the lanes'
+// loads are in flight together (uv corners gathered at once; bilinear bitmaps' texel positions
+// first, then their texels).
+lane_float3 surface_slot_lanes(const Scene* scene, const LaneHit* hit, lane_int material, int slot, lane_int alive) {
+    lane_float3 value = LANE_LOAD3(scene->materials, material, .slot[slot]);
 #if TEXTURES
-    lane_int textured = alive & (LANE_LOAD(scene->materials, material, .slot[0].w) >= 0.0f);
-    if (!lane_any(textured)) return color;
+    lane_int textured = alive & (LANE_LOAD(scene->materials, material, .slot[slot].w) >= 0.0f);
+    if (!lane_any(textured)) return value;
     // triangle_uv of the textured triangles (other lanes read slot 0's corners)
     lane_int corner = select((lane_int)(0), 3 * hit->prim, textured & (hit->sphere == 0));
     lane_float b0 = 1.0f - hit->b1 - hit->b2;
@@ -62,7 +63,7 @@ lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int
                    LANE_LOAD(scene->uvs, corner + 2, .y) * hit->b2;
     float rgb[3][8], us[8], vs[8], from_centre[3][8];
     int lookup[8], prim[8], index[8], sphere[8];
-    vstore8(color.x, 0, rgb[0]); vstore8(color.y, 0, rgb[1]); vstore8(color.z, 0, rgb[2]);
+    vstore8(value.x, 0, rgb[0]); vstore8(value.y, 0, rgb[1]); vstore8(value.z, 0, rgb[2]);
     vstore8(u, 0, us); vstore8(v, 0, vs);
     vstore8(hit->from_centre.x, 0, from_centre[0]);
     vstore8(hit->from_centre.y, 0, from_centre[1]);
@@ -75,7 +76,7 @@ lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int
     bool bilinear[8];
     for (int i = 0; i < 8; ++i) {
         if (!lookup[i]) continue;
-        member[i] = scene->materials[index[i]].slot[0];
+        member[i] = scene->materials[index[i]].slot[slot];
         uv[i] = (float2)(us[i], vs[i]);
         if (sphere[i]) {
             float3 n = normalize((float3)(from_centre[0][i], from_centre[1][i], from_centre[2][i]));
@@ -93,16 +94,27 @@ lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int
     for (int i = 0; i < 8; ++i) {
         if (!lookup[i]) continue;
         __global const Texture* t = scene->textures + ((int)member[i].w >> 1);
-        float4 value = bilinear[i] ? (float4)(blend_texels(bilinear_texels_at(scene, t, corners[i])), 0.0f)
+        float4 found = bilinear[i] ? (float4)(blend_texels(bilinear_texels_at(scene, t, corners[i])), 0.0f)
                                    : textured_value(scene, member[i], uv[i]);
-        rgb[0][i] = value.x;
-        rgb[1][i] = value.y;
-        rgb[2][i] = value.z;
+        rgb[0][i] = found.x;
+        rgb[1][i] = found.y;
+        rgb[2][i] = found.z;
     }
-    color = make_lane_float3(vload8(0, rgb[0]), vload8(0, rgb[1]), vload8(0, rgb[2]));
+    value = make_lane_float3(vload8(0, rgb[0]), vload8(0, rgb[1]), vload8(0, rgb[2]));
 #endif
-    return color;
+    return value;
 }
+
+lane_float3 surface_color_lanes(const Scene* scene, const LaneHit* hit, lane_int material, lane_int alive) {
+    return surface_slot_lanes(scene, hit, material, MATERIAL_COLOR_SLOT, alive);
+}
+
+#if TEXTURES
+// mask.h's mask_opacity of the lanes' materials at their hits.
+lane_float surface_opacity_lanes(const Scene* scene, const LaneHit* hit, lane_int material, lane_int alive) {
+    return clamp(surface_slot_lanes(scene, hit, material, MATERIAL_OPACITY_SLOT, alive).x, 0.0f, 1.0f);
+}
+#endif
 #endif
 
 #endif

@@ -13,10 +13,6 @@
 #include "materials/mask.h"
 #include "media/medium.h"
 
-// A path or shadow ray that keeps crossing index-matched boundaries or masks (e.g. coincident
-// surfaces) must still end.
-#define MAX_NULL_CROSSINGS 1024
-
 #if MEDIA || TEXTURES
 // The fraction of light a surface lets a shadow ray through: an index-matched boundary's
 // colour, a mask's 1 - opacity; 0 for anything else.
