@@ -27,8 +27,10 @@ import time
 import uuid
 import warnings
 from collections import OrderedDict
+from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -141,7 +143,7 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
     token = uuid.uuid4().hex[:8]
     frames = len(scenes) if hasattr(scenes, "__len__") else None
     waiting = iter(enumerate(scenes))
-    jobs, running = {}, {}        # scene index -> _Job; future key -> (job, tile index, future)
+    jobs, running = {}, {}        # scene index -> _Job; future key -> _Chunk
     finished = as_completed(loop=client.loop, with_results=True)   # not the default client's loop
     frames_done, start = 0, time.perf_counter()
 
@@ -150,11 +152,27 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
         count = job.next_chunk(tile, chunk_seconds, samples_per_chunk)
         # The aux buffers stay on the client: only chunks from sample 0 write them.
         outgoing = replace(state, geometry=None, object_id=None)
-        future = client.submit(_render_chunk, job.scene_future, job.scene_future.key, options,
-                               outgoing, count, key=f"clrender-chunk-{token}-{job.index}-{tile}-{state.samples}",
-                               priority=-(job.index * (MAX_SPP + 1) + state.samples), retries=RETRIES)
-        running[future.key] = (job, tile, future)
+        key = f"clrender-chunk-{token}-{job.index}-{tile}-{state.samples}-{job.scatters}"
+        future = client.submit(_render_chunk, job.scene_future, job.scene_future.key, options, outgoing, count,
+                               key=key, priority=-(job.index * (MAX_SPP + 1) + state.samples), retries=RETRIES)
+        running[future.key] = _Chunk(job, tile, future, job.scene_future)
         finished.add(future)
+
+    def submit_again(chunk):
+        """A chunk the cluster cancelled, submitted again: its scene was lost with every worker
+        that held it (workers killed, or the one that had joined when it was scattered), so it is
+        scattered again first, at most RETRIES times a scene."""
+        job = chunk.job
+        _raise_a_failure(c.future for c in running.values())   # a chunk dead on every try ends the render
+        if chunk.scene is job.scene_future:   # not scattered again since this chunk was submitted
+            if job.scatters == RETRIES:
+                raise DistributedRenderError(f"the workers holding scene {job.index} were lost {RETRIES + 1} times "
+                                             f"on the cluster of {_scheduler_address(client)}")
+            job.scene_future.release()
+            with _cluster_errors(client):
+                job.scene_future = client.scatter(job.scene, broadcast=True, hash=False, timeout=chunk_timeout)
+            job.scatters += 1
+        submit(job, chunk.tile)
 
     def start_scenes():
         while len(jobs) < scenes_in_flight:
@@ -178,10 +196,16 @@ def _render_many(scenes, client, spp, volume_method, options, tiles, chunk_secon
     try:
         with _cluster_errors(client):
             start_scenes()
-        chunks = _chunk_results(finished, lambda: [future for *_, future in running.values()], chunk_timeout,
+        chunks = _chunk_results(finished, lambda: [chunk.future for chunk in running.values()], chunk_timeout,
                                 client)
-        for future, (state, device_name) in chunks:
-            job, tile, _ = running.pop(future.key)
+        for future, result in chunks:
+            chunk = running.pop(future.key, None)
+            if chunk is None:   # cancelled here
+                continue
+            if future.status == "cancelled":
+                submit_again(chunk)
+                continue
+            job, tile, (state, device_name) = chunk.job, chunk.tile, result
             job.update(tile, state, device_name)
             if state.samples < job.spp:
                 submit(job, tile)
@@ -370,11 +394,21 @@ def merge_strips(scene, states):
                         np.concatenate(object_id), aov_sums, np.concatenate(filtered) if splatted else None)
 
 
+class _Chunk(NamedTuple):
+    """A chunk in flight: its job, strip, future and the scattered scene it was given."""
+    job: "_Job"
+    tile: int
+    future: object
+    scene: object
+
+
 class _Job:
-    """A scene in flight: its scattered copy and the latest Accumulation of each strip."""
+    """A scene in flight: its scattered copy (scattered again `scatters` times) and the latest
+    Accumulation of each strip."""
 
     def __init__(self, index, scene, scene_future, spp, strips, aovs=(), denoising=None):
         self.index, self.scene, self.scene_future, self.spp = index, scene, scene_future, spp
+        self.scatters = 0
         self.aovs, self.denoising = aovs, denoising
         self.states = [Accumulation.start(strip, needs_sample_aovs(aovs)) for strip in strips]
         self.last_chunk = [(0, 0.0)] * len(strips)   # (samples, kernel seconds) of the latest chunk
@@ -429,8 +463,9 @@ def require_dask(where="distributed"):
 
 
 def _chunk_results(finished, running, timeout, client):
-    """(future, result) of each chunk as it finishes; a chunk's failure, or no chunk finishing
-    for `timeout` seconds (of those `running()` returns), as DistributedRenderError."""
+    """(future, result) of each chunk as it finishes or is cancelled by the cluster (its scene
+    lost with the workers holding it); a chunk's failure, or no chunk finishing for `timeout`
+    seconds (of those `running()` returns), as DistributedRenderError."""
     from distributed import wait
 
     try:
@@ -438,13 +473,11 @@ def _chunk_results(finished, running, timeout, client):
             if not finished.has_ready():
                 pending = running()
                 if pending:
-                    wait(pending, timeout=timeout, return_when="FIRST_COMPLETED")
-            future, result = next(finished)
-            if future.status == "cancelled":   # by the cluster: its scene was lost with the workers holding it
-                _raise_a_failure(running())
-                raise DistributedRenderError(f"a chunk was cancelled by the cluster of "
-                                             f"{_scheduler_address(client)}: {result}")
-            yield future, result
+                    try:
+                        wait(pending, timeout=timeout, return_when="FIRST_COMPLETED")
+                    except CancelledError:   # FuturesCancelledError: those futures come out of `finished`
+                        pass
+            yield next(finished)
     except StopIteration:
         return
     except ClrenderError:   # raised by the chunk itself on every try: already names the worker
@@ -483,7 +516,7 @@ def _scheduler_address(client):
 
 def _cancel(client, running):
     if running:
-        client.cancel([future for _, _, future in running.values()])
+        client.cancel([chunk.future for chunk in running.values()])
         running.clear()
 
 

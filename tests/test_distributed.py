@@ -229,6 +229,33 @@ def test_worker_killed_mid_render_changes_nothing(client):
     assert set(client.run(os.getpid).values()) != pids   # the nanny started a new worker process
 
 
+def test_every_worker_killed_mid_render_changes_nothing(client):
+    # The scattered scene dies with the workers that held it: the chunks that need it are
+    # cancelled by the cluster, and the render scatters it again to the workers the nannies
+    # start (as when a scene went to the one worker that had joined and that worker died).
+    scene = small("scenes/cornell_box.json", (40, 30), seed=4)
+    started, killed = threading.Event(), []
+
+    def kill_all():
+        started.wait()
+        pids = client.run(os.getpid)
+        for pid in pids.values():
+            os.kill(pid, signal.SIGKILL)
+        killed.extend(pids)
+
+    thread = threading.Thread(target=kill_all, daemon=True)
+    thread.start()
+    try:
+        result = distributed.render(scene, client, 160, device=TEST_DEVICE, tiles=5, samples_per_chunk=4,
+                                    progress=lambda done, spp, seconds: done >= 0.3 * spp and started.set())
+    finally:
+        started.set()
+        thread.join()
+    assert len(killed) == 2
+    assert_identical(result, local(scene, 160))
+    client.wait_for_workers(2)
+
+
 def test_chunk_whose_workers_keep_dying_is_an_error_naming_the_worker(client):
     scene = small("scenes/cornell_box.json", (40, 30))
     started = threading.Event()
