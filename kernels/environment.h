@@ -9,6 +9,7 @@
 #include "math.h"
 #include "sampling.h"
 #include "scene.h"
+#include "portability.h"
 
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
 // The image is looked up in its own frame (RenderParams.env_to_map turns world directions into
@@ -69,6 +70,34 @@ lane_float3 environment_radiance_at(const Scene* scene, lane_float2 uv) {
     return scene->params->env_lookup.x == ENV_LOOKUP_TEXEL ? environment_texel(scene, uv)
                                                            : environment_bilinear(scene, uv);
 }
+
+#if LANES > 1
+// The texel rows environment_radiance_at(uv) reads, asked for (PREFETCH) in each of the `lanes`:
+// the packets look a light sample's radiance up after its shadow ray, by when they have arrived.
+void prefetch_environment_texels(const Scene* scene, lane_float2 uv, lane_int lanes) {
+    int w = scene->params->environment.y, h = scene->params->environment.z;
+    lane_int i = min(lane_float_to_int(uv.x * (float)w), (lane_int)(w - 1));
+    lane_int j = min(lane_float_to_int(uv.y * (float)h), (lane_int)(h - 1));
+    int first[8], live[8];
+    vstore8(j * w + i, 0, first);
+    vstore8(lanes, 0, live);
+    for (int k = 0; k < 8; ++k) {
+        if (!live[k]) continue;
+        PREFETCH(scene->env_texels + first[k]);
+        PREFETCH(scene->env_texels + min(first[k] + w, w * h - 1));
+    }
+}
+
+// Each lane's `count` entries of table from at, asked for before a search reads them level by
+// level: the lanes' cache misses (a row of the living room's map is a random 4 KiB of its 4 MiB
+// of CDFs) then overlap instead of following one another.
+void prefetch_cdf_entries(__global const float* table, lane_int at, int count) {
+    int first[8];
+    vstore8(at, 0, first);
+    for (int k = 0; k < 8; ++k)
+        for (int entry = 0; entry < count; entry += 16) PREFETCH(table + first[k] + entry);
+}
+#endif
 
 // The sampling grid's columns and rows head its tables, scene->env_cdf (clrender/arrays.py,
 // _environment_tables): cells of one or more texels (ENV_LOOKUP_TEXEL) or of the squares between
@@ -133,7 +162,13 @@ lane_int count_block_at_most(__global const float* table, lane_int at, lane_int 
 // whose blocks start at `block_starts`, and u rescaled within i's interval (sample reuse).
 lane_int sample_blocked_cdf_reuse(__global const float* table, lane_int cdf, lane_int block_starts, int n,
                                   lane_float u, lane_float* rescaled) {
+#if LANES > 1
+    prefetch_cdf_entries(table, block_starts, env_cdf_blocks(n));
+#endif
     lane_int first = count_at_most(table, block_starts, env_cdf_blocks(n), u) * ENV_CDF_BLOCK;
+#if LANES > 1
+    prefetch_cdf_entries(table, cdf + first, ENV_CDF_BLOCK + 1);
+#endif
     lane_int i = first + count_block_at_most(table, cdf + first, n - first, u);
     *rescaled = cdf_rescaled(u, LANE_LOAD(table, cdf + i, ), LANE_LOAD(table, cdf + i + 1, ));
     return i;

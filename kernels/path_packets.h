@@ -262,6 +262,9 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     }
     lane_int lit = lanes & (dist > 0.0f) & (light_pdf_w > 0.0f) & !is_black(le) & !is_black(f);
     if (!lane_any(lit)) return radiance;
+#if ENVIRONMENT == ENVIRONMENT_IMAGE
+    prefetch_environment_texels(scene, env_uv, lit & environment);
+#endif
 #if TEXTURES
     lane_float tr = shadow_transmittance_lanes(scene, spawn_ray_origin(sp, wi), wi, dist, lit);
     lit &= tr > 0.0f;
