@@ -85,7 +85,7 @@ def test_accessors_read_the_lanes_named_in_layout(context, queue):
 def test_lane_accessors_read_the_same_lanes(context, queue):
     # materials/material.h's *_at accessors (the packet kernel's, over lanes.h) against the
     # scalar accessors of the same fields, at one lane.
-    fields = ("kind", "one_sided", "color", "emission", "ior", "exterior_ior", "conductor_eta", "conductor_k", "alpha",
+    fields = ("kind", "one_sided", "emission", "ior", "exterior_ior", "conductor_eta", "conductor_k", "alpha",
               "distribution", "masking", "reflection_tint", "albedo_tables", "nonlinear", "specular_sampling_weight",
               "coat_alpha_range", "coat_alpha_rows")
     record = np.zeros(1, layout.MATERIAL)

@@ -71,9 +71,6 @@ lane_int material_one_sided_at(__global const Material* materials, lane_int inde
 lane_int material_masked_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD(materials, index, .slot[MATERIAL_OPACITY_SLOT].z) != 0.0f;
 }
-lane_float3 material_color_at(__global const Material* materials, lane_int index) {
-    return LANE_LOAD3(materials, index, .slot[MATERIAL_COLOR_SLOT]);
-}
 lane_float3 material_emission_at(__global const Material* materials, lane_int index) {
     return LANE_LOAD3(materials, index, .emission);
 }
