@@ -33,10 +33,10 @@ WIDE_BVH_NODE = _struct(("lo_x", F8), ("hi_x", F8), ("lo_y", F8), ("hi_y", F8), 
 # Triangle geometry for Moller-Trumbore: v0 and the two edges. The triangle buffer's slots hold
 # triangles or, in leaves tagged as spheres (negative count), a SPHERE in the slot's first bytes.
 TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
-# The triangles of a BVH leaf for intersecting them four at once (clrender/triangle_blocks.py):
+# The triangles of a BVH leaf for intersecting them eight at once (clrender/triangle_blocks.py):
 # lane j of each member is the leaf's triangle j (v0, e1, e2 as in TRIANGLE, per component), slot
 # its primitive slot; lanes past the leaf's count repeat its last triangle.
-TRIANGLE_BLOCK = _struct(*[(f"{name}_{axis}", F4) for name in ("v0", "e1", "e2") for axis in "xyz"], ("slot", I4))
+TRIANGLE_BLOCK = _struct(*[(f"{name}_{axis}", F8) for name in ("v0", "e1", "e2") for axis in "xyz"], ("slot", I8))
 # An analytic sphere: xyz the centre, w the radius, negative when flipped (front face inside).
 SPHERE = _struct(("centre_radius", F4))
 

@@ -1,10 +1,10 @@
-"""The BVH leaves' triangles as the kernel intersects them: four at once, from one
+"""The BVH leaves' triangles as the kernel intersects them: eight at once, from one
 layout.TRIANGLE_BLOCK per leaf (kernels/bvh.h, intersect_triangle_block)."""
 import numpy as np
 
 from . import host_memory, layout
 
-LANES = 4
+LANES = 8
 
 
 def triangle_blocks(nodes, triangles):

@@ -5,10 +5,10 @@ float8 lane), so the kernel tests all eight with a handful of vector instruction
 starts from a binary node's two children and fills its lanes greedily: while a lane is free, the
 interior child of largest surface area (the one rays enter most often) is replaced by its own
 two children (as Embree and pbrt collapse binary trees). Before that, a subtree of at most
-MAX_LEAF primitives of one kind in contiguous slots becomes one leaf (the kernel tests a leaf's
-triangles four at once, so fewer, fuller leaves cost fewer node visits for no more triangle
-tests), unless its box is much larger than its parts' (MERGED_AREA_LIMIT). Done level by level
-with numpy (a million triangles in well under a second).
+MAX_LEAF triangles (or MAX_SPHERE_LEAF spheres) in contiguous slots becomes one leaf (the kernel
+tests a leaf's triangles eight at once, so fewer, fuller leaves cost fewer node visits for no more
+triangle tests), unless its box is much larger than its parts' (MERGED_AREA_LIMIT). Done level by
+level with numpy (a million triangles in well under a second).
 """
 import numpy as np
 
@@ -44,8 +44,11 @@ def collapse(bvh, sphere_slots=None):
 
 # Children per wide node: the lanes of layout.WIDE_BVH_NODE.
 WIDTH = 8
-# Primitives a merged leaf may hold: the lanes of layout.TRIANGLE_BLOCK.
-MAX_LEAF = 4
+# Triangles a merged leaf may hold: the lanes of layout.TRIANGLE_BLOCK.
+MAX_LEAF = 8
+# Spheres a merged leaf may hold: the kernel tests them one after another, so no more than the
+# binary builders put in a leaf (max_leaf_size).
+MAX_SPHERE_LEAF = 4
 # A subtree is merged only if its box's surface area is at most this times the summed areas of
 # the leaves it would otherwise be (rays enter a box in proportion to its area, so that sum is
 # the leaf tests it costs). Two walls meeting at a corner would merge into a leaf spanning the
@@ -81,9 +84,9 @@ def _greedy_slots(roots, area, index, interior, width=WIDTH):
     return nodes, sides
 
 
-def _merge_small_subtrees(index, count, area, sphere_slots, limit=MAX_LEAF):
+def _merge_small_subtrees(index, count, area, sphere_slots):
     """(index, count) of the binary tree's slots with every interior child whose subtree holds at
-    most `limit` primitives, all triangles or all spheres, in contiguous slots, and whose box
+    most MAX_LEAF triangles or MAX_SPHERE_LEAF spheres, not both, in contiguous slots, and whose box
     (`area`: per slot) is at most MERGED_AREA_LIMIT times the areas of the leaves below it, made a
     leaf over those slots. (PLOC lays every subtree's primitives out contiguously; the binned
     builder does not always, and its subtrees that are not stay as they are.)"""
@@ -107,8 +110,9 @@ def _merge_small_subtrees(index, count, area, sphere_slots, limit=MAX_LEAF):
             last[slot] = last[child].max(axis=1)
             spheres[slot] = spheres[child].sum(axis=1)
             apart = leaf_area[child].sum(axis=1)
-            pure = (spheres[slot] == 0) | (spheres[slot] == sub_count[slot])
-            merge[slot] = ((sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot]) & pure
+            limit = np.where(spheres[slot] == 0, MAX_LEAF,
+                             np.where(spheres[slot] == sub_count[slot], MAX_SPHERE_LEAF, 0))   # 0: mixed
+            merge[slot] = ((sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot])
                            & (area[slot] <= MERGED_AREA_LIMIT * apart))
             leaf_area[slot] = np.where(merge[slot], area[slot], apart)
     return np.where(merge, first, index), np.where(merge, sub_count, count)

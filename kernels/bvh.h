@@ -78,35 +78,35 @@ uint lane_bits(int8 m) {
 // The index of the lowest set bit of x != 0 (OpenCL C 1.2 has clz but no ctz).
 int lowest_bit(uint x) { return 31 - clz(x & (0u - x)); }
 
-// Moller-Trumbore, two-sided, on the four triangles of a leaf's block at once, without a branch
+// Moller-Trumbore, two-sided, on the eight triangles of a leaf's block at once, without a branch
 // per triangle (SIMD lanes on CPUs; pbrt-v4 and Embree test a leaf's triangles together too).
 // Returns true and updates *hit if one is closer than hit->t: the nearest, and of equal
 // distances the lowest lane (a repeated triangle never displaces its first copy).
 bool intersect_triangle_block(__global const TriangleBlock* b, float3 origin, float3 dir, Hit* hit) {
-    float4 pv_x = dir.y * b->e2_z - dir.z * b->e2_y;
-    float4 pv_y = dir.z * b->e2_x - dir.x * b->e2_z;
-    float4 pv_z = dir.x * b->e2_y - dir.y * b->e2_x;
-    float4 det = b->e1_x * pv_x + b->e1_y * pv_y + b->e1_z * pv_z;
-    float4 inv_det = 1.0f / det;   // +-inf for det 0: the tests below then fail (NaN or inf)
-    float4 tv_x = origin.x - b->v0_x, tv_y = origin.y - b->v0_y, tv_z = origin.z - b->v0_z;
-    float4 b1 = (tv_x * pv_x + tv_y * pv_y + tv_z * pv_z) * inv_det;
-    float4 qv_x = tv_y * b->e1_z - tv_z * b->e1_y;
-    float4 qv_y = tv_z * b->e1_x - tv_x * b->e1_z;
-    float4 qv_z = tv_x * b->e1_y - tv_y * b->e1_x;
-    float4 b2 = (dir.x * qv_x + dir.y * qv_y + dir.z * qv_z) * inv_det;
-    float4 t = (b->e2_x * qv_x + b->e2_y * qv_y + b->e2_z * qv_z) * inv_det;
-    int4 hits = det != 0.0f & b1 >= 0.0f & b2 >= 0.0f & b1 + b2 <= 1.0f & t > 0.0f & t < hit->t;
-    float4 t_hit = select((float4)(INFINITY), t, hits);
-    float2 nearer = fmin(t_hit.lo, t_hit.hi);
+    float8 pv_x = dir.y * b->e2_z - dir.z * b->e2_y;
+    float8 pv_y = dir.z * b->e2_x - dir.x * b->e2_z;
+    float8 pv_z = dir.x * b->e2_y - dir.y * b->e2_x;
+    float8 det = b->e1_x * pv_x + b->e1_y * pv_y + b->e1_z * pv_z;
+    float8 inv_det = 1.0f / det;   // +-inf for det 0: the tests below then fail (NaN or inf)
+    float8 tv_x = origin.x - b->v0_x, tv_y = origin.y - b->v0_y, tv_z = origin.z - b->v0_z;
+    float8 b1 = (tv_x * pv_x + tv_y * pv_y + tv_z * pv_z) * inv_det;
+    float8 qv_x = tv_y * b->e1_z - tv_z * b->e1_y;
+    float8 qv_y = tv_z * b->e1_x - tv_x * b->e1_z;
+    float8 qv_z = tv_x * b->e1_y - tv_y * b->e1_x;
+    float8 b2 = (dir.x * qv_x + dir.y * qv_y + dir.z * qv_z) * inv_det;
+    float8 t = (b->e2_x * qv_x + b->e2_y * qv_y + b->e2_z * qv_z) * inv_det;
+    int8 hits = det != 0.0f & b1 >= 0.0f & b2 >= 0.0f & b1 + b2 <= 1.0f & t > 0.0f & t < hit->t;
+    float8 t_hit = select((float8)(INFINITY), t, hits);
+    float4 n4 = fmin(t_hit.lo, t_hit.hi);
+    float2 nearer = fmin(n4.lo, n4.hi);
     float nearest = fmin(nearer.x, nearer.y);
     if (!(nearest < hit->t)) return false;
-    int4 is_nearest = t_hit == nearest;
-    int lane = is_nearest.x ? 0 : is_nearest.y ? 1 : is_nearest.z ? 2 : 3;
-    float lane_b1[4], lane_b2[4];
-    int slot[4];
-    vstore4(b1, 0, lane_b1);
-    vstore4(b2, 0, lane_b2);
-    vstore4(b->slot, 0, slot);
+    int lane = lowest_bit(lane_bits(t_hit == nearest));
+    float lane_b1[8], lane_b2[8];
+    int slot[8];
+    vstore8(b1, 0, lane_b1);
+    vstore8(b2, 0, lane_b2);
+    vstore8(b->slot, 0, slot);
     hit->t = nearest;
     hit->b1 = lane_b1[lane];
     hit->b2 = lane_b2[lane];

@@ -5,7 +5,7 @@
 #define CLRENDER_TYPES_H
 
 // Eight-wide BVH node: the boxes of up to eight children, one child per lane. child: node index
-// (count 0), or the TriangleBlock of a leaf of count triangles (count 1 to 4), or the first
+// (count 0), or the TriangleBlock of a leaf of count triangles (count 1 to 8), or the first
 // primitive slot of a leaf of -count spheres (count < 0); empty lanes: child -1, count 0, box at
 // +inf.
 typedef struct {
@@ -19,10 +19,10 @@ typedef struct {
 // the sphere is flipped (its front face inside).
 typedef struct { float4 v0, e1, e2; } Triangle;
 typedef struct { float4 centre_radius; } Sphere;
-// The triangles of a BVH leaf, laid out for intersecting the four at once: lane j of each member
+// The triangles of a BVH leaf, laid out for intersecting the eight at once: lane j of each member
 // is triangle j's (v0, e1, e2 as in Triangle, component by component), slot.s[j] its primitive
-// slot. A leaf of fewer than four repeats its last triangle in the lanes left.
-typedef struct { float4 v0_x, v0_y, v0_z, e1_x, e1_y, e1_z, e2_x, e2_y, e2_z; int4 slot; } TriangleBlock;
+// slot. A leaf of fewer than eight repeats its last triangle in the lanes left.
+typedef struct { float8 v0_x, v0_y, v0_z, e1_x, e1_y, e1_z, e2_x, e2_y, e2_z; int8 slot; } TriangleBlock;
 typedef struct { float4 n0, n1, n2; } TriangleShading;
 // info: x material, y object id, z emitter index (-1: none),
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)

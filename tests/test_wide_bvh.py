@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from clrender.bvh import MAX_DEPTH, build_bvh
-from clrender.wide_bvh import WIDTH, collapse
+from clrender.wide_bvh import MAX_LEAF, MAX_SPHERE_LEAF, WIDTH, collapse
 
 KERNEL_STACK = 435  # BVH_STACK_SIZE in kernels/bvh.h
 
@@ -56,15 +56,26 @@ def test_small_subtrees_merge_into_one_leaf_unless_its_box_is_far_larger(builder
     from clrender.ploc import build_ploc_bvh
     build = build_bvh if builder == "binned" else build_ploc_bvh
     # A floor and a wall meeting at an edge (a leaf over both would span their whole cube and be
-    # entered by about twice the rays), and far away a strip of four adjacent small triangles
-    # (merged: their box is the sum of the pairs' boxes).
-    parts = [_square((0, 0, 0), (8, 0, 0), (0, 8, 0)), _square((0, 0, 0), (8, 0, 0), (0, 0, 8)),
-             _square((40, 40, 40), (0.1, 0, 0), (0, 0.1, 0)), _square((40.1, 40, 40), (0.1, 0, 0), (0, 0.1, 0))]
+    # entered by about twice the rays), and far away a strip of eight adjacent small triangles
+    # (merged into one leaf, a TriangleBlock's eight lanes: their box is the sum of the pairs').
+    strip = [_square((40 + 0.1 * i, 40, 40), (0.1, 0, 0), (0, 0.1, 0)) for i in range(4)]
+    parts = [_square((0, 0, 0), (8, 0, 0), (0, 8, 0)), _square((0, 0, 0), (8, 0, 0), (0, 0, 8)), *strip]
     v0, v1, v2 = (np.concatenate([p[i] for p in parts]) for i in range(3))
     nodes, _depth = collapse(build(v0, v1, v2, max_leaf_size=2))
     lo, hi, counts = _leaf_boxes(nodes)
     walls = hi[:, 0] <= 8
-    assert counts.sum() == 8
+    assert counts.sum() == 12
     # each wall's leaf is flat: no leaf holds triangles of both
     assert np.all(np.min(hi[walls] - lo[walls], axis=1) == 0)
-    assert list(counts[~walls]) == [4]
+    assert list(counts[~walls]) == [MAX_LEAF] == [8]
+
+
+def test_spheres_merge_into_leaves_of_at_most_four():
+    # Two rows of eight touching spheres would each merge into one leaf as triangles do; the
+    # kernel tests a leaf's spheres one after another, so they stay in leaves of MAX_SPHERE_LEAF.
+    centres = np.stack([np.arange(16.0), np.zeros(16), np.zeros(16)], axis=1)
+    none = np.zeros((0, 3))
+    tree = build_bvh(none, none, none, max_leaf_size=2, spheres=(centres, np.full(16, 0.5)))
+    nodes, _depth = collapse(tree, np.ones(16, bool))
+    counts = nodes["count"][nodes["count"] != 0]
+    assert MAX_SPHERE_LEAF == 4 and list(counts) == [-4] * 4
