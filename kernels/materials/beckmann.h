@@ -64,17 +64,23 @@ lane_float beckmann_d(lane_float3 n, lane_float3 h, lane_float alpha) {
 // nearly smooth surface).
 #define BECKMANN_LAMBDA_NEGLIGIBLE_A 3.5f
 
-// Smith's Lambda for a direction at cos_w (Walter et al. 2007, eq. 27, with erf(a) - 1 written as
-// -erfc(a), which keeps its digits where Lambda is small): a = cot / alpha,
-// Lambda = (exp(-a^2) / (a sqrt(pi)) - erfc(a)) / 2. 0 at normal incidence; at grazing
-// incidence Lambda is infinite and G1 0, returned as such by beckmann_g1 and beckmann_g2.
+// Smith's Lambda for a direction at cos_w (Walter et al. 2007, eq. 27): with a = cot / alpha,
+// Lambda = (exp(-a^2) / (a sqrt(pi)) - erfc(a)) / 2 = exp(-a^2) g(a) / (2 sqrt(pi) a), where
+// g(a) = 1 - sqrt(pi) a exp(a^2) erfc(a) is smooth from 1 at a = 0 to 0.04 at a = 3.5, here a
+// polynomial of degree 7 in t = 1 / (1 + a / 2) (least squares in float64 over [0, 3.5]; relative
+// error below 1e-6, G1 within 2e-7 of float64's, as the float32 erfc form was within 1.1e-7): one
+// exp and no erfc, which was a twentieth of ppg-torus's render. Infinite at grazing incidence
+// (a = 0), where beckmann_g1 and beckmann_g2 return 0.
 lane_float beckmann_lambda(lane_float cos_w, lane_float alpha) {
     lane_float c = fabs(cos_w);
     lane_float s = sqrt(fmax(0.0f, 1.0f - c * c));
     lane_float a = c / (alpha * s);
     lane_int negligible = (s == 0.0f) | (a > BECKMANN_LAMBDA_NEGLIGIBLE_A);
     if (!lane_any(!negligible)) return 0.0f;
-    return select(0.5f * (exp(-a * a) * INV_SQRT_PI_F / a - erfc(a)), (lane_float)(0.0f), negligible);
+    lane_float t = 1.0f / (1.0f + 0.5f * a);
+    lane_float g = -0.0024000693f + t * (0.037167393f + t * (-0.12328485f + t * (1.1788671f + t * (-1.7721467f
+                   + t * (3.1555519f + t * (-1.8448677f + t * 0.37111345f))))));
+    return select((0.5f * INV_SQRT_PI_F) * exp(-a * a) * g / a, (lane_float)(0.0f), negligible);
 }
 
 // Smith masking of one direction: G1 = 1 / (1 + Lambda).
