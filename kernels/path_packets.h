@@ -90,12 +90,16 @@ lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane
         *pdf_w = select(*pdf_w, sample_plastic_pdf(&g->p, g->n, wo, wi), plastic);
     }
     if (lane_any(dielectric)) {
-        f = l3_select(f, eval_dielectric(g->reflect_tint, g->tint, g->eta, g->mf, g->n, wo, wi), dielectric);
-        *pdf_w = select(*pdf_w, sample_dielectric_pdf(g->eta, g->mf, g->n, wo, wi), dielectric);
+        lane_float pdf_dielectric;
+        f = l3_select(f, eval_pdf_dielectric(g->reflect_tint, g->tint, g->eta, g->mf, g->n, wo, wi, &pdf_dielectric),
+                      dielectric);
+        *pdf_w = select(*pdf_w, pdf_dielectric, dielectric);
     }
     if (lane_any(conductor)) {
-        f = l3_select(f, eval_conductor(g->tint, g->eta_rgb, g->k, g->mf, g->n, wo, wi), conductor);
-        *pdf_w = select(*pdf_w, sample_conductor_pdf(g->mf, g->n, wo, wi), conductor);
+        lane_float pdf_conductor;
+        f = l3_select(f, eval_pdf_conductor(g->tint, g->eta_rgb, g->k, g->mf, g->n, wo, wi, &pdf_conductor),
+                      conductor);
+        *pdf_w = select(*pdf_w, pdf_conductor, conductor);
     }
 #endif
     return f;

@@ -15,25 +15,35 @@
 #include "materials/conductor_smooth.h"
 #if DIELECTRIC
 
-lane_float3 eval_conductor(lane_float3 tint, lane_float3 eta, lane_float3 k, Microfacet mf, lane_float3 n,
-                           lane_float3 wo, lane_float3 wi) {
+// f * cos_i of the rough lobe and its sampler's density (sample_conductor: the visible-normal
+// density times the Jacobian 1 / (4 wo.h) from h to wi), together: the half vector and D serve
+// both (Mitsuba's eval_pdf).
+lane_float3 eval_pdf_conductor(lane_float3 tint, lane_float3 eta, lane_float3 k, Microfacet mf, lane_float3 n,
+                               lane_float3 wo, lane_float3 wi, lane_float* pdf_w) {
     lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
     lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
+    *pdf_w = 0.0f;
     if (!lane_any(lit)) return l3_splat(0.0f);
     lane_float3 h = l3_normalize(l3_add(wo, wi));
-    lane_float3 f = fresnel_conductor(clamp(l3_dot(wo, h), 0.0f, 1.0f), eta, k);
-    lane_float3 value = l3_scale(l3_mul(tint, f), microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+    lane_float cos_oh = l3_dot(wo, h);
+    lane_float d = microfacet_d(mf, n, h);
+    lane_float3 f = fresnel_conductor(clamp(cos_oh, 0.0f, 1.0f), eta, k);
+    lane_float3 value = l3_scale(l3_mul(tint, f), d * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+    lane_int visible = lit & (cos_oh > 0.0f);
+    *pdf_w = select((lane_float)(0.0f), microfacet_g1(mf, cos_o) * cos_oh * d / cos_o / (4.0f * cos_oh), visible);
     return l3_select(l3_splat(0.0f), value, lit);
 }
 
+lane_float3 eval_conductor(lane_float3 tint, lane_float3 eta, lane_float3 k, Microfacet mf, lane_float3 n,
+                           lane_float3 wo, lane_float3 wi) {
+    lane_float pdf_w;
+    return eval_pdf_conductor(tint, eta, k, mf, n, wo, wi, &pdf_w);
+}
+
 lane_float sample_conductor_pdf(Microfacet mf, lane_float3 n, lane_float3 wo, lane_float3 wi) {
-    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
-    lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
-    if (!lane_any(lit)) return 0.0f;
-    lane_float3 h = l3_normalize(l3_add(wo, wi));
-    lane_float cos_oh = l3_dot(wo, h);
-    lit &= cos_oh > 0.0f;
-    return select((lane_float)(0.0f), sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh), lit);
+    lane_float pdf_w;
+    eval_pdf_conductor(l3_splat(1.0f), l3_splat(0.0f), l3_splat(0.0f), mf, n, wo, wi, &pdf_w);
+    return pdf_w;
 }
 
 // Zero vector for no sample (mirrored below the macro surface; see sample_dielectric).

@@ -37,59 +37,53 @@ lane_int refraction_half_vector(lane_float eta, lane_float3 n, lane_float3 wo, l
     return (*len2 > 0.0f) & (*cos_oh > 0.0f) & (*cos_ih < 0.0f);
 }
 
-// f * |cos_i| (Walter et al. 2007, eqs. 20-21); reflection is tinted by reflect_tint (Mitsuba's
-// specular_reflectance), transmission by tint (specular_transmittance). Since
-// wo.h + eta wi.h = |wo + eta wi|, the squared denominator of eq. 21 is |wo + eta wi|^2 / eta^2,
-// which never vanishes, and its eta^2 cancels the 1/eta^2 of radiance transport.
-lane_float3 eval_dielectric(lane_float3 reflect_tint, lane_float3 tint, lane_float eta, Microfacet mf, lane_float3 n,
-                            lane_float3 wo, lane_float3 wi) {
+// f * |cos_i| (Walter et al. 2007, eqs. 20-21) and its sampler's density (sample_dielectric:
+// the visible-normal density, times the probability of the lobe chosen at that normal, F or
+// 1 - F, times the Jacobian from h to wi, 1 / (4 wo.h) for reflection and
+// eta^2 |wi.h| / |wo + eta wi|^2 for refraction, Walter et al. eq. 17), together: the half
+// vector, Fresnel term, D and masking serve both (Mitsuba's eval_pdf). Reflection is tinted by
+// reflect_tint (Mitsuba's specular_reflectance), transmission by tint (specular_transmittance).
+// Since wo.h + eta wi.h = |wo + eta wi|, the squared denominator of eq. 21 is
+// |wo + eta wi|^2 / eta^2, which never vanishes, and its eta^2 cancels the 1/eta^2 of radiance
+// transport.
+lane_float3 eval_pdf_dielectric(lane_float3 reflect_tint, lane_float3 tint, lane_float eta, Microfacet mf,
+                                lane_float3 n, lane_float3 wo, lane_float3 wi, lane_float* pdf_w) {
     lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
     lane_int reflects = (cos_o > 0.0f) & (cos_i > 0.0f), transmits = (cos_o > 0.0f) & (cos_i < 0.0f);
-    lane_float3 value = l3_splat(0.0f);
-    if (lane_any(reflects)) {
-        lane_float3 h = l3_normalize(l3_add(wo, wi));  // |wo + wi| > 0: both lie above the surface
-        lane_float f = fresnel_dielectric(l3_dot(wo, h), eta);
-        value = l3_select(value, l3_scale(reflect_tint, f * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) /
-                                                        (4.0f * cos_o)), reflects);
-    }
+    *pdf_w = 0.0f;
+    // Reflection's half vector; |wo + wi| > 0 where it is used: both lie above the surface.
+    lane_float3 h = l3_normalize(l3_add(wo, wi));
+    lane_float len2 = 1.0f, cos_oh = l3_dot(wo, h), cos_ih = 0.0f;
     if (lane_any(transmits)) {
-        lane_float3 h;
-        lane_float len2, cos_oh, cos_ih;
-        transmits &= refraction_half_vector(eta, n, wo, wi, &h, &len2, &cos_oh, &cos_ih);
-        if (lane_any(transmits)) {
-            lane_float f = fresnel_dielectric(cos_oh, eta);
-            lane_float t = (1.0f - f) * microfacet_d(mf, n, h) * microfacet_g(mf, cos_o, cos_i) * cos_oh * -cos_ih /
-                           (cos_o * len2);
-            value = l3_select(value, l3_scale(tint, t), transmits);
-        }
+        lane_float3 h_t;
+        lane_float len2_t, cos_oh_t, cos_ih_t;
+        transmits &= refraction_half_vector(eta, n, wo, wi, &h_t, &len2_t, &cos_oh_t, &cos_ih_t);
+        h = l3_select(h, h_t, transmits);
+        len2 = select(len2, len2_t, transmits);
+        cos_oh = select(cos_oh, cos_oh_t, transmits);
+        cos_ih = select(cos_ih, cos_ih_t, transmits);
     }
-    return value;
+    if (!lane_any(reflects | transmits)) return l3_splat(0.0f);
+    lane_float f = fresnel_dielectric(cos_oh, eta);
+    lane_float d = microfacet_d(mf, n, h);
+    lane_float g = microfacet_g(mf, cos_o, cos_i);
+    lane_float visible = select((lane_float)(0.0f), microfacet_g1(mf, cos_o) * cos_oh * d / cos_o, cos_oh > 0.0f);
+    lane_float3 reflected = l3_scale(reflect_tint, f * d * g / (4.0f * cos_o));
+    lane_float3 transmitted = l3_scale(tint, (1.0f - f) * d * g * cos_oh * -cos_ih / (cos_o * len2));
+    *pdf_w = select(select((lane_float)(0.0f), (1.0f - f) * visible * eta * eta * -cos_ih / len2, transmits),
+                    f * visible / (4.0f * cos_oh), reflects & (cos_oh > 0.0f));
+    return l3_select(l3_select(l3_splat(0.0f), transmitted, transmits), reflected, reflects);
 }
 
-// Density of sample_dielectric: the visible-normal density, times the probability of the lobe
-// chosen at that normal (F or 1 - F), times the Jacobian from h to wi (1 / (4 wo.h) for
-// reflection; eta^2 |wi.h| / |wo + eta wi|^2 for refraction, Walter et al. eq. 17).
+lane_float3 eval_dielectric(lane_float3 reflect_tint, lane_float3 tint, lane_float eta, Microfacet mf, lane_float3 n,
+                            lane_float3 wo, lane_float3 wi) {
+    lane_float pdf_w;
+    return eval_pdf_dielectric(reflect_tint, tint, eta, mf, n, wo, wi, &pdf_w);
+}
+
 lane_float sample_dielectric_pdf(lane_float eta, Microfacet mf, lane_float3 n, lane_float3 wo, lane_float3 wi) {
-    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
-    lane_int reflects = (cos_o > 0.0f) & (cos_i > 0.0f), transmits = (cos_o > 0.0f) & (cos_i < 0.0f);
-    lane_float pdf_w = 0.0f;
-    if (lane_any(reflects)) {
-        lane_float3 h = l3_normalize(l3_add(wo, wi));
-        lane_float cos_oh = l3_dot(wo, h);
-        lane_float f = fresnel_dielectric(cos_oh, eta);
-        pdf_w = select(pdf_w, f * sample_microfacet_visible_pdf(mf, n, wo, h) / (4.0f * cos_oh),
-                       reflects & (cos_oh > 0.0f));
-    }
-    if (lane_any(transmits)) {
-        lane_float3 h;
-        lane_float len2, cos_oh, cos_ih;
-        transmits &= refraction_half_vector(eta, n, wo, wi, &h, &len2, &cos_oh, &cos_ih);
-        if (lane_any(transmits)) {
-            lane_float f = fresnel_dielectric(cos_oh, eta);
-            pdf_w = select(pdf_w, (1.0f - f) * sample_microfacet_visible_pdf(mf, n, wo, h) * eta * eta * -cos_ih / len2,
-                           transmits);
-        }
-    }
+    lane_float pdf_w;
+    eval_pdf_dielectric(l3_splat(1.0f), l3_splat(1.0f), eta, mf, n, wo, wi, &pdf_w);
     return pdf_w;
 }
 
