@@ -30,7 +30,7 @@ lane_float3 eval_pdf_conductor(lane_float3 tint, lane_float3 eta, lane_float3 k,
     lane_float3 f = fresnel_conductor(clamp(cos_oh, 0.0f, 1.0f), eta, k);
     lane_float3 value = l3_scale(l3_mul(tint, f), d * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
     lane_int visible = lit & (cos_oh > 0.0f);
-    *pdf_w = select((lane_float)(0.0f), microfacet_g1(mf, cos_o) * cos_oh * d / cos_o / (4.0f * cos_oh), visible);
+    *pdf_w = select((lane_float)(0.0f), microfacet_visible_density(mf, cos_o, cos_oh, d) / (4.0f * cos_oh), visible);
     return l3_select(l3_splat(0.0f), value, lit);
 }
 

@@ -85,12 +85,18 @@ lane_float microfacet_g(Microfacet mf, lane_float cos_o, lane_float cos_i) {
 }
 
 // Density of visible normals, per unit solid angle of h (Heitz 2018, eq. 3):
-// D_wo(h) = G1(wo) max(0, wo.h) D(h) / cos_o.
+// D_wo(h) = G1(wo) max(0, wo.h) D(h) / cos_o, from D(h) (the lobes' eval_pdf have it at hand),
+// where cos_o > 0 and cos_oh > 0.
+lane_float microfacet_visible_density(Microfacet mf, lane_float cos_o, lane_float cos_oh, lane_float d) {
+    return microfacet_g1(mf, cos_o) * cos_oh * d / cos_o;
+}
+
+// The same at the microfacet normal h, 0 where wo does not see it.
 lane_float sample_microfacet_visible_pdf(Microfacet mf, lane_float3 n, lane_float3 wo, lane_float3 h) {
     lane_float cos_o = l3_dot(n, wo), cos_oh = l3_dot(wo, h);
     lane_int visible = (cos_o > 0.0f) & (cos_oh > 0.0f);
     if (!lane_any(visible)) return 0.0f;
-    return select((lane_float)(0.0f), microfacet_g1(mf, cos_o) * cos_oh * microfacet_d(mf, n, h) / cos_o, visible);
+    return select((lane_float)(0.0f), microfacet_visible_density(mf, cos_o, cos_oh, microfacet_d(mf, n, h)), visible);
 }
 
 // A microfacet normal visible from wo, distributed as sample_microfacet_visible_pdf. (Mitsuba's
