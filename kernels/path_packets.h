@@ -86,8 +86,9 @@ lane_float3 eval_glossy_lanes(const GlossyLanes* g, const SurfacePoint* sp, lane
     lane_int dielectric = agree & g->rough & g->dielectric, conductor = agree & g->rough & !g->dielectric;
     lane_int plastic = agree & g->plastic;
     if (lane_any(plastic)) {
-        f = l3_select(f, eval_plastic(&g->p, g->n, wo, wi), plastic);
-        *pdf_w = select(*pdf_w, sample_plastic_pdf(&g->p, g->n, wo, wi), plastic);
+        lane_float pdf_plastic;
+        f = l3_select(f, eval_pdf_plastic(&g->p, g->n, wo, wi, &pdf_plastic), plastic);
+        *pdf_w = select(*pdf_w, pdf_plastic, plastic);
     }
     if (lane_any(dielectric)) {
         lane_float pdf_dielectric;

@@ -70,47 +70,52 @@ Plastic plastic_lanes(const Scene* scene, lane_int index, lane_int plastic, lane
     return p;
 }
 
-// The probability of the specular lobe for wo at cos_o.
-lane_float plastic_specular_probability(const Plastic* p, lane_float cos_o) {
-    lane_float t = coat_transmittance(&p->coat, cos_o);
-    lane_float specular = (1.0f - t) * p->specular_weight, diffuse = t * (1.0f - p->specular_weight);
+// The probability of the specular lobe, from the coat's transmittance t_o towards wo.
+lane_float plastic_specular_probability(const Plastic* p, lane_float t_o) {
+    lane_float specular = (1.0f - t_o) * p->specular_weight, diffuse = t_o * (1.0f - p->specular_weight);
     return select(p->specular_weight, specular / (specular + diffuse), specular + diffuse > 0.0f);
 }
 
-lane_float3 eval_plastic(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+// f * cos_i of wi and (*pdf_w) the density of sample_plastic's drawing it (without the mirror, a
+// delta lobe, which has neither): the coat's transmittance towards wo, the half vector and D
+// serve both (as eval_pdf_dielectric).
+lane_float3 eval_pdf_plastic(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi, lane_float* pdf_w) {
     lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
     lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
+    *pdf_w = 0.0f;
     if (!lane_any(lit)) return l3_splat(0.0f);
     const PlasticCoat* c = &p->coat;
+    lane_float t_o = coat_transmittance(c, cos_o);
     lane_float r = coat_internal_reflectance(c);
     lane_float3 internal = l3_select(make_lane_float3(r, r, r), l3_scale(p->diffuse, r), p->nonlinear != 0);
     lane_float3 value = l3_scale(l3_div3(p->diffuse, l3_sub(l3_splat(1.0f), internal)),
-        cos_i * INV_PI_F / (c->eta * c->eta) * coat_transmittance(c, cos_o) * coat_transmittance(c, cos_i));
-    lane_int glossy = lit & !(p->mirror != 0);   // the mirror, a delta lobe, has no value here
-    if (lane_any(glossy)) {
-        lane_float3 h = l3_normalize(l3_add(wo, wi));
-        lane_float specular = fresnel_dielectric(l3_dot(wo, h), c->eta) * microfacet_d(p->mf, n, h) *
-                              microfacet_g(p->mf, cos_o, cos_i) / (4.0f * cos_o);
-        value = l3_select(value, l3_madd(p->specular, specular, value), glossy);
-    }
-    return l3_select(l3_splat(0.0f), value, lit);
-}
-
-// Density of sample_plastic (without a mirror, a delta lobe).
-lane_float sample_plastic_pdf(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi) {
-    lane_float cos_o = l3_dot(n, wo), cos_i = l3_dot(n, wi);
-    lane_int lit = (cos_o > 0.0f) & (cos_i > 0.0f);
-    if (!lane_any(lit)) return 0.0f;
-    lane_float specular = plastic_specular_probability(p, cos_o);
+        cos_i * INV_PI_F / (c->eta * c->eta) * t_o * coat_transmittance(c, cos_i));
+    lane_float specular = plastic_specular_probability(p, t_o);
     lane_float pdf = (1.0f - specular) * sample_cosine_hemisphere_pdf_w(cos_i);
     lane_int glossy = lit & !(p->mirror != 0);
     if (lane_any(glossy)) {
         lane_float3 h = l3_normalize(l3_add(wo, wi));
         lane_float cos_oh = l3_dot(wo, h);
-        glossy &= cos_oh > 0.0f;
-        pdf = select(pdf, pdf + specular * sample_microfacet_visible_pdf(p->mf, n, wo, h) / (4.0f * cos_oh), glossy);
+        lane_float d = microfacet_d(p->mf, n, h);
+        lane_float coat = fresnel_dielectric(cos_oh, c->eta) * d * microfacet_g(p->mf, cos_o, cos_i) / (4.0f * cos_o);
+        value = l3_select(value, l3_madd(p->specular, coat, value), glossy);
+        lane_int visible = glossy & (cos_oh > 0.0f);
+        pdf = select(pdf, pdf + specular * microfacet_visible_density(p->mf, cos_o, cos_oh, d) / (4.0f * cos_oh), visible);
     }
-    return select((lane_float)(0.0f), pdf, lit);
+    *pdf_w = select((lane_float)(0.0f), pdf, lit);
+    return l3_select(l3_splat(0.0f), value, lit);
+}
+
+lane_float3 eval_plastic(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+    lane_float pdf_w;
+    return eval_pdf_plastic(p, n, wo, wi, &pdf_w);
+}
+
+// Density of sample_plastic (without a mirror, a delta lobe).
+lane_float sample_plastic_pdf(const Plastic* p, lane_float3 n, lane_float3 wo, lane_float3 wi) {
+    lane_float pdf_w;
+    eval_pdf_plastic(p, n, wo, wi, &pdf_w);
+    return pdf_w;
 }
 
 // ng: the geometric normal on wo's side (for the mirror, as sample_conductor_delta). A glossy
@@ -121,11 +126,12 @@ BsdfSample sample_plastic(const Plastic* p, lane_float3 n, lane_float3 ng, lane_
     lane_float cos_o = l3_dot(n, wo);
     lane_int valid = cos_o > 0.0f;
     if (!lane_any(valid)) return bs;
-    lane_float specular = plastic_specular_probability(p, cos_o);
+    lane_float t_o = coat_transmittance(&p->coat, cos_o);
+    lane_float specular = plastic_specular_probability(p, t_o);
     lane_int glossy = rnl < specular;
     lane_int mirror = valid & glossy & (p->mirror != 0);
     if (lane_any(mirror)) {
-        lane_float f = 1.0f - coat_transmittance(&p->coat, cos_o);
+        lane_float f = 1.0f - t_o;
         // A perfect mirror (index 0 + 0i: Fresnel 1) of the coat's reflectance.
         BsdfSample reflected = sample_conductor_delta(l3_scale(p->specular, f / specular), l3_splat(0.0f),
                                                       l3_splat(0.0f), n, ng, wo);
@@ -139,11 +145,12 @@ BsdfSample sample_plastic(const Plastic* p, lane_float3 n, lane_float3 ng, lane_
     lane_float3 wi = l3_splat(0.0f);
     if (lane_any(diffuse)) wi = l3_select(wi, to_world(sample_cosine_hemisphere(rn), n), diffuse);
     if (lane_any(rough)) wi = l3_select(wi, reflect(wo, sample_microfacet_visible(p->mf, n, wo, rn)), rough);
-    lane_float pdf_w = sample_plastic_pdf(p, n, wo, wi);
+    lane_float pdf_w;
+    lane_float3 f = eval_pdf_plastic(p, n, wo, wi, &pdf_w);
     lane_int sampled = (rough | diffuse) & (pdf_w > 0.0f);
     bs.wi = l3_select(bs.wi, wi, rough | diffuse);
     bs.pdf_w = select(bs.pdf_w, pdf_w, rough | diffuse);
-    if (lane_any(sampled)) bs.weight = l3_select(bs.weight, l3_div(eval_plastic(p, n, wo, wi), pdf_w), sampled);
+    if (lane_any(sampled)) bs.weight = l3_select(bs.weight, l3_div(f, pdf_w), sampled);
     return bs;
 }
 
