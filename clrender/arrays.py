@@ -697,8 +697,9 @@ def _stored_environment_tables(image, lookup):
 
 
 def _environment_texels(image):
-    """The kernel's texels of an environment image: RGB and a fourth float (float4 loads)."""
-    texels = np.zeros((image.shape[0] * image.shape[1], 4), np.float32)
+    """The kernel's texels of an environment image: RGB and a fourth float (float4 loads), on a
+    page boundary (host_memory: a CPU device reads them in place, no second copy of the map)."""
+    texels = host_memory.zeros((image.shape[0] * image.shape[1], 4), np.float32)
     texels[:, :3] = image.reshape(-1, 3)
     return texels
 
