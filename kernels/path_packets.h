@@ -56,6 +56,7 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int ki
     if (!lane_any(specular | plastic)) return g;
     g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
     g.mf = material_microfacet_at(scene->materials, sp->material);
+    g.mf = microfacet_of_lanes(g.mf, (specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA)) | plastic);
     if (lane_any(plastic)) {
         g.plastic = plastic;
         g.p = plastic_lanes(scene, sp->material, plastic, tint, g.mf);

@@ -40,6 +40,19 @@ Microfacet material_microfacet_at(__global const Material* materials, lane_int i
                            material_masking_at(materials, index));
 }
 
+// mf with the lanes outside `lanes` (whose values are discarded) given the distribution and the
+// masking that every lane of `lanes` shares, where they share one: the functions below branch on
+// whether any lane takes each kind, and a packet's lanes without a glossy lobe (a diffuse
+// donut's, default GGX and height-correlated) made them evaluate both.
+Microfacet microfacet_of_lanes(Microfacet mf, lane_int lanes) {
+    lane_int beckmann = mf.distribution == MICROFACET_BECKMANN, separable = mf.masking == MASKING_SEPARABLE;
+    if (!lane_any(lanes & !beckmann)) mf.distribution = select(mf.distribution, (lane_int)(MICROFACET_BECKMANN), !lanes);
+    if (!lane_any(lanes & beckmann)) mf.distribution = select(mf.distribution, (lane_int)(MICROFACET_GGX), !lanes);
+    if (!lane_any(lanes & !separable)) mf.masking = select(mf.masking, (lane_int)(MASKING_SEPARABLE), !lanes);
+    if (!lane_any(lanes & separable)) mf.masking = select(mf.masking, (lane_int)(MASKING_HEIGHT_CORRELATED), !lanes);
+    return mf;
+}
+
 // Below this width a lobe is narrower than float32 can evaluate reliably (a GGX D peaks at
 // 1 / (pi alpha^2) and 1 - cos^2 cancels near the peak); such surfaces are treated as smooth,
 // as in pbrt-v4 (TrowbridgeReitzDistribution::EffectivelySmooth).
