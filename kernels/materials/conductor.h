@@ -28,9 +28,10 @@ lane_float3 eval_pdf_conductor(lane_float3 tint, lane_float3 eta, lane_float3 k,
     lane_float cos_oh = l3_dot(wo, h);
     lane_float d = microfacet_d(mf, n, h);
     lane_float3 f = fresnel_conductor(clamp(cos_oh, 0.0f, 1.0f), eta, k);
-    lane_float3 value = l3_scale(l3_mul(tint, f), d * microfacet_g(mf, cos_o, cos_i) / (4.0f * cos_o));
+    lane_float g1_o = microfacet_g1(mf, cos_o);
+    lane_float3 value = l3_scale(l3_mul(tint, f), d * microfacet_g_with_g1(mf, g1_o, cos_o, cos_i) / (4.0f * cos_o));
     lane_int visible = lit & (cos_oh > 0.0f);
-    *pdf_w = select((lane_float)(0.0f), microfacet_visible_density(mf, cos_o, cos_oh, d) / (4.0f * cos_oh), visible);
+    *pdf_w = select((lane_float)(0.0f), microfacet_visible_density(g1_o, cos_o, cos_oh, d) / (4.0f * cos_oh), visible);
     return l3_select(l3_splat(0.0f), value, lit);
 }
 

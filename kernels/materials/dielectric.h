@@ -66,8 +66,9 @@ lane_float3 eval_pdf_dielectric(lane_float3 reflect_tint, lane_float3 tint, lane
     if (!lane_any(reflects | transmits)) return l3_splat(0.0f);
     lane_float f = fresnel_dielectric(cos_oh, eta);
     lane_float d = microfacet_d(mf, n, h);
-    lane_float g = microfacet_g(mf, cos_o, cos_i);
-    lane_float visible = select((lane_float)(0.0f), microfacet_visible_density(mf, cos_o, cos_oh, d),
+    lane_float g1_o = microfacet_g1(mf, cos_o);
+    lane_float g = microfacet_g_with_g1(mf, g1_o, cos_o, cos_i);
+    lane_float visible = select((lane_float)(0.0f), microfacet_visible_density(g1_o, cos_o, cos_oh, d),
                                cos_oh > 0.0f);
     lane_float3 reflected = l3_scale(reflect_tint, f * d * g / (4.0f * cos_o));
     lane_float3 transmitted = l3_scale(tint, (1.0f - f) * d * g * cos_oh * -cos_ih / (cos_o * len2));

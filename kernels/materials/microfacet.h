@@ -88,20 +88,29 @@ lane_float microfacet_g2(Microfacet mf, lane_float cos_o, lane_float cos_i) {
 }
 
 // Masking-shadowing of the pair (wo, wi), from their cosines to the macro normal (either sign:
-// transmission has cos_i < 0). The microfacet must face both; the lobes check that.
-lane_float microfacet_g(Microfacet mf, lane_float cos_o, lane_float cos_i) {
+// transmission has cos_i < 0), with wo's masking g1_o = microfacet_g1(mf, cos_o) at hand: the
+// lobes' eval_pdf compute it once for this and for the visible-normal density. The microfacet
+// must face both directions; the lobes check that.
+lane_float microfacet_g_with_g1(Microfacet mf, lane_float g1_o, lane_float cos_o, lane_float cos_i) {
     lane_int separable = mf.masking == MASKING_SEPARABLE;
     lane_float g = 0.0f;
-    if (lane_any(separable)) g = microfacet_g1(mf, cos_o) * microfacet_g1(mf, cos_i);
+    if (lane_any(separable)) g = g1_o * microfacet_g1(mf, cos_i);
     if (lane_any(!separable)) g = select(g, microfacet_g2(mf, cos_o, cos_i), !separable);
     return g;
 }
 
+lane_float microfacet_g(Microfacet mf, lane_float cos_o, lane_float cos_i) {
+    lane_int separable = mf.masking == MASKING_SEPARABLE;
+    lane_float g1_o = 0.0f;   // only the separable product needs it
+    if (lane_any(separable)) g1_o = microfacet_g1(mf, cos_o);
+    return microfacet_g_with_g1(mf, g1_o, cos_o, cos_i);
+}
+
 // Density of visible normals, per unit solid angle of h (Heitz 2018, eq. 3):
-// D_wo(h) = G1(wo) max(0, wo.h) D(h) / cos_o, from D(h) (the lobes' eval_pdf have it at hand),
-// where cos_o > 0 and cos_oh > 0.
-lane_float microfacet_visible_density(Microfacet mf, lane_float cos_o, lane_float cos_oh, lane_float d) {
-    return microfacet_g1(mf, cos_o) * cos_oh * d / cos_o;
+// D_wo(h) = G1(wo) max(0, wo.h) D(h) / cos_o, from G1(wo) and D(h) (the lobes' eval_pdf have
+// both at hand), where cos_o > 0 and cos_oh > 0.
+lane_float microfacet_visible_density(lane_float g1_o, lane_float cos_o, lane_float cos_oh, lane_float d) {
+    return g1_o * cos_oh * d / cos_o;
 }
 
 // The same at the microfacet normal h, 0 where wo does not see it.
@@ -109,7 +118,8 @@ lane_float sample_microfacet_visible_pdf(Microfacet mf, lane_float3 n, lane_floa
     lane_float cos_o = l3_dot(n, wo), cos_oh = l3_dot(wo, h);
     lane_int visible = (cos_o > 0.0f) & (cos_oh > 0.0f);
     if (!lane_any(visible)) return 0.0f;
-    return select((lane_float)(0.0f), microfacet_visible_density(mf, cos_o, cos_oh, microfacet_d(mf, n, h)), visible);
+    return select((lane_float)(0.0f),
+                  microfacet_visible_density(microfacet_g1(mf, cos_o), cos_o, cos_oh, microfacet_d(mf, n, h)), visible);
 }
 
 // A microfacet normal visible from wo, distributed as sample_microfacet_visible_pdf. (Mitsuba's

@@ -97,10 +97,12 @@ lane_float3 eval_pdf_plastic(const Plastic* p, lane_float3 n, lane_float3 wo, la
         lane_float3 h = l3_normalize(l3_add(wo, wi));
         lane_float cos_oh = l3_dot(wo, h);
         lane_float d = microfacet_d(p->mf, n, h);
-        lane_float coat = fresnel_dielectric(cos_oh, c->eta) * d * microfacet_g(p->mf, cos_o, cos_i) / (4.0f * cos_o);
+        lane_float g1_o = microfacet_g1(p->mf, cos_o);
+        lane_float coat = fresnel_dielectric(cos_oh, c->eta) * d * microfacet_g_with_g1(p->mf, g1_o, cos_o, cos_i) /
+                          (4.0f * cos_o);
         value = l3_select(value, l3_madd(p->specular, coat, value), glossy);
         lane_int visible = glossy & (cos_oh > 0.0f);
-        pdf = select(pdf, pdf + specular * microfacet_visible_density(p->mf, cos_o, cos_oh, d) / (4.0f * cos_oh), visible);
+        pdf = select(pdf, pdf + specular * microfacet_visible_density(g1_o, cos_o, cos_oh, d) / (4.0f * cos_oh), visible);
     }
     *pdf_w = select((lane_float)(0.0f), pdf, lit);
     return l3_select(l3_splat(0.0f), value, lit);
