@@ -56,12 +56,12 @@ GlossyLanes glossy_lanes(const Scene* scene, const SurfacePoint* sp, lane_int ki
     if (!lane_any(specular | plastic)) return g;
     g.n = l3_select(sp->ng, sp->ns, l3_dot(wo, sp->ns) > 0.0f);
     g.mf = material_microfacet_at(scene->materials, sp->material);
-    g.mf = microfacet_of_lanes(g.mf, (specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA)) | plastic);
+    g.rough = specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
+    g.mf = microfacet_of_lanes(g.mf, g.rough | plastic);
     if (lane_any(plastic)) {
         g.plastic = plastic;
         g.p = plastic_lanes(scene, sp->material, plastic, tint, g.mf);
     }
-    g.rough = specular & (g.mf.alpha >= MICROFACET_MIN_ALPHA);   // bsdf.h, material_is_delta
     if (!lane_any(g.rough)) return g;
     g.dielectric = g.rough & (kind == MATERIAL_DIELECTRIC);
     g.tint = tint;
