@@ -17,6 +17,12 @@ from .origins import at_source
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
+# Triangles that gathering them and filling their slots handle at a time: the temporaries of
+# these steps are then of this size, not of a whole mesh (at 3M triangles they made most of the
+# set-up's peak memory; docs/performance.md, "Start-up at scale").
+SLOTS_AT_A_TIME = 1 << 16
+
+
 @dataclass
 class SceneArrays:
     nodes: np.ndarray
@@ -142,11 +148,22 @@ def _build_scene_arrays(scene, worker):
     centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
     nodes, bvh_depth, order = wide_bvh_of(v0, v1, v2, centres, radii)
-    triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
-    del normals
-    nodes, blocks = triangle_blocks(nodes, triangles)
     unordered_info = np.concatenate([info, sphere_info])
-    info = unordered_info[order]
+    del info
+    camera_medium = scene.camera_medium
+    if camera_medium is None:
+        camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, centres, radii,
+                                          unordered_info)
+    triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
+    # The gathered corners and normals go as soon as the slots hold them: with the blocks below
+    # they would be a large scene's peak memory.
+    del v0, v1, v2, normals
+    nodes, blocks = triangle_blocks(nodes, triangles)
+    # The slots' TriangleInfo records, written in place (`info`: their int4 fields as rows).
+    info_records = host_memory.empty(len(order), layout.TRIANGLE_INFO)
+    info = info_records.view(np.int32).reshape(len(order), 4)
+    np.take(unordered_info, order, axis=0, out=info, mode="clip")   # "raise" would buffer `out` (order is in range)
+    del unordered_info
 
     try:   # before anything asks for a texture's mean
         texture_records, texels = texture_data.result()
@@ -197,14 +214,10 @@ def _build_scene_arrays(scene, worker):
     compensated = {i for i, m in enumerate(scene.materials) if m.energy_compensation or m.type == "plastic"}
     table_size, table_materials = _assign_albedo_tables(materials, used & compensated)
 
-    camera_medium = scene.camera_medium
-    if camera_medium is None:
-        camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, centres, radii,
-                                          unordered_info)
     media, grid_data, majorant_data = _medium_array(scene.media, scale)
     return SceneArrays(
         nodes=nodes, blocks=blocks, triangles=triangles, shading=shading,
-        info=_info_array(info), materials=materials,
+        info=info_records, materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(selection),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
@@ -220,13 +233,17 @@ def _build_scene_arrays(scene, worker):
 def _has_float32_area(v0, v1, v2):
     """Whether each triangle keeps an area in the kernel's float32 arithmetic: its normal
     (cross product of float32 edges) has a normal-range, finite squared length."""
-    v0 = np.asarray(v0, np.float32)
-    e1 = np.asarray(v1, np.float32) - v0
-    e2 = np.asarray(v2, np.float32) - v0
-    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        n = np.cross(e1, e2)
-        length2 = np.sum(n * n, axis=1, dtype=np.float32)
-    return np.isfinite(length2) & (length2 >= np.finfo(np.float32).tiny)
+    keep = np.empty(len(v0), bool)
+    for first in range(0, len(v0), SLOTS_AT_A_TIME):   # temporaries of a block's size
+        at = slice(first, first + SLOTS_AT_A_TIME)
+        a = np.asarray(v0[at], np.float32)
+        e1 = np.asarray(v1[at], np.float32) - a
+        e2 = np.asarray(v2[at], np.float32) - a
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            n = np.cross(e1, e2)
+            length2 = np.sum(n * n, axis=1, dtype=np.float32)
+        keep[at] = np.isfinite(length2) & (length2 >= np.finfo(np.float32).tiny)
+    return keep
 
 
 class SkippedShapeWarning(UserWarning):
@@ -277,24 +294,31 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     n_triangles = len(v0)
     is_sphere = np.asarray(order) >= n_triangles
     with_spheres = bool(is_sphere.any())
-    # Without spheres every slot is a triangle's: a slice writes the fields without index arrays.
-    slots = np.flatnonzero(~is_sphere) if with_spheres else slice(None)
-    tri = np.asarray(order)[slots]
+    # Without spheres every slot is a triangle's: slices write the fields without index arrays.
+    triangle_slots = np.flatnonzero(~is_sphere) if with_spheres else None
     # Written through plain float32 views of the records, (slots, 3 fields, 4 lanes): numpy's
     # take and copies of whole rows, not a structured field and an index array per component.
     triangles = host_memory.zeros(len(order), layout.TRIANGLE)
     records = triangles.view(np.float32).reshape(len(order), 3, 4)
-    # Edges are differences of the float32 corners, not rounded float64 differences: then
-    # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
-    # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
-    # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
-    a = np.take(np.asarray(v0, np.float32), tri, axis=0)
-    records[slots, 0, :3] = a
-    records[slots, 1, :3] = np.take(np.asarray(v1, np.float32), tri, axis=0) - a
-    records[slots, 2, :3] = np.take(np.asarray(v2, np.float32), tri, axis=0) - a
     shading = host_memory.zeros(len(order), layout.TRIANGLE_SHADING)
-    corner_normals = np.take(np.asarray(normals, np.float32).reshape(-1, 9), tri, axis=0)
-    shading.view(np.float32).reshape(len(order), 3, 4)[slots, :, :3] = corner_normals.reshape(-1, 3, 3)
+    normal_records = shading.view(np.float32).reshape(len(order), 3, 4)
+    v0, v1, v2 = (np.asarray(v, np.float32) for v in (v0, v1, v2))
+    corner_normals = np.asarray(normals, np.float32).reshape(-1, 9)
+    # In blocks: the gathered corners are temporaries of a block's size (SLOTS_AT_A_TIME).
+    count = len(order) if triangle_slots is None else len(triangle_slots)
+    for start in range(0, count, SLOTS_AT_A_TIME):
+        stop = min(start + SLOTS_AT_A_TIME, count)
+        slots = slice(start, stop) if triangle_slots is None else triangle_slots[start:stop]
+        tri = np.asarray(order)[slots]
+        # Edges are differences of the float32 corners, not rounded float64 differences: then
+        # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
+        # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
+        # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
+        a = np.take(v0, tri, axis=0)
+        records[slots, 0, :3] = a
+        records[slots, 1, :3] = np.take(v1, tri, axis=0) - a
+        records[slots, 2, :3] = np.take(v2, tri, axis=0) - a
+        normal_records[slots, :, :3] = np.take(corner_normals, tri, axis=0).reshape(-1, 3, 3)
     if with_spheres:
         spheres = np.zeros(len(order), layout.SPHERE)
         index = np.asarray(order)[is_sphere] - n_triangles
@@ -359,24 +383,30 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
     uvs = np.empty((total, 3 if with_uv else 0, 2), np.float32)
     end = 0
     for object_id, mesh in found:
-        at = slice(end, end + len(mesh.faces))
-        end = at.stop
-        scaled = (mesh.vertices * scale).astype(np.float32)
-        for k, corner in enumerate((v0, v1, v2)):
-            np.take(scaled, mesh.faces[:, k], axis=0, out=corner[at])
-        if mesh.normals is not None:
-            np.take(mesh.normals.astype(np.float32), mesh.faces, axis=0, out=normals[at])
-        else:
-            corners = mesh.vertices[mesh.faces] * scale
-            flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            normals[at] = flat[:, None, :]
         shape = scene.shapes[object_id]
-        info[at] = [shape.material, object_id, -1, layout.pack_media(shape.interior, shape.exterior)]
-        if with_uv:
-            if mesh.uvs is None:
-                uvs[at] = BARYCENTRIC_UV
+        info[end:end + len(mesh.faces)] = [shape.material, object_id, -1,
+                                           layout.pack_media(shape.interior, shape.exterior)]
+        scaled = (mesh.vertices * scale).astype(np.float32)
+        mesh_normals = None if mesh.normals is None else mesh.normals.astype(np.float32)
+        mesh_uvs = None if mesh.uvs is None or not with_uv else mesh.uvs.astype(np.float32)
+        # In blocks (SLOTS_AT_A_TIME): no float64 corners of every face (72 bytes a triangle).
+        for first in range(0, len(mesh.faces), SLOTS_AT_A_TIME):
+            faces = mesh.faces[first:first + SLOTS_AT_A_TIME]
+            at = slice(end + first, end + first + len(faces))
+            for k, corner in enumerate((v0, v1, v2)):
+                np.take(scaled, faces[:, k], axis=0, out=corner[at])
+            if mesh_normals is not None:
+                np.take(mesh_normals, faces, axis=0, out=normals[at])
             else:
-                np.take(mesh.uvs.astype(np.float32), mesh.faces, axis=0, out=uvs[at])
+                corners = mesh.vertices[faces] * scale
+                flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+                normals[at] = flat[:, None, :]
+            if with_uv:
+                if mesh_uvs is None:
+                    uvs[at] = BARYCENTRIC_UV
+                else:
+                    np.take(mesh_uvs, faces, axis=0, out=uvs[at])
+        end += len(mesh.faces)
     return v0, v1, v2, normals, info, uvs
 
 
@@ -393,7 +423,7 @@ def _area_emitters(scene, triangles, is_sphere, info):
             texture = material.textures["emission"]
             mean_emission[index] = scene.textures[texture].mean()
             reference[index] = layout.texture_reference(texture, scalar=False)
-    emits = np.any(mean_emission[info[:, 0]] > 0, axis=1) if len(info) else np.zeros(0, bool)
+    emits = np.any(mean_emission > 0, axis=1)[info[:, 0]] if len(info) else np.zeros(0, bool)
     slots = np.concatenate([np.flatnonzero(emits & ~is_sphere), np.flatnonzero(emits & is_sphere)])
     info[slots, 2] = np.arange(len(slots))
     emitters = np.zeros(len(slots), layout.EMITTER)
@@ -439,12 +469,6 @@ def _emitter(kind, radiance, p0=(0, 0, 0)):
     e["radiance"][:, :3] = radiance
     e["p0"][:, :3] = p0
     return e
-
-
-def _info_array(info):
-    out = host_memory.zeros(len(info), layout.TRIANGLE_INFO)
-    out["info"] = info
-    return out
 
 
 def _material_array(materials, textures=(), length_scale=1.0):

@@ -118,6 +118,25 @@ def flip(mesh):
                 None if mesh.normals is None else -mesh.normals, mesh.uvs)
 
 
+def _face_normals_and_angles(vertices, faces):
+    """Unit normals (3, F) of triangles and their angles (3, F) at their three corners; angles
+    of faces of zero area, and angles below 1e-8, are 0 (they do not count in vertex_normals)."""
+    # Coordinates as rows (3, F): every operation below then reads contiguous memory.
+    columns = np.ascontiguousarray(vertices[faces].transpose(2, 1, 0))   # (3 axes, 3 corners, F)
+    p0, p1, p2 = columns[:, 0], columns[:, 1], columns[:, 2]
+    face_normals = _unit_columns(_cross(p1 - p0, p2 - p0))
+    u = _unit_columns(p1 - p0)
+    v = _unit_columns(p2 - p0)
+    w = _unit_columns(p2 - p1)
+    angles = np.empty((3, len(faces)))
+    angles[0] = np.arccos(np.clip(_dot(u, v), -1, 1))
+    angles[1] = np.arccos(np.clip(-_dot(u, w), -1, 1))
+    angles[2] = np.pi - angles[0] - angles[1]
+    angles[:, np.any(angles < 1e-8, axis=0)] = 0.0
+    angles[:, _dot(face_normals, face_normals) <= 0.5] = 0.0
+    return face_normals, angles
+
+
 def _normalized(v):
     """Rows of (N, 3) scaled to unit length (zero rows stay zero)."""
     return _unit_columns(v.T).T
@@ -203,6 +222,8 @@ def box():
 # Mitsuba's default of `flip_tex_coords` (v -> 1 - v) per file format: its obj shape flips, its ply
 # shape does not, its serialized shape has no such option (and flips nothing). Formats Mitsuba
 # does not read come through trimesh, whose texture coordinates follow OBJ's convention.
+# Faces whose normals and angles vertex_normals computes at a time (a few MB of temporaries).
+NORMALS_BLOCK = 1 << 16
 FLIP_TEX_COORDS = {".obj": True, ".ply": False, ".serialized": False}
 _FLIP_V_SCALE, _FLIP_V_OFFSET = np.array([1.0, -1.0]), np.array([0.0, 1.0])   # v -> 1 - v
 
@@ -290,22 +311,14 @@ def vertex_normals(vertices, faces):
     the face's angle at that vertex (Thuerrner and Wuethrich 1998, as Mitsuba and trimesh compute
     them, but without scipy). Faces of zero area, or with an angle below 1e-8, do not contribute;
     a vertex whose faces cancel (or that has none) gets +x, as in Mitsuba."""
-    # Coordinates as rows (3, F): every operation below then reads contiguous memory.
-    columns = np.ascontiguousarray(vertices.T)
-    corners = np.ascontiguousarray(faces.T)
-    p0, p1, p2 = (columns[:, corner] for corner in corners)
-    face_normals = _unit_columns(_cross(p1 - p0, p2 - p0))
-    u = _unit_columns(p1 - p0)
-    v = _unit_columns(p2 - p0)
-    w = _unit_columns(p2 - p1)
-    del p0, p1, p2
+    face_normals = np.empty((3, len(faces)))
     angles = np.empty((3, len(faces)))
-    angles[0] = np.arccos(np.clip(_dot(u, v), -1, 1))
-    angles[1] = np.arccos(np.clip(-_dot(u, w), -1, 1))
-    angles[2] = np.pi - angles[0] - angles[1]
-    angles[:, np.any(angles < 1e-8, axis=0)] = 0.0
-    angles[:, _dot(face_normals, face_normals) <= 0.5] = 0.0
-    summed = np.stack([sum(np.bincount(corners[k], angles[k] * face_normals[axis], len(vertices))
+    # In blocks of faces: the corners and edges of a block are temporaries, not arrays over the
+    # whole mesh (a third of a 3M-triangle scene's peak memory was this function's).
+    for start in range(0, len(faces), NORMALS_BLOCK):
+        block = slice(start, start + NORMALS_BLOCK)
+        face_normals[:, block], angles[:, block] = _face_normals_and_angles(vertices, faces[block])
+    summed = np.stack([sum(np.bincount(faces[:, k], angles[k] * face_normals[axis], len(vertices))
                            for k in range(3)) for axis in range(3)], axis=1)
     summed[~np.any(summed != 0, axis=1)] = [1, 0, 0]   # no direction (faces cancel, or none): Mitsuba's choice
     return _normalized(summed)

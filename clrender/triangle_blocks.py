@@ -5,6 +5,7 @@ import numpy as np
 from . import host_memory, layout
 
 LANES = 8
+LEAVES_AT_A_TIME = 1 << 14
 
 
 def triangle_blocks(nodes, triangles):
@@ -19,12 +20,18 @@ def triangle_blocks(nodes, triangles):
     if np.any(count > LANES):
         raise ValueError(f"a leaf of {int(count.max())} triangles; a block holds {LANES}")
     blocks = host_memory.zeros(max(len(first), 1), layout.TRIANGLE_BLOCK)
-    slots = first[:, None] + np.minimum(np.arange(LANES), count[:, None] - 1)   # (leaves, LANES)
-    blocks["slot"][:len(first)] = slots
-    # One gather of the slots' records as float32 words (v0, e1, e2 as xyzw rows), then each
-    # block's (field, axis) rows of lanes: a transpose, not a fancy index per component.
-    words = np.take(triangles.view(np.float32).reshape(len(triangles), 3, 4)[:, :, :3], slots, axis=0)
-    lanes = blocks.view(np.float32).reshape(len(blocks), -1)[:len(first), :9 * LANES]
-    lanes.reshape(len(first), 9, LANES)[:] = words.reshape(len(first), LANES, 9).transpose(0, 2, 1)
+    records = triangles.view(np.float32).reshape(len(triangles), 3, 4)   # v0, e1, e2 as xyzw rows
+    lanes = blocks.view(np.float32).reshape(len(blocks), -1)[:, :9 * LANES].reshape(len(blocks), 9, LANES)
+    # A few thousand leaves at a time: the gathered records are a temporary of a block's size,
+    # not one as large as all the blocks (a tenth of a 3M-triangle scene's peak memory).
+    for start in range(0, len(first), LEAVES_AT_A_TIME):
+        leaves = slice(start, start + LEAVES_AT_A_TIME)
+        slots = first[leaves, None] + np.minimum(np.arange(LANES), count[leaves, None] - 1)   # (leaves, LANES)
+        blocks["slot"][leaves] = slots
+        # One gather of the slots' whole records as float32 words (np.take would copy a strided
+        # view of them whole first), then each block's (field, axis) rows of lanes: a transpose,
+        # not a fancy index per component.
+        words = np.take(records, slots, axis=0)[..., :3]
+        lanes[leaves] = words.reshape(len(slots), LANES, 9).transpose(0, 2, 1)
     nodes["child"][leaf] = np.arange(len(first))
     return nodes, blocks
