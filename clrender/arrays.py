@@ -116,12 +116,17 @@ def _texture_data(scene, with_uv):
 def wide_bvh_of(v0, v1, v2, centres, radii):
     """(wide nodes, depth, primitive order) of the BVH over these triangles and spheres: built
     (ploc.py, wide_bvh.py) once per geometry, then loaded from the disk cache, keyed by the
-    primitives and the builders' code (the build was half the set-up of the real interiors)."""
+    primitives and the builders' code (the build was half the set-up of the real interiors).
+    The nodes are an aligned, writable array of their own (triangle_blocks changes them)."""
     builders = disk_cache.code_digest(sys.modules[__name__], ploc, bvh_module, wide_bvh, layout)
     entry = disk_cache.key("wide bvh", builders, disk_cache.array_digest(v0, v1, v2, centres, radii))
     cached = disk_cache.load_arrays("bvh", entry)
     if cached is not None:
-        return cached["nodes"].view(layout.WIDE_BVH_NODE), int(cached["depth"][0]), cached["order"]
+        # Copies, so that the entry's bytes (which views would keep) are freed now, not after the
+        # scene's other arrays have joined them (a large scene's peak memory), and the nodes are
+        # writable (triangle_blocks changes them in place) and aligned for reading in place.
+        return (host_memory.copy(cached["nodes"].view(layout.WIDE_BVH_NODE)), int(cached["depth"][0]),
+                np.array(cached["order"]))
     bvh = ploc.build_ploc_bvh(v0, v1, v2, spheres=(centres, radii))
     order = bvh.prim_order
     # The binary tree goes as soon as it is used: on a large mesh it is hundreds of MB, and the
@@ -129,7 +134,7 @@ def wide_bvh_of(v0, v1, v2, centres, radii):
     nodes, depth = wide_bvh.collapse(bvh, order >= len(v0))
     del bvh
     disk_cache.store_arrays("bvh", entry, {"nodes": nodes, "depth": np.array([depth]), "order": order})
-    return nodes, depth, order
+    return host_memory.copy(nodes), depth, order
 
 
 def _build_scene_arrays(scene, worker):
@@ -158,12 +163,12 @@ def _build_scene_arrays(scene, worker):
     # The gathered corners and normals go as soon as the slots hold them: with the blocks below
     # they would be a large scene's peak memory.
     del v0, v1, v2, normals
-    nodes, blocks = triangle_blocks(nodes, triangles)
     # The slots' TriangleInfo records, written in place (`info`: their int4 fields as rows).
     info_records = host_memory.empty(len(order), layout.TRIANGLE_INFO)
     info = info_records.view(np.int32).reshape(len(order), 4)
     np.take(unordered_info, order, axis=0, out=info, mode="clip")   # "raise" would buffer `out` (order is in range)
     del unordered_info
+    nodes, blocks = triangle_blocks(nodes, triangles)
 
     try:   # before anything asks for a texture's mean
         texture_records, texels = texture_data.result()
@@ -301,7 +306,7 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
     triangles = host_memory.zeros(len(order), layout.TRIANGLE)
     records = triangles.view(np.float32).reshape(len(order), 3, 4)
     shading = host_memory.zeros(len(order), layout.TRIANGLE_SHADING)
-    normal_records = shading.view(np.float32).reshape(len(order), 3, 4)
+    packed_normals = shading["normals"]
     v0, v1, v2 = (np.asarray(v, np.float32) for v in (v0, v1, v2))
     corner_normals = np.asarray(normals, np.float32).reshape(-1, 9)
     # In blocks: the gathered corners are temporaries of a block's size (SLOTS_AT_A_TIME).
@@ -318,7 +323,7 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
         records[slots, 0, :3] = a
         records[slots, 1, :3] = np.take(v1, tri, axis=0) - a
         records[slots, 2, :3] = np.take(v2, tri, axis=0) - a
-        normal_records[slots, :, :3] = np.take(corner_normals, tri, axis=0).reshape(-1, 3, 3)
+        packed_normals[slots, :3] = layout.pack_normals(np.take(corner_normals, tri, axis=0).reshape(-1, 3, 3))
     if with_spheres:
         spheres = np.zeros(len(order), layout.SPHERE)
         index = np.asarray(order)[is_sphere] - n_triangles
@@ -387,8 +392,8 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
         info[end:end + len(mesh.faces)] = [shape.material, object_id, -1,
                                            layout.pack_media(shape.interior, shape.exterior)]
         scaled = (mesh.vertices * scale).astype(np.float32)
-        mesh_normals = None if mesh.normals is None else mesh.normals.astype(np.float32)
-        mesh_uvs = None if mesh.uvs is None or not with_uv else mesh.uvs.astype(np.float32)
+        mesh_normals = None if mesh.normals is None else np.asarray(mesh.normals, np.float32)
+        mesh_uvs = None if mesh.uvs is None or not with_uv else np.asarray(mesh.uvs, np.float32)
         # In blocks (SLOTS_AT_A_TIME): no float64 corners of every face (72 bytes a triangle).
         for first in range(0, len(mesh.faces), SLOTS_AT_A_TIME):
             faces = mesh.faces[first:first + SLOTS_AT_A_TIME]

@@ -16,9 +16,23 @@ from .files import check_regular_file
 @dataclass
 class Mesh:
     vertices: np.ndarray   # (V, 3) float64, world space
-    faces: np.ndarray      # (F, 3) int64
-    normals: np.ndarray    # (V, 3) float64 unit shading normals, or None for flat shading
-    uvs: np.ndarray = None   # (V, 2) float64 texture coordinates (Mitsuba's convention), or None
+    faces: np.ndarray      # (F, 3) int32 (a vertex count within limits is far below 2^31)
+    normals: np.ndarray    # (V, 3) unit shading normals, or None for flat shading
+    uvs: np.ndarray = None   # (V, 2) texture coordinates (Mitsuba's convention), or None
+    # normals and uvs are float64 while a shape is made, float32 in a scene (kept_in_scene).
+
+    def __post_init__(self):
+        self.faces = np.asarray(self.faces, np.int32)   # half an int64 array's memory
+
+
+def kept_in_scene(mesh):
+    """The mesh as a scene keeps it once its transform is applied: normals and texture
+    coordinates in float32, which is all the kernel and the exported files take of them (half
+    the memory, the same scene arrays bit for bit). Spheres as they are."""
+    if not isinstance(mesh, Mesh):
+        return mesh
+    return Mesh(mesh.vertices, mesh.faces, None if mesh.normals is None else mesh.normals.astype(np.float32),
+                None if mesh.uvs is None else mesh.uvs.astype(np.float32))
 
 
 @dataclass

@@ -1044,6 +1044,7 @@ def _read_shape(node, material_names, medium_names, scene_medium, base_dir):
             raise SceneError(node.at("transform"), str(e)) from None
     if node.boolean("flip_normals", False):
         mesh = meshes.flip(mesh)
+    mesh = meshes.kept_in_scene(mesh)
     name = node.string("name", f"{kind}{node.where[node.where.index('['):]}")
     interior = _medium_reference(node, "interior", medium_names) if "interior" in node.data else scene_medium
     exterior = _medium_reference(node, "exterior", medium_names) if "exterior" in node.data else scene_medium

@@ -12,6 +12,7 @@ shape reader then says what is wrong, with its place."""
 import hashlib
 import json
 import os
+import sys
 
 import numpy as np
 
@@ -53,7 +54,7 @@ def key(descriptions, references, base_dir):
         return None
     from . import scene   # the reader of the descriptions (which imports this module)
 
-    code = disk_cache.code_digest(scene, meshes, obj_reader, ply_reader, serialized, limits)
+    code = disk_cache.code_digest(sys.modules[__name__], scene, meshes, obj_reader, ply_reader, serialized, limits)
     return disk_cache.key("shapes", code, text, os.fspath(base_dir), tuple(files))
 
 
@@ -127,7 +128,7 @@ def store(entry_key, shapes):
                 rows[field] += len(array)
                 parts[field].append(array)
         records.append((name, int(material), int(interior), int(exterior), mesh))
-    columns = {"vertices": (3, np.float64), "faces": (3, np.int64), "normals": (3, np.float64), "uvs": (2, np.float64)}
+    columns = {"vertices": (3, np.float64), "faces": (3, np.int32), "normals": (3, np.float32), "uvs": (2, np.float32)}
     arrays = {field: np.concatenate(parts[field]).astype(dtype, copy=False) if parts[field]
               else np.zeros((0, width), dtype) for field, (width, dtype) in columns.items()}
     arrays["records"] = np.frombuffer(json.dumps(records).encode(), np.uint8)

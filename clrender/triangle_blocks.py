@@ -5,16 +5,16 @@ import numpy as np
 from . import host_memory, layout
 
 LANES = 8
-LEAVES_AT_A_TIME = 1 << 14
+LEAVES_AT_A_TIME = 1 << 12
 
 
 def triangle_blocks(nodes, triangles):
-    """(nodes, blocks): the wide tree (layout.WIDE_BVH_NODE) with each triangle leaf's `child`
-    turned from its first primitive slot into the index of its block, and the blocks, in the
-    order of the leaves' lanes. A block's lanes past the leaf's count repeat its last triangle.
-    `triangles`: the primitive slots (layout.TRIANGLE). There is always at least one block (an
-    empty buffer cannot be passed to a kernel)."""
-    nodes = host_memory.copy(nodes)
+    """(nodes, blocks): the wide tree (layout.WIDE_BVH_NODE), changed in place (no second copy of
+    a large scene's nodes), with each triangle leaf's `child` turned from its first primitive
+    slot into the index of its block, and the blocks, in the order of the leaves' lanes. A
+    block's lanes past the leaf's count repeat its last triangle. `triangles`: the primitive
+    slots (layout.TRIANGLE). There is always at least one block (an empty buffer cannot be
+    passed to a kernel)."""
     leaf = nodes["count"] > 0
     first, count = nodes["child"][leaf], nodes["count"][leaf]
     if np.any(count > LANES):
@@ -22,7 +22,7 @@ def triangle_blocks(nodes, triangles):
     blocks = host_memory.zeros(max(len(first), 1), layout.TRIANGLE_BLOCK)
     records = triangles.view(np.float32).reshape(len(triangles), 3, 4)   # v0, e1, e2 as xyzw rows
     lanes = blocks.view(np.float32).reshape(len(blocks), -1)[:, :9 * LANES].reshape(len(blocks), 9, LANES)
-    # A few thousand leaves at a time: the gathered records are a temporary of a block's size,
+    # LEAVES_AT_A_TIME leaves at a time: the gathered records are a temporary of a block's size,
     # not one as large as all the blocks (a tenth of a 3M-triangle scene's peak memory).
     for start in range(0, len(first), LEAVES_AT_A_TIME):
         leaves = slice(start, start + LEAVES_AT_A_TIME)

@@ -204,6 +204,18 @@ void surface_uv(const Scene* scene, const Hit* hit, SurfacePoint* sp) {
 #endif
 #endif
 
+// A unit shading normal from its octahedral encoding (clrender/layout.py, pack_normals): x and y
+// snorm16 in the low and high 16 bits, the octahedron's lower half folded back.
+lane_float3 unpack_normal(lane_int packed) {
+    lane_float x = lane_int_to_float((packed << 16) >> 16) * (1.0f / 32767.0f);
+    lane_float y = lane_int_to_float(packed >> 16) * (1.0f / 32767.0f);
+    lane_float z = 1.0f - fabs(x) - fabs(y);
+    lane_float t = fmax(-z, 0.0f);
+    x = x - select(-t, t, x >= 0.0f);
+    y = y - select(-t, t, y >= 0.0f);
+    return l3_normalize(make_lane_float3(x, y, z));
+}
+
 INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_float3 dir) {
     lane_int prim = hit->prim;
     lane_int is_sphere = hit->sphere != 0;
@@ -240,9 +252,9 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
         // the origin, down to 1e-4 from grazing) 1 FLT_EPSILON already suffices; 4 leaves a margin.
         lane_float3 magnitude = l3_add(l3_add(l3_abs(v0), l3_abs(e1)), l3_abs(e2));
         lane_float triangle_error = SURFACE_ERROR_EPS * l3_dot(l3_abs(triangle_ng), magnitude);
-        lane_float3 interpolated = l3_add(l3_add(l3_scale(LANE_LOAD3(scene->shading, prim, .n0), b0),
-                                                 l3_scale(LANE_LOAD3(scene->shading, prim, .n1), b1)),
-                                          l3_scale(LANE_LOAD3(scene->shading, prim, .n2), b2));
+        lane_float3 interpolated = l3_add(l3_add(l3_scale(unpack_normal(LANE_LOAD_INT(scene->shading, prim, .normals.x)), b0),
+                                                 l3_scale(unpack_normal(LANE_LOAD_INT(scene->shading, prim, .normals.y)), b1)),
+                                          l3_scale(unpack_normal(LANE_LOAD_INT(scene->shading, prim, .normals.z)), b2));
         lane_float ns_len = l3_length(interpolated);
         lane_float3 triangle_ns = l3_select(triangle_ng, l3_div(interpolated, ns_len), ns_len > 0.0f);
         lane_int is_triangle = !is_sphere;

@@ -39,7 +39,7 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* bl
     out[k++] = sizeof(Sphere);
     out[k++] = OFFSET(sphere, centre_radius);
     out[k++] = sizeof(TriangleShading);
-    out[k++] = OFFSET(sh, n0); out[k++] = OFFSET(sh, n1); out[k++] = OFFSET(sh, n2);
+    out[k++] = OFFSET(sh, normals);
     out[k++] = sizeof(TriangleInfo);
     out[k++] = OFFSET(info, info);
     out[k++] = sizeof(Material);
@@ -298,6 +298,12 @@ KERNEL void beckmann_visible_slopes(__global const float* cos_theta, __global co
     out[i] = sample_beckmann_visible_11(cos_theta[i], u[i]);
 }
 #endif
+
+// ----- shading normals as the kernel unpacks them (scene.h, unpack_normal) ---------------------
+KERNEL void unpack_normals(__global const int* packed, __global float4* out) {
+    int i = get_global_id(0);
+    out[i] = (float4)(unpack_normal(packed[i]), 0.0f);
+}
 
 // ----- spawned rays: hit a mesh, leave the hit point in a direction given relative to its ------
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's

@@ -132,3 +132,28 @@ def test_only_the_accessor_headers_read_packed_lanes():
         offenders += [f"{relative}:{n}" for n, line in enumerate(path.read_text().splitlines(), 1)
                       if lanes.search(line) and "scene->params" not in line]
     assert offenders == []
+
+
+# ----- packed shading normals (layout.pack_normals, scene.h unpack_normal) -----------------------
+def test_packed_normals_keep_their_direction():
+    rng = np.random.default_rng(7)
+    normals = rng.normal(size=(20000, 3))
+    normals = np.concatenate([normals, np.eye(3), -np.eye(3), [[1, 1, 0], [0, -1, -1], [-1, 1, -1]]])
+    unit = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    unpacked = layout.unpack_normals(layout.pack_normals(normals * rng.uniform(0.1, 10, (len(normals), 1))))
+    unpacked = unpacked.astype(np.float64)
+    angle = np.arctan2(np.linalg.norm(np.cross(unpacked, unit), axis=1), np.sum(unpacked * unit, axis=1))
+    assert angle.max() < 1e-4   # snorm16 on the unfolded octahedron: 6.4e-5 at worst over 200k directions
+    assert layout.pack_normals(np.zeros(3)) == 0 and np.allclose(layout.unpack_normals(0), [0, 0, 1])
+
+
+def test_the_kernel_unpacks_normals_as_the_host_does(context, queue):
+    rng = np.random.default_rng(8)
+    packed = layout.pack_normals(rng.normal(size=(4096, 3)))
+    mf = cl.mem_flags
+    source = cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=packed)
+    out = np.empty((len(packed), 4), np.float32)
+    out_buffer = cl.Buffer(context, mf.WRITE_ONLY, out.nbytes)
+    cl.Kernel(build_test_kernels(context), "unpack_normals")(queue, (len(packed),), None, source, out_buffer)
+    cl.enqueue_copy(queue, out, out_buffer)
+    np.testing.assert_allclose(out[:, :3], layout.unpack_normals(packed), atol=2e-7)
