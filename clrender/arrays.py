@@ -323,7 +323,9 @@ def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
         records[slots, 0, :3] = a
         records[slots, 1, :3] = np.take(v1, tri, axis=0) - a
         records[slots, 2, :3] = np.take(v2, tri, axis=0) - a
-        packed_normals[slots, :3] = layout.pack_normals(np.take(corner_normals, tri, axis=0).reshape(-1, 3, 3))
+        corners = np.take(corner_normals, tri, axis=0).reshape(-1, 3, 3)
+        packed_normals[slots, :3] = layout.pack_normals(corners)
+        packed_normals[slots, 3] = np.any(corners != 0, axis=(1, 2))   # smooth; else flat
     if with_spheres:
         spheres = np.zeros(len(order), layout.SPHERE)
         index = np.asarray(order)[is_sphere] - n_triangles
@@ -375,7 +377,7 @@ BARYCENTRIC_UV = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 def _gather_triangles(scene, scale=1.0, with_uv=False):
     """Concatenate all meshes: float32 corners (times `scale`; the kernel's, as the BVH bounds
-    them), float32 per-corner normals (F, 3, 3), the TriangleInfo columns (material, object,
+    them), float32 per-corner normals (F, 3, 3; zero for flat meshes), the TriangleInfo columns (material, object,
     emitter = -1, packed media) and, `with_uv`, the float32 corner uv per triangle ((F, 3, 2);
     else (F, 0, 2)). Written into arrays of the final size, mesh after mesh, so that a large
     mesh passes through no float64 or concatenated copies."""
@@ -403,9 +405,7 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
             if mesh_normals is not None:
                 np.take(mesh_normals, faces, axis=0, out=normals[at])
             else:
-                corners = mesh.vertices[faces] * scale
-                flat = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-                normals[at] = flat[:, None, :]
+                normals[at] = 0.0   # flat: the kernel shades with the geometric normal
             if with_uv:
                 if mesh_uvs is None:
                     uvs[at] = BARYCENTRIC_UV

@@ -41,8 +41,9 @@ TRIANGLE_BLOCK = _struct(*[(f"{name}_{axis}", F8) for name in ("v0", "e1", "e2")
 SPHERE = _struct(("centre_radius", F4))
 
 # Per-triangle attributes: shading normals at the three vertices and integer info. normals: x, y,
-# z the corners' unit normals, each packed by pack_normals (w unused): 16 bytes a triangle where
-# three float4 took 48 (a third of a large mesh's scene arrays).
+# z the corners' unit normals, each packed by pack_normals, w 1 for them, 0 for a flat triangle
+# (the geometric normal shades it): 16 bytes a triangle where three float4 took 48 (a third of a
+# large mesh's scene arrays).
 TRIANGLE_SHADING = _struct(("normals", I4))
 # info: x material, y object id, z emitter index (-1 none), w media on both sides: see pack_media
 TRIANGLE_INFO = _struct(("info", I4))

@@ -256,7 +256,8 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
                                                  l3_scale(unpack_normal(LANE_LOAD_INT(scene->shading, prim, .normals.y)), b1)),
                                           l3_scale(unpack_normal(LANE_LOAD_INT(scene->shading, prim, .normals.z)), b2));
         lane_float ns_len = l3_length(interpolated);
-        lane_float3 triangle_ns = l3_select(triangle_ng, l3_div(interpolated, ns_len), ns_len > 0.0f);
+        lane_int smooth = LANE_LOAD_INT(scene->shading, prim, .normals.w) != 0;
+        lane_float3 triangle_ns = l3_select(triangle_ng, l3_div(interpolated, ns_len), smooth & (ns_len > 0.0f));
         lane_int is_triangle = !is_sphere;
         p = l3_select(p, triangle_p, is_triangle);
         p_error = select(p_error, triangle_error, is_triangle);

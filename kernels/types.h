@@ -23,7 +23,8 @@ typedef struct { float4 centre_radius; } Sphere;
 // is triangle j's (v0, e1, e2 as in Triangle, component by component), slot.s[j] its primitive
 // slot. A leaf of fewer than eight repeats its last triangle in the lanes left.
 typedef struct { float8 v0_x, v0_y, v0_z, e1_x, e1_y, e1_z, e2_x, e2_y, e2_z; int8 slot; } TriangleBlock;
-// normals.xyz: the corners' unit shading normals, octahedral snorm16 pairs (scene.h, unpack_normal).
+// normals.xyz: the corners' unit shading normals, octahedral snorm16 pairs (scene.h, unpack_normal);
+// normals.w: 1 where they are given, 0 for a flat triangle (shaded by its geometric normal).
 typedef struct { int4 normals; } TriangleShading;
 // info: x material, y object id, z emitter index (-1: none),
 // w media: bits 0-15 the medium behind the front face + 1, bits 16-31 the one in front + 1 (0: none)
