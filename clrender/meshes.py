@@ -233,11 +233,12 @@ def box():
     return Mesh(_CUBE_CORNERS.copy(), faces, None, uvs)
 
 
+# Faces whose normals and angles vertex_normals computes at a time (a few MB of temporaries).
+NORMALS_BLOCK = 1 << 16
+
 # Mitsuba's default of `flip_tex_coords` (v -> 1 - v) per file format: its obj shape flips, its ply
 # shape does not, its serialized shape has no such option (and flips nothing). Formats Mitsuba
 # does not read come through trimesh, whose texture coordinates follow OBJ's convention.
-# Faces whose normals and angles vertex_normals computes at a time (a few MB of temporaries).
-NORMALS_BLOCK = 1 << 16
 FLIP_TEX_COORDS = {".obj": True, ".ply": False, ".serialized": False}
 _FLIP_V_SCALE, _FLIP_V_OFFSET = np.array([1.0, -1.0]), np.array([0.0, 1.0])   # v -> 1 - v
 
