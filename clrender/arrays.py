@@ -379,8 +379,8 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
     """Concatenate all meshes: float32 corners (times `scale`; the kernel's, as the BVH bounds
     them), float32 per-corner normals (F, 3, 3; zero for flat meshes), the TriangleInfo columns
     (material, object, emitter = -1, packed media) and, `with_uv`, the float32 corner uv per
-    triangle ((F, 3, 2); else (F, 0, 2)). Written into arrays of the final size, mesh after mesh, so that a large
-    mesh passes through no float64 or concatenated copies."""
+    triangle ((F, 3, 2); else (F, 0, 2)). Written into arrays of the final size, mesh after mesh,
+    so that a large mesh passes through no float64 or concatenated copies."""
     found = [(index, shape.mesh) for index, shape in enumerate(scene.shapes)
              if not isinstance(shape.mesh, meshes.Sphere)]
     total = sum(len(mesh.faces) for _, mesh in found)
