@@ -9,7 +9,7 @@ import numpy as np
 from . import bvh as bvh_module
 from . import disk_cache, host_memory, layout, light_selection, limits, meshes, plastic, ploc, principled, textures
 from . import wide_bvh
-from .triangle_blocks import triangle_blocks
+from .triangle_blocks import triangle_blocks, triangle_edges
 from .bvh import intersect_brute_force
 from .errors import SceneError
 from .origins import at_source
@@ -26,8 +26,8 @@ SLOTS_AT_A_TIME = 1 << 16
 @dataclass
 class SceneArrays:
     nodes: np.ndarray
-    blocks: np.ndarray          # the leaves' triangles, four to a block (triangle_blocks.py)
-    triangles: np.ndarray
+    blocks: np.ndarray          # the leaves' triangles, eight to a block, their only geometry (triangle_blocks.py)
+    spheres: np.ndarray         # layout.SPHERE records of the sphere slots 0 to sphere_count - 1 (one dummy without)
     shading: np.ndarray
     info: np.ndarray
     materials: np.ndarray
@@ -44,7 +44,7 @@ class SceneArrays:
     env_lookup: int             # layout.ENVIRONMENT_LOOKUPS value of the environment image
     env_to_map: np.ndarray      # (3, 3) rotation taking world directions into the image's frame
     first_light: int            # index of the first emitter that is not an area light (lights follow them)
-    spheres: int                # analytic spheres among the primitive slots (the rest: triangles)
+    sphere_count: int           # analytic spheres among the primitive slots, the first ones (the rest: triangles)
     scene_sphere: np.ndarray    # centre xyz, radius
     specular_albedo: np.ndarray  # float32 energy-compensation tables, filled on the device
     table_materials: list       # indices of the materials that own tables (field albedo_tables >= 0)
@@ -153,22 +153,23 @@ def _build_scene_arrays(scene, worker):
     centres, radii, rotations, sphere_info = _gather_spheres(scene, scale)
 
     nodes, bvh_depth, order = wide_bvh_of(v0, v1, v2, centres, radii)
+    order = spheres_first(nodes, order, len(v0))
     unordered_info = np.concatenate([info, sphere_info])
     del info
     camera_medium = scene.camera_medium
     if camera_medium is None:
         camera_medium = _medium_at_camera(scene, scene.camera.position * scale, v0, v1, v2, centres, radii,
                                           unordered_info)
-    triangles, shading, is_sphere = primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations)
-    # The gathered corners and normals go as soon as the slots hold them: with the blocks below
-    # they would be a large scene's peak memory.
-    del v0, v1, v2, normals
+    shading, spheres = primitive_slots(order, normals, centres, radii, rotations)
+    del normals   # as soon as the slots hold them: with the blocks below they would add to a large scene's peak memory
     # The slots' TriangleInfo records, written in place (`info`: their int4 fields as rows).
     info_records = host_memory.empty(len(order), layout.TRIANGLE_INFO)
     info = info_records.view(np.int32).reshape(len(order), 4)
     np.take(unordered_info, order, axis=0, out=info, mode="clip")   # "raise" would buffer `out` (order is in range)
     del unordered_info
-    nodes, blocks = triangle_blocks(nodes, triangles)
+    emitters, powers, areas = _area_emitters(scene, v0, v1, v2, order, spheres, info)
+    nodes, blocks = triangle_blocks(nodes, v0, v1, v2, order)
+    del v0, v1, v2
 
     try:   # before anything asks for a texture's mean
         texture_records, texels = texture_data.result()
@@ -176,7 +177,6 @@ def _build_scene_arrays(scene, worker):
         raise SceneError("textures", str(e)) from None
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
-    emitters, powers, areas = _area_emitters(scene, triangles, is_sphere, info)
     first_light = len(emitters)
     groups = list(info[emitters["kind"][:, 1], 1])   # the shapes of the area emitters
     env_index, env_size, env_texels, env_cdf = -1, (0, 0), np.zeros((1, 4), np.float32), np.ones(1, np.float32)
@@ -221,13 +221,13 @@ def _build_scene_arrays(scene, worker):
 
     media, grid_data, majorant_data = _medium_array(scene.media, scale)
     return SceneArrays(
-        nodes=nodes, blocks=blocks, triangles=triangles, shading=shading,
+        nodes=nodes, blocks=blocks, spheres=spheres, shading=shading,
         info=info_records, materials=materials,
         media=media, grid_data=grid_data, majorant_data=majorant_data, camera_medium=camera_medium,
         emitters=emitters, emitter_cdf=_cdf(selection),
         env_texels=env_texels, env_cdf=env_cdf, env_index=env_index, env_size=env_size,
         env_lookup=env_lookup, env_to_map=env_to_map,
-        first_light=first_light, spheres=int(np.count_nonzero(is_sphere)),
+        first_light=first_light, sphere_count=len(centres),
         scene_sphere=sphere.astype(np.float32), bvh_depth=bvh_depth,
         degenerate_triangles=degenerate, length_scale=scale,
         specular_albedo=np.zeros(max(table_size, 1), np.float32), table_materials=table_materials,
@@ -290,55 +290,57 @@ def _has_area_of_its_own(mesh):
     return bool(np.any(_has_float32_area(corners[:, 0], corners[:, 1], corners[:, 2])))
 
 
-def primitive_slots(order, v0, v1, v2, normals, centres, radii, rotations=None):
-    """The kernel's triangle and shading buffers over the primitive slots of a BVH (slot k holds
-    primitive order[k]: triangle i < len(v0), else sphere i - len(v0)), and which slots hold
-    spheres. A sphere slot holds a layout.SPHERE in its first bytes and no shading normals; its
-    e1 and e2 the x and z axes of its object frame (`rotations`, (S, 3, 3); identity if None),
-    e2.w -1 where that frame is mirrored (kernels/scene.h, surface_uv)."""
-    n_triangles = len(v0)
-    is_sphere = np.asarray(order) >= n_triangles
-    with_spheres = bool(is_sphere.any())
-    # Without spheres every slot is a triangle's: slices write the fields without index arrays.
-    triangle_slots = np.flatnonzero(~is_sphere) if with_spheres else None
-    # Written through plain float32 views of the records, (slots, 3 fields, 4 lanes): numpy's
-    # take and copies of whole rows, not a structured field and an index array per component.
-    triangles = host_memory.zeros(len(order), layout.TRIANGLE)
-    records = triangles.view(np.float32).reshape(len(order), 3, 4)
+def spheres_first(nodes, order, n_triangles):
+    """The primitive order of a BVH (slot k holds primitive order[k]: triangle i < n_triangles,
+    else sphere i - n_triangles) with the spheres' slots first, then the triangles', each in the
+    tree's order; the leaves of `nodes` (layout.WIDE_BVH_NODE, before triangle_blocks) are
+    renumbered in place to match. The kernel keeps records for the sphere slots only (the
+    triangles' geometry is in their blocks), indexed by slot, so those slots come first."""
+    order = np.asarray(order)
+    is_sphere = order >= n_triangles
+    sphere_count = int(np.count_nonzero(is_sphere))
+    if sphere_count == 0:
+        return order
+    renumbered = np.empty(len(order), np.int32)
+    renumbered[is_sphere] = np.arange(sphere_count)
+    renumbered[~is_sphere] = np.arange(sphere_count, len(order))
+    # A leaf's slots are consecutive and all of one kind, so they stay consecutive.
+    leaf = nodes["count"] != 0
+    nodes["child"][leaf] = renumbered[nodes["child"][leaf]]
+    return np.concatenate([order[is_sphere], order[~is_sphere]])
+
+
+def primitive_slots(order, normals, centres, radii, rotations=None):
+    """The kernel's shading buffer over the primitive slots of a BVH (slot k holds primitive
+    order[k]: triangle i < len(normals), else sphere i - len(normals); the spheres' slots first,
+    spheres_first) and the sphere records of those first slots (layout.SPHERE; one dummy without
+    spheres): centre and signed radius, the x and z axes of the object frame (`rotations`,
+    (S, 3, 3); identity if None), z_axis.w -1 where that frame is mirrored (kernels/scene.h,
+    sphere_uv). A sphere slot has no shading normals."""
+    order = np.asarray(order)
+    n_triangles = len(normals)
+    sphere_count = len(order) - int(np.count_nonzero(order < n_triangles))
+    if np.any(order[:sphere_count] < n_triangles):
+        raise ValueError("the spheres' slots must come first (spheres_first)")
     shading = host_memory.zeros(len(order), layout.TRIANGLE_SHADING)
     packed_normals = shading["normals"]
-    v0, v1, v2 = (np.asarray(v, np.float32) for v in (v0, v1, v2))
     corner_normals = np.asarray(normals, np.float32).reshape(-1, 9)
-    # In blocks: the gathered corners are temporaries of a block's size (SLOTS_AT_A_TIME).
-    count = len(order) if triangle_slots is None else len(triangle_slots)
-    for start in range(0, count, SLOTS_AT_A_TIME):
-        stop = min(start + SLOTS_AT_A_TIME, count)
-        slots = slice(start, stop) if triangle_slots is None else triangle_slots[start:stop]
-        tri = np.asarray(order)[slots]
-        # Edges are differences of the float32 corners, not rounded float64 differences: then
-        # v0 + e1 gives back the float32 corner (exactly where the corners are within a factor of 2,
-        # Sterbenz), so triangles sharing an edge share its ends. Far from the origin, rounded
-        # float64 edges leave cracks and overlaps of half an ulp of the position between neighbours.
-        a = np.take(v0, tri, axis=0)
-        records[slots, 0, :3] = a
-        records[slots, 1, :3] = np.take(v1, tri, axis=0) - a
-        records[slots, 2, :3] = np.take(v2, tri, axis=0) - a
-        corners = np.take(corner_normals, tri, axis=0).reshape(-1, 3, 3)
+    # In blocks: the gathered normals are temporaries of a block's size (SLOTS_AT_A_TIME).
+    for start in range(sphere_count, len(order), SLOTS_AT_A_TIME):
+        slots = slice(start, min(start + SLOTS_AT_A_TIME, len(order)))
+        corners = np.take(corner_normals, order[slots], axis=0).reshape(-1, 3, 3)
         packed_normals[slots, :3] = layout.pack_normals(corners)
         packed_normals[slots, 3] = np.any(corners != 0, axis=(1, 2))   # smooth; else flat
-    if with_spheres:
-        spheres = np.zeros(len(order), layout.SPHERE)
-        index = np.asarray(order)[is_sphere] - n_triangles
-        spheres["centre_radius"][is_sphere, :3] = np.asarray(centres).reshape(-1, 3)[index]
-        spheres["centre_radius"][is_sphere, 3] = np.asarray(radii)[index]
-        size = layout.SPHERE.itemsize
-        triangles.view(np.uint8).reshape(len(order), -1)[is_sphere, :size] = \
-            spheres.view(np.uint8).reshape(len(order), size)[is_sphere]
+    spheres = np.zeros(max(sphere_count, 1), layout.SPHERE)
+    if sphere_count:
+        index = order[:sphere_count] - n_triangles
+        spheres["centre_radius"][:sphere_count, :3] = np.asarray(centres).reshape(-1, 3)[index]
+        spheres["centre_radius"][:sphere_count, 3] = np.asarray(radii)[index]
         frames = np.tile(np.eye(3), (len(index), 1, 1)) if rotations is None else np.asarray(rotations)[index]
-        triangles["e1"][is_sphere, :3] = frames[:, :, 0]
-        triangles["e2"][is_sphere, :3] = frames[:, :, 2]
-        triangles["e2"][is_sphere, 3] = np.sign(np.linalg.det(frames))
-    return triangles, shading, is_sphere
+        spheres["x_axis"][:sphere_count, :3] = frames[:, :, 0]
+        spheres["z_axis"][:sphere_count, :3] = frames[:, :, 2]
+        spheres["z_axis"][:sphere_count, 3] = np.sign(np.linalg.det(frames))
+    return shading, spheres
 
 
 def _slot_uvs(order, uvs):
@@ -415,11 +417,13 @@ def _gather_triangles(scene, scale=1.0, with_uv=False):
     return v0, v1, v2, normals, info, uvs
 
 
-def _area_emitters(scene, triangles, is_sphere, info):
+def _area_emitters(scene, v0, v1, v2, order, spheres, info):
     """One emitter per primitive slot whose material emits, triangles first, then spheres;
-    records its index in info[:, 2]. Returns the emitters, their powers (pi x area x mean
-    radiance, as one-sided Lambertian emitters) and areas (clrender/light_selection.py). A textured emission
-    counts with its texture's mean, and the emitter names the texture and its slot."""
+    records its index in info[:, 2]. Slot k holds primitive order[k] (triangle i of the corners
+    v0, v1, v2, or a sphere of `spheres` in the first slots: spheres_first). Returns the
+    emitters, their powers (pi x area x mean radiance, as one-sided Lambertian emitters) and
+    areas (clrender/light_selection.py). A textured emission counts with its texture's mean,
+    and the emitter names the texture and its slot."""
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3)
     mean_emission = emission.copy()
     reference = np.full(len(scene.materials), layout.TEXTURE_REF_NONE)
@@ -429,22 +433,24 @@ def _area_emitters(scene, triangles, is_sphere, info):
             mean_emission[index] = scene.textures[texture].mean()
             reference[index] = layout.texture_reference(texture, scalar=False)
     emits = np.any(mean_emission > 0, axis=1)[info[:, 0]] if len(info) else np.zeros(0, bool)
-    slots = np.concatenate([np.flatnonzero(emits & ~is_sphere), np.flatnonzero(emits & is_sphere)])
+    is_sphere = np.asarray(order) >= len(v0)
+    triangle_slots, sphere_slots = np.flatnonzero(emits & ~is_sphere), np.flatnonzero(emits & is_sphere)
+    slots = np.concatenate([triangle_slots, sphere_slots])
     info[slots, 2] = np.arange(len(slots))
     emitters = np.zeros(len(slots), layout.EMITTER)
     emitters["radiance"][:, :3] = emission[info[slots, 0]]
     emitters["radiance"][:, 3] = reference[info[slots, 0]]
     emitters["kind"][:, 1] = slots
-    sphere = is_sphere[slots]
-    emitters["kind"][:, 0] = np.where(sphere, layout.EMITTER_KINDS["sphere"], layout.EMITTER_KINDS["triangle"])
-    record = triangles[slots]
-    e1, e2 = record["e1"][:, :3].astype(float), record["e2"][:, :3].astype(float)
-    area = np.where(sphere, 4 * np.pi * record["v0"][:, 3].astype(float) ** 2,
-                    0.5 * np.linalg.norm(np.cross(e1, e2), axis=1))
-    emitters["p0"] = record["v0"]   # a sphere's centre and signed radius (the slot's first bytes)
-    emitters["p0"][~sphere, 3] = area[~sphere]
-    emitters["e1"][~sphere, :3] = e1[~sphere]
-    emitters["e2"][~sphere, :3] = e2[~sphere]
+    emitters["kind"][:, 0] = np.where(is_sphere[slots], layout.EMITTER_KINDS["sphere"], layout.EMITTER_KINDS["triangle"])
+    triangles = len(triangle_slots)
+    p0, e1, e2 = triangle_edges(v0, v1, v2, np.asarray(order)[triangle_slots])
+    triangle_area = 0.5 * np.linalg.norm(np.cross(e1.astype(float), e2.astype(float)), axis=1)
+    emitters["p0"][:triangles, :3] = p0
+    emitters["p0"][:triangles, 3] = triangle_area
+    emitters["e1"][:triangles, :3] = e1
+    emitters["e2"][:triangles, :3] = e2
+    emitters["p0"][triangles:] = spheres["centre_radius"][sphere_slots]   # centre and signed radius
+    area = np.concatenate([triangle_area, 4 * np.pi * spheres["centre_radius"][sphere_slots, 3].astype(float) ** 2])
     return emitters, list(np.pi * area * mean_emission[info[slots, 0]].mean(axis=1)), list(area)
 
 

@@ -532,9 +532,9 @@ def _info(args):
           + (f", AOVs {', '.join(settings.aovs)}" if settings.aovs else ""))
     print(f"materials:  {len(scene.materials)} ({', '.join(m.name for m in scene.materials)})")
     print(f"shapes:     {len(scene.shapes)}")
-    print(f"triangles:  {len(arrays.triangles) - arrays.spheres}"
+    print(f"triangles:  {len(arrays.info) - arrays.sphere_count}"
           + (f" ({arrays.degenerate_triangles} degenerate dropped)" if arrays.degenerate_triangles else "")
-          + (f", spheres: {arrays.spheres}" if arrays.spheres else ""))
+          + (f", spheres: {arrays.sphere_count}" if arrays.sphere_count else ""))
     print(f"bvh:        {len(arrays.nodes)} nodes, depth {arrays.bvh_depth}")
     print(f"emitters:   {len(arrays.emitters)} ({len(scene.lights)} lights + emissive triangles and spheres)")
     for medium in scene.media:

@@ -30,15 +30,15 @@ I8 = ("<i4", (8,))
 WIDE_BVH_NODE = _struct(("lo_x", F8), ("hi_x", F8), ("lo_y", F8), ("hi_y", F8), ("lo_z", F8), ("hi_z", F8),
                         ("child", I8), ("count", I8))
 
-# Triangle geometry for Moller-Trumbore: v0 and the two edges. The triangle buffer's slots hold
-# triangles or, in leaves tagged as spheres (negative count), a SPHERE in the slot's first bytes.
-TRIANGLE = _struct(("v0", F4), ("e1", F4), ("e2", F4))
 # The triangles of a BVH leaf for intersecting them eight at once (clrender/triangle_blocks.py):
-# lane j of each member is the leaf's triangle j (v0, e1, e2 as in TRIANGLE, per component), slot
-# its primitive slot; lanes past the leaf's count repeat its last triangle.
+# lane j of each member is the leaf's triangle j (v0 and the edges e1 = v1 - v0, e2 = v2 - v0, per
+# component), slot its primitive slot; lanes past the leaf's count repeat its last triangle. The
+# kernel's only copy of the triangles' geometry.
 TRIANGLE_BLOCK = _struct(*[(f"{name}_{axis}", F8) for name in ("v0", "e1", "e2") for axis in "xyz"], ("slot", I8))
-# An analytic sphere: xyz the centre, w the radius, negative when flipped (front face inside).
-SPHERE = _struct(("centre_radius", F4))
+# An analytic sphere, the record of its primitive slot (the sphere slots come first): centre_radius
+# xyz the centre, w the radius, negative when flipped (front face inside); x_axis and z_axis.xyz
+# its object frame's axes, z_axis.w -1 where that frame is mirrored, else +1 (its uv).
+SPHERE = _struct(("centre_radius", F4), ("x_axis", F4), ("z_axis", F4))
 
 # Per-triangle attributes: shading normals at the three vertices and integer info. normals: x, y,
 # z the corners' unit normals, each packed by pack_normals, w 1 for them, 0 for a flat triangle
@@ -244,7 +244,6 @@ AOV_SUMS = _struct(("albedo", F4), ("normal", F4), ("emission", F4), ("colour_m2
 STRUCTS = {
     "WideBvhNode": WIDE_BVH_NODE,
     "TriangleBlock": TRIANGLE_BLOCK,
-    "Triangle": TRIANGLE,
     "Sphere": SPHERE,
     "TriangleShading": TRIANGLE_SHADING,
     "TriangleInfo": TRIANGLE_INFO,

@@ -143,7 +143,7 @@ def show(value):
 PIXEL_BYTES = 16 + 16 + 4   # accumulator float4, aux geometry float4, aux object id int
 
 # Where in the scene each device array comes from, for messages about its size.
-ARRAY_ORIGINS = {"nodes": "shapes", "blocks": "shapes", "triangles": "shapes", "shading": "shapes",
+ARRAY_ORIGINS = {"nodes": "shapes", "blocks": "shapes", "spheres": "shapes", "shading": "shapes",
                  "info": "shapes", "emitters": "shapes", "emitter_cdf": "shapes", "materials": "materials",
                  "specular_albedo": "materials", "media": "media", "grid_data": "media",
                  "majorant_data": "media", "env_texels": "lights", "env_cdf": "lights", "uvs": "shapes",

@@ -339,7 +339,7 @@ class Renderer:
         self._no_records = cl.Buffer(self.context, cl.mem_flags.READ_WRITE, 4)
 
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
-    ARRAYS = ("nodes", "blocks", "triangles", "shading", "info", "materials", "media", "emitters",
+    ARRAYS = ("nodes", "blocks", "spheres", "shading", "info", "materials", "media", "emitters",
               "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
               "uvs", "textures", "texels")
 

@@ -83,7 +83,9 @@ int lowest_bit(uint x) { return 31 - clz(x & (0u - x)); }
 // Returns true and updates *hit if one is closer than hit->t: the nearest, and of equal
 // distances the lowest lane (a repeated triangle never displaces its first copy). Inlined as
 // intersect_leaf is: as a call it stalled on its entry and exit (5 % of veach-bidir's render).
-INLINE bool intersect_triangle_block(__global const TriangleBlock* b, float3 origin, float3 dir, Hit* hit) {
+INLINE bool intersect_triangle_block(__global const TriangleBlock* blocks, int block, float3 origin, float3 dir,
+                                     Hit* hit) {
+    __global const TriangleBlock* b = blocks + block;
     float8 pv_x = dir.y * b->e2_z - dir.z * b->e2_y;
     float8 pv_y = dir.z * b->e2_x - dir.x * b->e2_z;
     float8 pv_z = dir.x * b->e2_y - dir.y * b->e2_x;
@@ -114,6 +116,7 @@ INLINE bool intersect_triangle_block(__global const TriangleBlock* b, float3 ori
     hit->b1 = lane_b1[lane];
     hit->b2 = lane_b2[lane];
     hit->prim = slot[lane];
+    hit->block_lane = block * 8 + lane;
     hit->sphere = false;
     return true;
 }
@@ -122,18 +125,18 @@ INLINE bool intersect_triangle_block(__global const TriangleBlock* b, float3 ori
 // (the type tag) from primitive slot `child`. Returns whether one is nearer than hit->t (then
 // recorded there). Inlined into the traversal loop: as a call it spills the loop's vector
 // registers (3.6% of the Cornell box's time on PoCL).
-INLINE bool intersect_leaf(__global const TriangleBlock* blocks, __global const Triangle* triangles, int child,
+INLINE bool intersect_leaf(__global const TriangleBlock* blocks, __global const Sphere* spheres, int child,
                            int count, float3 origin, float3 dir, bool any_hit, Hit* hit) {
-    if (count > 0) return intersect_triangle_block(blocks + child, origin, dir, hit);
+    if (count > 0) return intersect_triangle_block(blocks, child, origin, dir, hit);
     bool found = false;
     for (int i = child; i < child - count && !(found && any_hit); ++i)
-        found |= intersect_sphere((__global const Sphere*)(triangles + i), i, origin, dir, hit);
+        found |= intersect_sphere(spheres + i, i, origin, dir, hit);
     return found;
 }
 
 // any_hit: stop at the first intersection (shadow rays).
 bool traverse_bvh(__global const WideBvhNode* nodes, __global const TriangleBlock* blocks,
-                  __global const Triangle* triangles,
+                  __global const Sphere* spheres,
                   float3 origin, float3 dir, bool any_hit, Hit* hit) {
     RaySlabs slabs = ray_slabs(origin, dir);
     int stack[BVH_STACK_SIZE];
@@ -161,7 +164,7 @@ bool traverse_bvh(__global const WideBvhNode* nodes, __global const TriangleBloc
             float t = lane_t[lane];
             if (!(t < hit->t)) continue;
             if (count[lane] != 0) {
-                found |= intersect_leaf(blocks, triangles, child[lane], count[lane], origin, dir, any_hit, hit);
+                found |= intersect_leaf(blocks, spheres, child[lane], count[lane], origin, dir, any_hit, hit);
                 if (found && any_hit) return true;
             } else {
                 int k = stack_size++;

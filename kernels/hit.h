@@ -7,6 +7,7 @@ typedef struct {
     float t;
     float b1, b2;   // triangles: barycentrics of v1 and v2
     int prim;       // primitive slot (index into the reordered primitive arrays), -1 for a miss
+    int block_lane; // triangles: block * 8 + lane of the triangle in its leaf's TriangleBlock
     bool sphere;    // the slot holds an analytic sphere (sphere.h), not a triangle
     float3 from_centre;   // spheres: the hit point relative to the centre, from the ray
 } Hit;
@@ -18,6 +19,7 @@ typedef Hit LaneHit;
 typedef struct {
     lane_float t, b1, b2;
     lane_int prim;      // clamped to a valid slot in lanes without a hit
+    lane_int block_lane;   // clamped to a valid one likewise (lanes of spheres included)
     lane_int sphere;    // a comparison's result
     lane_float3 from_centre;
 } LaneHit;

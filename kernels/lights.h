@@ -38,7 +38,7 @@ float3 area_emitter_radiance(const Scene* scene, __global const Emitter* e, floa
         float2 uv;
         if (e->kind.x == EMITTER_SPHERE) {
             float3 dpdu, dpdv;
-            uv = sphere_uv(scene->triangles + slot, normalize(q - e->p0.xyz), &dpdu, &dpdv);
+            uv = sphere_uv(scene->spheres + slot, normalize(q - e->p0.xyz), &dpdu, &dpdv);
         } else {
             float2 b = sample_triangle(u);   // as sample_triangle_emitter placed q
             uv = triangle_uv(scene, slot, b.x, b.y);

@@ -420,6 +420,7 @@ lane_int cross_masks(const Scene* scene, Ray* ray, lane_int alive, LaneHit* hit,
         hit->b1 = select(hit->b1, beyond.b1, passing);
         hit->b2 = select(hit->b2, beyond.b2, passing);
         hit->prim = select(hit->prim, beyond.prim, passing);
+        hit->block_lane = select(hit->block_lane, beyond.block_lane, passing);
         hit->sphere = select(hit->sphere, beyond.sphere, passing);
         hit->from_centre = l3_select(hit->from_centre, beyond.from_centre, passing);
     }

@@ -10,8 +10,8 @@
 typedef struct {
     __constant RenderParams* params;
     __global const WideBvhNode* nodes;
-    __global const TriangleBlock* blocks;   // the BVH leaves' triangles (types.h)
-    __global const Triangle* triangles;
+    __global const TriangleBlock* blocks;   // the BVH leaves' triangles, their only geometry (types.h)
+    __global const Sphere* spheres;         // the records of the sphere slots, the first ones (types.h)
     __global const TriangleShading* shading;
     __global const TriangleInfo* info;
     __global const Material* materials;
@@ -34,7 +34,7 @@ typedef struct {
 // argument, not a global offset, which PoCL compiles the kernel again for), for both of its
 // forms (integrator.cl, integrator_packets.cl), and the Scene they make.
 #define RENDER_PASS_ARGUMENTS __constant RenderParams* params, __global const WideBvhNode* nodes, \
-    __global const TriangleBlock* blocks, __global const Triangle* triangles, __global const TriangleShading* shading, \
+    __global const TriangleBlock* blocks, __global const Sphere* spheres, __global const TriangleShading* shading, \
     __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media, \
     __global const Emitter* emitters, __global const float* emitter_cdf, __global const float4* env_texels, \
     __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data, \
@@ -42,7 +42,7 @@ typedef struct {
     __global const uchar* texels, __global float4* accumulator, __global int* discarded_samples, \
     __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums, \
     __global float* splat_records, int first_row
-#define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, blocks, triangles, shading, info, materials, media, emitters, \
+#define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, blocks, spheres, shading, info, materials, media, emitters, \
     emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels}
 
 // Per lane (lanes.h).
@@ -67,7 +67,7 @@ typedef struct {
 bool intersect_scene(const Scene* scene, float3 origin, float3 dir, float t_max, Hit* hit) {
     hit->t = t_max;
     hit->prim = -1;
-    return traverse_bvh(scene->nodes, scene->blocks, scene->triangles, origin, dir, false, hit);
+    return traverse_bvh(scene->nodes, scene->blocks, scene->spheres, origin, dir, false, hit);
 }
 
 // The primitive slot of some surface (any, not the nearest) between origin and t_max along dir;
@@ -76,7 +76,7 @@ int occluder(const Scene* scene, float3 origin, float3 dir, float t_max) {
     Hit hit;
     hit.t = t_max;
     hit.prim = -1;
-    return traverse_bvh(scene->nodes, scene->blocks, scene->triangles, origin, dir, true, &hit) ? hit.prim : -1;
+    return traverse_bvh(scene->nodes, scene->blocks, scene->spheres, origin, dir, true, &hit) ? hit.prim : -1;
 }
 
 bool occluded(const Scene* scene, float3 origin, float3 dir, float t_max) {
@@ -92,7 +92,7 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
     return active && intersect_scene(scene, origin, dir, t_max, hit);
 #else
     float o[3][8], d[3][8], t[8], b1[8], b2[8], from_centre[3][8];
-    int live[8], prim[8], sphere[8];
+    int live[8], prim[8], block_lane[8], sphere[8];
     vstore8(origin.x, 0, o[0]); vstore8(origin.y, 0, o[1]); vstore8(origin.z, 0, o[2]);
     vstore8(dir.x, 0, d[0]); vstore8(dir.y, 0, d[1]); vstore8(dir.z, 0, d[2]);
     vstore8(t_max, 0, t);
@@ -101,13 +101,13 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
         Hit h;
         h.t = t[i];
         h.prim = -1;
+        h.block_lane = 0;
         h.b1 = h.b2 = 0.0f;
         h.sphere = false;
         h.from_centre = (float3)(0.0f);
         if (live[i]) intersect_scene(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i], &h);
         if (h.prim >= 0) {   // what surface_point and the texture lookups read of it, after all lanes
-            PREFETCH(scene->triangles + h.prim);
-            PREFETCH(scene->shading + h.prim);
+            PREFETCH(scene->shading + h.prim);   // (its block has just been read)
             PREFETCH(scene->info + h.prim);
 #if TEXTURES
             PREFETCH(scene->uvs + 3 * h.prim);
@@ -117,6 +117,7 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
         b1[i] = h.b1;
         b2[i] = h.b2;
         prim[i] = h.prim;
+        block_lane[i] = h.block_lane;
         sphere[i] = h.sphere ? -1 : 0;
         from_centre[0][i] = h.from_centre.x;
         from_centre[1][i] = h.from_centre.y;
@@ -127,6 +128,7 @@ lane_int closest_hits(const Scene* scene, lane_float3 origin, lane_float3 dir, l
     hit->b1 = vload8(0, b1);
     hit->b2 = vload8(0, b2);
     hit->prim = max(vload8(0, prim), (int8)(0));   // not max(int8, int): Oclgrind computes that wrong
+    hit->block_lane = vload8(0, block_lane);
     hit->sphere = vload8(0, sphere);
     hit->from_centre = make_lane_float3(vload8(0, from_centre[0]), vload8(0, from_centre[1]), vload8(0, from_centre[2]));
     return found;
@@ -152,18 +154,25 @@ lane_int occluders(const Scene* scene, lane_float3 origin, lane_float3 dir, lane
 
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
+// Member 0, 1 or 2 (v0, e1, e2) of the triangles that hits name by their block and lane
+// (Hit.block_lane): each component a row of eight floats in the TriangleBlock (types.h).
+lane_float3 block_triangle_member(const Scene* scene, lane_int block_lane, int member) {
+    __global const float* words = (__global const float*)scene->blocks;
+    lane_int word = (block_lane >> 3) * (int)(sizeof(TriangleBlock) / sizeof(float)) + (block_lane & 7) + 24 * member;
+    return make_lane_float3(LANE_LOAD(words, word, ), LANE_LOAD(words, word + 8, ), LANE_LOAD(words, word + 16, ));
+}
+
 #if TEXTURES
 // Mitsuba's parameterisations: a triangle interpolates its corners' uv (a mesh without texture
 // coordinates has corners (0, 0), (1, 0), (0, 1): uv = (b1, b2)), with dp/du, dp/dv solved
 // from its edges (any basis of its plane where its uv are degenerate); a sphere has
-// u = phi / 2 pi, v = theta / pi in its object frame (the slot's e1 = object x, e2.xyz = object z,
-// e2.w = +1, or -1 where the frame is mirrored).
+// u = phi / 2 pi, v = theta / pi in its object frame (Sphere's x_axis and z_axis).
 
-// The uv of the point of sphere slot `slot` in unit direction n from its centre, and dp/du, dp/dv.
-float2 sphere_uv(__global const Triangle* slot, float3 n, float3* dpdu, float3* dpdv) {
-    float radius = fabs(slot->v0.w);
-    float3 x_axis = slot->e1.xyz, z_axis = slot->e2.xyz;
-    float3 y_axis = cross(z_axis, x_axis) * slot->e2.w;
+// The uv of the point of sphere `s` in unit direction n from its centre, and dp/du, dp/dv.
+float2 sphere_uv(__global const Sphere* s, float3 n, float3* dpdu, float3* dpdv) {
+    float radius = fabs(s->centre_radius.w);
+    float3 x_axis = s->x_axis.xyz, z_axis = s->z_axis.xyz;
+    float3 y_axis = cross(z_axis, x_axis) * s->z_axis.w;
     float3 q = (float3)(dot(n, x_axis), dot(n, y_axis), dot(n, z_axis));
     float phi = atan2(q.y, q.x);
     if (phi < 0.0f) phi += 2.0f * PI_F;
@@ -184,19 +193,19 @@ float2 triangle_uv(const Scene* scene, int prim, float b1, float b2) {
 
 #if LANES == 1
 void surface_uv(const Scene* scene, const Hit* hit, SurfacePoint* sp) {
-    __global const Triangle* slot = scene->triangles + hit->prim;
     if (hit->sphere) {
-        sp->uv = sphere_uv(slot, normalize(hit->from_centre), &sp->dpdu, &sp->dpdv);
+        sp->uv = sphere_uv(scene->spheres + hit->prim, normalize(hit->from_centre), &sp->dpdu, &sp->dpdv);
         return;
     }
+    float3 e1 = block_triangle_member(scene, hit->block_lane, 1), e2 = block_triangle_member(scene, hit->block_lane, 2);
     sp->uv = triangle_uv(scene, hit->prim, hit->b1, hit->b2);
     __global const float2* corners = scene->uvs + 3 * hit->prim;
     float2 duv0 = corners[1] - corners[0], duv1 = corners[2] - corners[0];
     float det = duv0.x * duv1.y - duv0.y * duv1.x;
     if (det != 0.0f) {
         float inv_det = 1.0f / det;
-        sp->dpdu = (duv1.y * slot->e1.xyz - duv0.y * slot->e2.xyz) * inv_det;
-        sp->dpdv = (duv0.x * slot->e2.xyz - duv1.x * slot->e1.xyz) * inv_det;
+        sp->dpdu = (duv1.y * e1 - duv0.y * e2) * inv_det;
+        sp->dpdv = (duv0.x * e2 - duv1.x * e1) * inv_det;
     } else {
         make_basis(sp->ns, &sp->dpdu, &sp->dpdv);
     }
@@ -225,9 +234,9 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
     lane_float p_error = 0.0f;
     if (lane_any(is_sphere)) {
         // Exact geometry: the point on the sphere in the direction of the hit, its normal.
-        // A sphere's slot holds its Sphere record (centre_radius) where a triangle's has v0.
-        lane_float3 centre = LANE_LOAD3(scene->triangles, prim, .v0);
-        lane_float radius = LANE_LOAD(scene->triangles, prim, .v0.w);
+        lane_int sphere = select((lane_int)(0), prim, is_sphere);   // (the other lanes' slots lie beyond the records)
+        lane_float3 centre = LANE_LOAD3(scene->spheres, sphere, .centre_radius);
+        lane_float radius = LANE_LOAD(scene->spheres, sphere, .centre_radius.w);
         lane_float3 n = l3_normalize(hit->from_centre);
         lane_float sphere_error;
         lane_float3 sphere_p = sphere_point(centre, radius, n, &sphere_error);
@@ -240,9 +249,9 @@ INLINE SurfacePoint surface_point(const Scene* scene, const LaneHit* hit, lane_f
     if (lane_any(!is_sphere)) {
         lane_float b1 = hit->b1, b2 = hit->b2;
         lane_float b0 = 1.0f - b1 - b2;
-        lane_float3 v0 = LANE_LOAD3(scene->triangles, prim, .v0);
-        lane_float3 e1 = LANE_LOAD3(scene->triangles, prim, .e1);
-        lane_float3 e2 = LANE_LOAD3(scene->triangles, prim, .e2);
+        lane_float3 v0 = block_triangle_member(scene, hit->block_lane, 0);
+        lane_float3 e1 = block_triangle_member(scene, hit->block_lane, 1);
+        lane_float3 e2 = block_triangle_member(scene, hit->block_lane, 2);
         lane_float3 triangle_p = l3_add(l3_add(v0, l3_scale(e1, b1)), l3_scale(e2, b2));
         lane_float3 triangle_ng = l3_normalize(l3_cross(e1, e2));
         // p is rounded relative to |v0| + |e1| + |e2| per component, and the intersector's

@@ -43,6 +43,7 @@ bool intersect_sphere(__global const Sphere* s, int slot, float3 origin, float3 
     if (!(t > 0.0f && t < hit->t)) return false;
     hit->t = t;
     hit->prim = slot;
+    hit->block_lane = 0;   // (a valid one, read and discarded where packets mix spheres and triangles)
     hit->sphere = true;
     hit->from_centre = f + t * dir;
     return true;

@@ -18,8 +18,7 @@
 // ----- struct layout: sizeof and field offsets, computed from addresses (portable) ----------
 #define OFFSET(base, field) ((int)((__global char*)&(base)->field - (__global char*)(base)))
 
-KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* block, __global Triangle* tri,
-                          __global Sphere* sphere,
+KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* block, __global Sphere* sphere,
                           __global TriangleShading* sh, __global TriangleInfo* info,
                           __global Material* m, __global Texture* t, __global Emitter* e,
                           __global Medium* md, __global Camera* c, __global Filter* f,
@@ -34,10 +33,8 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* bl
     out[k++] = OFFSET(block, e1_x); out[k++] = OFFSET(block, e1_y); out[k++] = OFFSET(block, e1_z);
     out[k++] = OFFSET(block, e2_x); out[k++] = OFFSET(block, e2_y); out[k++] = OFFSET(block, e2_z);
     out[k++] = OFFSET(block, slot);
-    out[k++] = sizeof(Triangle);
-    out[k++] = OFFSET(tri, v0); out[k++] = OFFSET(tri, e1); out[k++] = OFFSET(tri, e2);
     out[k++] = sizeof(Sphere);
-    out[k++] = OFFSET(sphere, centre_radius);
+    out[k++] = OFFSET(sphere, centre_radius); out[k++] = OFFSET(sphere, x_axis); out[k++] = OFFSET(sphere, z_axis);
     out[k++] = sizeof(TriangleShading);
     out[k++] = OFFSET(sh, normals);
     out[k++] = sizeof(TriangleInfo);
@@ -77,20 +74,20 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* bl
 
 // ----- BVH: closest hit per ray (over the primitive slots: triangles and spheres) -----------
 KERNEL void trace_rays(__global const WideBvhNode* nodes, __global const TriangleBlock* blocks,
-                       __global const Triangle* triangles,
+                       __global const Sphere* spheres,
                        __global const float4* origins, __global const float4* directions,
                        __global float* hit_t, __global int* hit_prim, __global int* any_hit) {
     int i = get_global_id(0);
     Hit hit;
     hit.t = INFINITY;
     hit.prim = -1;
-    traverse_bvh(nodes, blocks, triangles, origins[i].xyz, directions[i].xyz, false, &hit);
+    traverse_bvh(nodes, blocks, spheres, origins[i].xyz, directions[i].xyz, false, &hit);
     hit_t[i] = hit.t;
     hit_prim[i] = hit.prim;
     Hit shadow;
     shadow.t = INFINITY;
     shadow.prim = -1;
-    any_hit[i] = traverse_bvh(nodes, blocks, triangles, origins[i].xyz, directions[i].xyz, true, &shadow);
+    any_hit[i] = traverse_bvh(nodes, blocks, spheres, origins[i].xyz, directions[i].xyz, true, &shadow);
 }
 
 // ----- camera-path samplers (rng.h): `dims` draws of sample i of pixel j --------------------
@@ -309,7 +306,7 @@ KERNEL void unpack_normals(__global const int* packed, __global float4* out) {
 // geometric normal (leave.xyz: tangent, bitangent, normal components; the normal component's
 // sign picks the side), and report both hits: (first slot, second slot, second t, front face).
 KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const TriangleBlock* blocks,
-                            __global const Triangle* triangles,
+                            __global const Sphere* spheres,
                             __global const TriangleShading* shading,
                             __global const TriangleInfo* info, __global const float2* uvs,
                             __global const float4* origins, __global const float4* directions,
@@ -318,7 +315,7 @@ KERNEL void spawn_from_hits(__global const WideBvhNode* nodes, __global const Tr
     Scene scene;
     scene.nodes = nodes;
     scene.blocks = blocks;
-    scene.triangles = triangles;
+    scene.spheres = spheres;
     scene.shading = shading;
     scene.info = info;
     scene.uvs = uvs;

@@ -14,14 +14,15 @@ typedef struct {
     int8 count;
 } WideBvhNode;
 
-// A primitive slot of the triangle buffer holds a Triangle or (a leaf with a negative count)
-// a Sphere in its first 16 bytes: centre_radius.xyz the centre, .w the radius, negative when
-// the sphere is flipped (its front face inside).
-typedef struct { float4 v0, e1, e2; } Triangle;
-typedef struct { float4 centre_radius; } Sphere;
+// The record of a sphere's primitive slot (the sphere slots come first; a leaf with a negative
+// count names them): centre_radius.xyz the centre, .w the radius, negative when the sphere is
+// flipped (its front face inside); x_axis and z_axis.xyz its object frame's axes, z_axis.w -1
+// where that frame is mirrored, else +1.
+typedef struct { float4 centre_radius, x_axis, z_axis; } Sphere;
 // The triangles of a BVH leaf, laid out for intersecting the eight at once: lane j of each member
-// is triangle j's (v0, e1, e2 as in Triangle, component by component), slot.s[j] its primitive
-// slot. A leaf of fewer than eight repeats its last triangle in the lanes left.
+// is triangle j's (v0 and the edges e1 = v1 - v0, e2 = v2 - v0, component by component), slot.s[j]
+// its primitive slot. A leaf of fewer than eight repeats its last triangle in the lanes left. The
+// only copy of the triangles' geometry: a hit keeps its block and lane (Hit.block_lane).
 typedef struct { float8 v0_x, v0_y, v0_z, e1_x, e1_y, e1_z, e2_x, e2_y, e2_z; int8 slot; } TriangleBlock;
 // normals.xyz: the corners' unit shading normals, octahedral snorm16 pairs (scene.h, unpack_normal);
 // normals.w: 1 where they are given, 0 for a flat triangle (shaded by its geometric normal).

@@ -138,13 +138,11 @@ def run_test_kernels(case, device):
     v1, v2 = v0 + rng.normal(0, 0.5, (6, 3)), v0 + rng.normal(0, 0.5, (6, 3))
     tree = build_bvh(v0, v1, v2)
     nodes, _ = wide_bvh.collapse(tree)
-    triangles = np.zeros(6, layout.TRIANGLE)
-    order = tree.prim_order
-    triangles["v0"][:, :3], triangles["e1"][:, :3], triangles["e2"][:, :3] = v0[order], (v1 - v0)[order], (v2 - v0)[order]
     origins, directions = float4(rng.uniform(-3, 3, (n, 3))), float4(-rng.uniform(-3, 3, (n, 3)))
     directions[:, :3] /= np.linalg.norm(directions[:, :3], axis=1, keepdims=True)
-    nodes, blocks = triangle_blocks(nodes, triangles)
-    kernel("trace_rays")(queue, (n,), None, upload(context, nodes), upload(context, blocks), upload(context, triangles),
+    nodes, blocks = triangle_blocks(nodes, v0, v1, v2, tree.prim_order)
+    kernel("trace_rays")(queue, (n,), None, upload(context, nodes), upload(context, blocks),
+                         upload(context, np.zeros(1, layout.SPHERE)),
                          upload(context, origins), upload(context, directions), *outputs(context, n, n, n))
     for routine, g in ((0, 0.0), (1, 0.0), (2, 0.7), (2, -0.99)):
         kernel("sample_directions")(queue, (n,), None, np.int32(routine), np.float32(g), np.uint32(3),
@@ -188,7 +186,7 @@ def run_test_kernels(case, device):
     cam_dirs = float4(np.array([[0.0, -0.3, -1.0], [0.1, -0.2, -1.0], [-0.2, -0.25, -1.0], [0.3, -0.4, -1.0]]))
     cam_dirs[:, :3] /= np.linalg.norm(cam_dirs[:, :3], axis=1, keepdims=True)
     kernel("spawn_from_hits")(queue, (n,), None, *(upload(context, a) for a in
-                              (arrays.nodes, arrays.blocks, arrays.triangles, arrays.shading, arrays.info, arrays.uvs, cam_origins,
+                              (arrays.nodes, arrays.blocks, arrays.spheres, arrays.shading, arrays.info, arrays.uvs, cam_origins,
                                cam_dirs, leave)),
                               *outputs(context, (n, 4)))
     params = upload(context, render_params(scene, arrays, 0, 1, 4, 2, 0))

@@ -26,16 +26,13 @@ def trace_on_device(context, queue, v0, v1, v2, origins, directions):
     tree = build_bvh(v0, v1, v2)
     nodes, _ = wide_bvh.collapse(tree)
     order = tree.prim_order
-    triangles = np.zeros(max(len(v0), 1), layout.TRIANGLE)
-    triangles["v0"][:len(v0), :3] = v0[order]
-    triangles["e1"][:len(v0), :3] = (v1 - v0)[order]
-    triangles["e2"][:len(v0), :3] = (v2 - v0)[order]
-    nodes, blocks = triangle_blocks(nodes, triangles)
+    nodes, blocks = triangle_blocks(nodes, v0, v1, v2, order)
+    spheres = np.zeros(1, layout.SPHERE)
     rays = [np.zeros((len(origins), 4), np.float32) for _ in range(2)]
     rays[0][:, :3], rays[1][:, :3] = origins, directions
     mf = cl.mem_flags
     inputs = [cl.Buffer(context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
-              for x in (nodes, blocks, triangles, *rays)]
+              for x in (nodes, blocks, spheres, *rays)]
     t = np.empty(len(origins), np.float32)
     slot = np.empty(len(origins), np.int32)
     any_hit = np.empty(len(origins), np.int32)

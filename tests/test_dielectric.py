@@ -692,7 +692,7 @@ def test_spawned_rays_never_hit_their_own_surface(context, queue, scale, offset,
     leave = np.stack([s * np.cos(phi), s * np.sin(phi), side * cos_n], axis=1)
     # The kernel sees the scene scaled by a power of two (arrays.device_length_scale): exact.
     (out,) = run(queue, cl.Kernel(program, "spawn_from_hits"), count,
-                 *(upload(context, x) for x in (a.nodes, a.blocks, a.triangles, a.shading, a.info, a.uvs)),
+                 *(upload(context, x) for x in (a.nodes, a.blocks, a.spheres, a.shading, a.info, a.uvs)),
                  upload(context, float4(start * a.length_scale)),
                  upload(context, float4(aim / np.linalg.norm(aim, axis=1)[:, None])),
                  upload(context, float4(leave)), outputs=[(count, 4)])

@@ -14,7 +14,7 @@ from clrender import host_memory, layout
 from conftest import TEST_DEVICE
 
 
-@pytest.mark.parametrize("dtype", [np.uint8, np.float32, layout.TRIANGLE, layout.WIDE_BVH_NODE])
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32, layout.SPHERE, layout.WIDE_BVH_NODE])
 @pytest.mark.parametrize("shape", [0, 1, 1000, (77, 3, 2)])
 def test_arrays_are_allocated_on_page_boundaries(dtype, shape):
     for array in (host_memory.empty(shape, dtype), host_memory.zeros(shape, dtype)):

@@ -9,7 +9,7 @@ from clrender.device import kernel_dir, kernel_source
 from conftest import build_test_kernels
 
 ORDER = [  # the argument order of struct_layout in kernels/tests.cl
-    "WideBvhNode", "TriangleBlock", "Triangle", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Texture", "Emitter",
+    "WideBvhNode", "TriangleBlock", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Texture", "Emitter",
     "Medium", "Camera", "Filter", "RenderParams", "AovSums"]
 
 

@@ -35,7 +35,7 @@ def test_example_scenes_load():
     assert scene.camera.resolution == (256, 256)
     assert [m.name for m in scene.materials] == ["white", "red", "green", "light"]
     arrays = build_scene_arrays(scene)
-    assert len(arrays.triangles) == 36 and len(arrays.emitters) == 2
+    assert len(arrays.info) == 36 and arrays.sphere_count == 0 and len(arrays.emitters) == 2
 
 
 @pytest.mark.parametrize("patch,where,message", [
@@ -192,7 +192,7 @@ def test_degenerate_triangles_are_dropped_and_counted(tmp_path):
     scene = clrender.load_scene_dict(base_scene(shapes=[{"type": "mesh", "file": "degenerate.obj",
                                                          "material": "white"}]), base_dir=tmp_path)
     arrays = build_scene_arrays(scene)
-    assert len(arrays.triangles) == 1 and arrays.degenerate_triangles == 2
+    assert len(arrays.info) == 1 and arrays.degenerate_triangles == 2
 
 
 @pytest.mark.parametrize("entry,message", [(float("nan"), "must be finite, got nan"),

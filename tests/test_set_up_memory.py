@@ -64,7 +64,7 @@ def test_the_scene_arrays_do_not_depend_on_the_block_sizes(tmp_path, monkeypatch
     monkeypatch.setattr(arrays, "SLOTS_AT_A_TIME", 7)
     monkeypatch.setattr(triangle_blocks, "LEAVES_AT_A_TIME", 3)
     blocked_scene, blocked = build("blocked")
-    assert whole.uvs.shape[0] > 3 and whole.spheres == 2 and whole.degenerate_triangles == 2   # once per mesh of the file
+    assert whole.uvs.shape[0] > 3 and whole.sphere_count == 2 and whole.degenerate_triangles == 2   # once per mesh of the file
     for name in (f.name for f in dataclasses.fields(whole)):
         a, b = getattr(whole, name), getattr(blocked, name)
         if isinstance(a, np.ndarray):
@@ -109,3 +109,26 @@ def test_the_scene_arrays_hold_little_besides_themselves(tmp_path, monkeypatch):
         tracemalloc.stop()
     kept = sum(a.nbytes for a in (getattr(built, f.name) for f in dataclasses.fields(built)) if isinstance(a, np.ndarray))
     assert (peak - kept) / triangles < 100
+    # What is kept is the kernel's: one copy of the geometry, in the leaves' blocks (55 bytes a
+    # triangle at these leaves' fill), with the nodes, shading normals and info; a per-slot copy of
+    # every triangle besides them made it 150 bytes a triangle.
+    assert kept / triangles < 120
+
+
+def test_every_triangle_is_in_one_lane_of_the_blocks(tmp_path, monkeypatch):
+    # The kernel reads a hit triangle's corners from its leaf's block (Hit.block_lane), the only
+    # copy: each primitive slot's triangle there (slot_triangles) is its mesh's, at the kernel's
+    # scale, and the spheres have the first slots.
+    monkeypatch.setenv("CLRENDER_CACHE_DIR", str(tmp_path))
+    scene = load_scene_dict(mixed_scene(tmp_path), tmp_path)
+    built = arrays.build_scene_arrays(scene)
+    v0, e1, e2 = triangle_blocks.slot_triangles(built.blocks, len(built.info))
+    objects = built.info["info"][:, 1]
+    assert built.sphere_count == 2 and set(objects[:2]) == {4, 5} and not np.any(np.isin(objects[2:], [4, 5]))
+    for index, shape in enumerate(scene.shapes[:4]):
+        corners = (shape.mesh.vertices[shape.mesh.faces] * built.length_scale).astype(np.float32)
+        expected = {tuple(np.concatenate([c[0], c[1] - c[0], c[2] - c[0]])) for c in corners}
+        slots = np.flatnonzero(objects == index)
+        found = [tuple(row) for row in np.concatenate([v0[slots], e1[slots], e2[slots]], axis=1)]
+        assert len(set(found)) == len(found) and set(found) <= expected
+        assert len(found) == len(expected) - (1 if index < 2 else 0)   # the file's triangle without area

@@ -40,19 +40,18 @@ def trace(context, queue, v0, v1, v2, centres, radii, origins, directions):
     """Closest hits (t, primitive index in the build_bvh numbering, any-hit flag) on the device."""
     tree = build_bvh(v0, v1, v2, spheres=(centres, radii))
     normals = np.zeros((len(v0), 3, 3))
-    triangles, _, is_sphere = scene_arrays.primitive_slots(tree.prim_order, v0, v1, v2, normals, centres, radii)
-    nodes, _ = wide_bvh.collapse(tree, is_sphere)
-    if len(triangles) == 0:
-        triangles = np.zeros(1, layout.TRIANGLE)
-    nodes, blocks = triangle_blocks(nodes, triangles)
-    buffers = [upload(context, x) for x in (nodes, blocks, triangles, float4(origins), float4(directions))]
+    nodes, _ = wide_bvh.collapse(tree, tree.prim_order >= len(v0))
+    order = scene_arrays.spheres_first(nodes, tree.prim_order, len(v0))
+    _, spheres = scene_arrays.primitive_slots(order, normals, centres, radii)
+    nodes, blocks = triangle_blocks(nodes, v0, v1, v2, order)
+    buffers = [upload(context, x) for x in (nodes, blocks, spheres, float4(origins), float4(directions))]
     n = len(origins)
     t, slot, any_hit = np.empty(n, np.float32), np.empty(n, np.int32), np.empty(n, np.int32)
     outputs = [cl.Buffer(context, mf.WRITE_ONLY, x.nbytes) for x in (t, slot, any_hit)]
     cl.Kernel(build_test_kernels(context), "trace_rays")(queue, (n,), None, *buffers, *outputs)
     for host, buffer in zip((t, slot, any_hit), outputs):
         cl.enqueue_copy(queue, host, buffer)
-    return t, np.append(tree.prim_order, -1)[slot], any_hit.astype(bool)
+    return t, np.append(order, -1)[slot], any_hit.astype(bool)
 
 
 @pytest.mark.parametrize("triangles,spheres,seed", [(0, 1, 1), (0, 300, 2), (2000, 300, 3)])

@@ -15,6 +15,7 @@ import clrender
 from clrender.arrays import build_scene_arrays
 from clrender.bvh import intersect_brute_force
 from clrender.features import scene_features
+from clrender.triangle_blocks import slot_triangles
 from conftest import camera, z_bound
 
 INV_PI = 1.0 / np.pi
@@ -128,9 +129,8 @@ class Hits:
     geometric normal facing the ray and the smallest barycentric coordinate of the hit."""
 
     def __init__(self, arrays, origin, directions, objects=None):
-        tri = arrays.triangles
-        keep = np.ones(len(tri), bool) if objects is None else np.isin(arrays.info["info"][:, 1], objects)
-        v0, e1, e2 = (tri[k][keep, :3].astype(float) for k in ("v0", "e1", "e2"))
+        keep = np.ones(len(arrays.info), bool) if objects is None else np.isin(arrays.info["info"][:, 1], objects)
+        v0, e1, e2 = (x[keep].astype(float) for x in slot_triangles(arrays.blocks, len(arrays.info)))
         shape = directions.shape[:-1]
         d = directions.reshape(-1, 3)
         o = np.broadcast_to(origin, d.shape)
@@ -157,7 +157,7 @@ def blocked_towards(arrays, points, normals, direction, objects, margin=1e-3):
     shapes `objects`, and whether rays from points `margin` away along the surface agree (away
     from shadow edges)."""
     keep = np.isin(arrays.info["info"][:, 1], objects)
-    v0, e1, e2 = (arrays.triangles[k][keep, :3].astype(float) for k in ("v0", "e1", "e2"))
+    v0, e1, e2 = (x[keep].astype(float) for x in slot_triangles(arrays.blocks, len(arrays.info)))
     p = points.reshape(-1, 3) + 1e-5 * normals.reshape(-1, 3)
     d = np.broadcast_to(direction, p.shape)
     tangent = np.cross(normals.reshape(-1, 3), [0.3, 0.5, 0.8])
@@ -530,8 +530,7 @@ def test_fog_darkens_the_lit_side_by_its_transmittance():
     assert result.discarded_samples == 0
     arrays = build_scene_arrays(scene)
     to_light = -np.array([0.6, -0.5, -0.62]) / np.linalg.norm([0.6, -0.5, -0.62])
-    tri = arrays.triangles
-    v0, e1, e2 = (tri[k][:, :3].astype(float) for k in ("v0", "e1", "e2"))
+    v0, e1, e2 = (x.astype(float) for x in slot_triangles(arrays.blocks, len(arrays.info)))
     bubble = arrays.info["info"][:, 1] == 1
     mean = np.zeros(result.image.shape)
     variance = np.zeros(result.image.shape)

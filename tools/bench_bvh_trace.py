@@ -50,7 +50,7 @@ def main():
             clrender.arrays.build_ploc_bvh = BUILDERS[builder]
             setup, renderers[builder] = timed(lambda: clrender.Renderer(scene, args.device))
             arrays = renderers[builder].arrays
-            print(f"{builder}: {len(arrays.triangles)} triangles, BVH {len(arrays.nodes)} wide nodes, "
+            print(f"{builder}: {len(arrays.info)} triangles, BVH {len(arrays.nodes)} wide nodes, "
                   f"depth {arrays.bvh_depth}; scene set-up (build, upload, kernel) {setup:.2f} s")
         clrender.arrays.build_ploc_bvh = build_ploc_bvh
     print(f"device: {renderers[args.builders[0]].device.name.strip()}")

@@ -144,6 +144,7 @@ def prepare(name, data, cache):
     import clrender
     from clrender import mitsuba_export
     from clrender.arrays import build_scene_arrays
+    from clrender.triangle_blocks import slot_triangles
 
     text = json.dumps(data, indent=1, sort_keys=True)
     # Named by the content, mesh files by theirs (not by where the checkout lies).
@@ -165,7 +166,8 @@ def prepare(name, data, cache):
     # other geometry, as spheres did when they became analytic), not their BVH order.
     arrays = build_scene_arrays(scene)
     ours = hashlib.sha256()
-    for per_slot in (arrays.triangles, arrays.shading, arrays.info, arrays.emitters):
+    triangles = np.concatenate(slot_triangles(arrays.blocks, len(arrays.info)), axis=1)
+    for per_slot in (triangles, arrays.spheres, arrays.shading, arrays.info, arrays.emitters):
         rows = np.ascontiguousarray(per_slot).view(f"V{per_slot.dtype.itemsize}")
         ours.update(np.sort(rows).tobytes())
     for name in ("materials", "media", "grid_data"):
@@ -258,7 +260,7 @@ def child_traversal_clrender(folder, rays_path, runs, out):
     kernel = cl.Kernel(build_program(context, no_features, entry="tests.cl"), "trace_rays")
     flags = cl.mem_flags
     inputs = [cl.Buffer(context, flags.READ_ONLY | flags.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(x))
-              for x in (arrays.nodes, arrays.blocks, arrays.triangles, origins, directions)]
+              for x in (arrays.nodes, arrays.blocks, arrays.spheres, origins, directions)]
     outputs = [cl.Buffer(context, flags.WRITE_ONLY, 4 * len(rays)) for _ in range(3)]
 
     def launch():

@@ -81,7 +81,7 @@ lane_float3 surface_slot_lanes(const Scene* scene, const LaneHit* hit, lane_int 
         if (sphere[i]) {
             float3 n = normalize((float3)(from_centre[0][i], from_centre[1][i], from_centre[2][i]));
             float3 dpdu, dpdv;   // (unused)
-            uv[i] = sphere_uv(scene->triangles + prim[i], n, &dpdu, &dpdv);
+            uv[i] = sphere_uv(scene->spheres + prim[i], n, &dpdu, &dpdv);
         }
         int reference = (int)member[i].w;
         __global const Texture* t = scene->textures + (reference >> 1);
