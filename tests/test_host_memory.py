@@ -48,7 +48,7 @@ def test_a_cpu_device_reads_the_scene_arrays_in_place():
         assert buffer.flags & cl.mem_flags.USE_HOST_PTR, name
         assert buffer.hostbuf.ctypes.data % host_memory.ALIGNMENT == 0, name
     # The large arrays are the renderer's own, not copies of them.
-    for name in ("nodes", "blocks", "triangles", "shading", "info"):
+    for name in ("nodes", "blocks", "shading", "info"):
         assert renderer._buffers[renderer.ARRAYS.index(name)].hostbuf is getattr(renderer.arrays, name), name
 
 
