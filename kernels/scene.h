@@ -155,11 +155,18 @@ lane_int occluders(const Scene* scene, lane_float3 origin, lane_float3 dir, lane
 #define SURFACE_ERROR_EPS (4.0f * FLT_EPSILON)
 
 // Member 0, 1 or 2 (v0, e1, e2) of the triangles that hits name by their block and lane
-// (Hit.block_lane): each component a row of eight floats in the TriangleBlock (types.h).
+// (Hit.block_lane): each component a row of eight floats in the TriangleBlock (types.h). The
+// words are indexed in 64 bits: an int index overflows past 26.8M blocks (MAX_TRIANGLES is 2^28).
 lane_float3 block_triangle_member(const Scene* scene, lane_int block_lane, int member) {
     __global const float* words = (__global const float*)scene->blocks;
-    lane_int word = (block_lane >> 3) * (int)(sizeof(TriangleBlock) / sizeof(float)) + (block_lane & 7) + 24 * member;
+    const long block_words = sizeof(TriangleBlock) / sizeof(float);
+#if LANES == 1
+    long word = (long)(block_lane >> 3) * block_words + (block_lane & 7) + 24 * member;
+    return (float3)(words[word], words[word + 8], words[word + 16]);
+#else
+    long8 word = convert_long8(block_lane >> 3) * block_words + convert_long8((block_lane & 7) + 24 * member);
     return make_lane_float3(LANE_LOAD(words, word, ), LANE_LOAD(words, word + 8, ), LANE_LOAD(words, word + 16, ));
+#endif
 }
 
 #if TEXTURES
