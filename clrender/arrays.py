@@ -167,14 +167,14 @@ def _build_scene_arrays(scene, worker):
     info = info_records.view(np.int32).reshape(len(order), 4)
     np.take(unordered_info, order, axis=0, out=info, mode="clip")   # "raise" would buffer `out` (order is in range)
     del unordered_info
+    try:   # before anything asks for a texture's mean (textured emitters do)
+        texture_records, texels = texture_data.result()
+    except ValueError as e:
+        raise SceneError("textures", str(e)) from None
     emitters, powers, areas = _area_emitters(scene, v0, v1, v2, order, spheres, info)
     nodes, blocks = triangle_blocks(nodes, v0, v1, v2, order)
     del v0, v1, v2
 
-    try:   # before anything asks for a texture's mean
-        texture_records, texels = texture_data.result()
-    except ValueError as e:
-        raise SceneError("textures", str(e)) from None
     lo, hi = (corner * scale for corner in scene.bounds())
     sphere = np.append((lo + hi) / 2, max(np.linalg.norm(hi - lo) / 2, 1e-6))
     first_light = len(emitters)
