@@ -96,6 +96,10 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     medium = scene->params->media.x;
 #endif
     int depth = 1;
+#if LIGHT_TRACED_CAUSTICS
+    int chain = -1;            // PROTOTYPE: delta vertices since the last non-delta one (-1: none yet)
+    bool primary_non_delta = false;
+#endif
     while (depth <= max_depth) {
         Hit hit;
         float t_max = INFINITY;
@@ -164,6 +168,14 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             continue;
         }
 #endif
+#if LIGHT_TRACED_CAUSTICS
+        // PROTOTYPE: light paths (light_paths.cl) take light -> delta+ -> non-delta -> ... seen by a
+        // non-delta primary vertex, from untextured emitting triangles.
+        bool light_traced = primary_non_delta && chain >= 1 && sp.emitter >= 0 &&
+                            scene->emitters[sp.emitter].kind.x == EMITTER_TRIANGLE &&
+                            scene->emitters[sp.emitter].radiance.w < 0.0f;
+        if (!light_traced)
+#endif
         radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
                                                   prev_pdf_w, prev_delta);
 #if TEXTURES
@@ -191,6 +203,11 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #endif
         if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, 1.0f, rng);
 
+#if LIGHT_TRACED_CAUSTICS
+        if (depth == 1) primary_non_delta = !material_is_delta(&m);
+        if (!material_is_delta(&m)) chain = 0;
+        else if (chain >= 0) ++chain;
+#endif
         BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
         bs.weight *= shading_map_factor(&m, &sp, bs.wi);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
