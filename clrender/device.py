@@ -25,7 +25,7 @@ from . import layout
 from .disk_cache import cache_dir
 from .errors import ArgumentError, DeviceError, KernelBuildError
 
-BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable -DLIGHT_TRACED_CAUSTICS=" + os.environ.get("LIGHT_TRACED_CAUSTICS", "0")   # PROTOTYPE
+BUILD_OPTIONS = "-cl-std=CL1.2 -cl-mad-enable"
 # Environment variables that change what an implementation builds: Oclgrind appends
 # OCLGRIND_BUILD_OPTIONS to every build's options (-cl-opt-disable, docs/portability.md).
 BUILD_ENVIRONMENT = ("OCLGRIND_BUILD_OPTIONS",)

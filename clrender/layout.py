@@ -233,6 +233,8 @@ RENDER_PARAMS = np.dtype([
     ("sampling", I4),      # x the sampler of camera paths (SAMPLERS); y, z the direct integrator's
                            # light and BSDF samples per camera hit (0, 0: path tracing)
     ("filter", FILTER),    # the pixel reconstruction filter
+    ("light_paths", I4),   # x: light paths take the caustics (kernels/light_paths.h) (1) or not (0);
+                           # y: camera samples per light path
 ])
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums

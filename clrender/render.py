@@ -182,7 +182,8 @@ def sampler_code(scene, override=None):
 
 
 def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, seed, spectral_mis=True,
-                  step=None, raymarch_multiple_scattering=None, tile=None, sampler=None, splat=None):
+                  step=None, raymarch_multiple_scattering=None, tile=None, sampler=None, splat=None,
+                  light_path_every=0):
     """The RenderParams struct of one launch. `step`, `raymarch_multiple_scattering` (ray
     marching of grid media) and `sampler` default to the scene's render settings; `tile` (x, y,
     width, height), the pixels traced, to the whole image; `splat` the tile their samples are
@@ -215,6 +216,7 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["splat_reach"] = (splatting.reach(camera.filter) if splat is not None else 0, 0, 0, 0)
     p["sampling"] = (sampler_code(scene, sampler), *direct_samples(scene.render), 0)
     p["filter"] = filters.filter_record(camera.filter)
+    p["light_paths"] = (int(light_path_every > 0), light_path_every, 0, 0)
     return p
 
 
@@ -327,6 +329,10 @@ class Renderer:
             local_size = CPU_LOCAL_SIZE
         self.local_size = local_size
         self.pass_seconds = pass_seconds
+        # PROTOTYPE (branch light-tracing-prototype): camera samples per light path when the path
+        # tracer leaves the caustics to light paths (kernels/light_paths.h); 0: it does not. The
+        # light paths' image is not yet part of the render's (tools/light_tracing_prototype.py adds it).
+        self.light_path_every = 0
         self.spectral_mis = spectral_mis
         fill_albedo_tables(self.queue, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
@@ -475,7 +481,8 @@ class Renderer:
                 count = min(per_pass, end - done, most)
                 params = render_params(self.scene, self.arrays, done, count, max_depth, rr_depth,
                                        seed, self.spectral_mis, self.step, self.raymarch_multiple_scattering,
-                                       traced, self.sampler, state.tile if splat else None)
+                                       traced, self.sampler, state.tile if splat else None,
+                                       self.light_path_every)
                 cl.enqueue_copy(self.queue, params_buffer, params)
                 # The tile's rows in bands of `rows` (a multiple of the work-group height but for
                 # the last, whose excess rows the kernel's guard skips), each band a launch told

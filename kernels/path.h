@@ -28,6 +28,7 @@
 #include "media/medium.h"
 #include "media/transport.h"
 #include "aovs.h"
+#include "light_paths.h"
 
 // Emission at a surface hit from the previous vertex prev_p (null boundaries may lie between).
 INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const SurfacePoint* sp,
@@ -95,11 +96,8 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #if MEDIA
     medium = scene->params->media.x;
 #endif
+    CausticEvents events = caustic_events_none();
     int depth = 1;
-#if LIGHT_TRACED_CAUSTICS
-    int chain = -1;            // PROTOTYPE: delta vertices since the last non-delta one (-1: none yet)
-    bool primary_non_delta = false;
-#endif
     while (depth <= max_depth) {
         Hit hit;
         float t_max = INFINITY;
@@ -168,16 +166,8 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             continue;
         }
 #endif
-#if LIGHT_TRACED_CAUSTICS
-        // PROTOTYPE: light paths (light_paths.cl) take light -> delta+ -> non-delta -> ... seen by a
-        // non-delta primary vertex, from untextured emitting triangles.
-        bool light_traced = primary_non_delta && chain >= 1 && sp.emitter >= 0 &&
-                            scene->emitters[sp.emitter].kind.x == EMITTER_TRIANGLE &&
-                            scene->emitters[sp.emitter].radiance.w < 0.0f;
-        if (!light_traced)
-#endif
-        radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction,
-                                                  prev_pdf_w, prev_delta);
+        if (!light_paths_take(scene, &events, sp.emitter))
+            radiance += throughput * emitted_radiance(scene, &m, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
 #if TEXTURES
         if (passes_through_mask(&m, rng)) {
             ray.origin = spawn_ray_origin(&sp, ray.direction);
@@ -203,15 +193,11 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #endif
         if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, 1.0f, rng);
 
-#if LIGHT_TRACED_CAUSTICS
-        if (depth == 1) primary_non_delta = !material_is_delta(&m);
-        if (!material_is_delta(&m)) chain = 0;
-        else if (chain >= 0) ++chain;
-#endif
         BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
         bs.weight *= shading_map_factor(&m, &sp, bs.wi);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
         throughput *= bs.weight;
+        caustic_events_add(&events, depth, bs.delta);
         prev_pdf_w = bs.pdf_w;
         prev_delta = bs.delta;
         prev_p = sp.p;

@@ -27,6 +27,7 @@
 #include "materials/dielectric.h"
 #include "materials/plastic.h"
 #include "materials/textured_params.h"
+#include "light_paths.h"
 
 // The lanes' glossy lobes (bsdf.h's rough dielectrics and conductors, without energy
 // compensation, and plastic), about the specular normal n (bsdf.h, specular_normal): where
@@ -441,6 +442,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
 #if TEXTURES
     lane_int crossings = 0;            // masks passed (path.h's null_crossings)
 #endif
+    CausticEvents events = caustic_events_none();
     for (int depth = 1; depth <= max_depth; ++depth) {
         LaneHit hit;
         lane_int escaped = alive;
@@ -477,7 +479,8 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         lane_int smooth = ((kind == MATERIAL_DIELECTRIC) | conductor) & !glossy.rough;
         aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !smooth);
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
-        radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)), alive);
+        radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)),
+                             alive & !light_paths_take(scene, &events, sp.emitter));
         if (depth == max_depth) break;
         // A diffuse, rough or plastic vertex draws its light sample, a smooth one its lobe (rng_float, the
         // first coordinate of the same dimension); the independent sampler's 2D draw takes two
@@ -500,6 +503,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
                                           rng_float2(rng), alive);
         alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
+        caustic_events_add(&events, depth, bs.delta);
         prev_pdf_w = bs.pdf_w;
         prev_delta = bs.delta;
         prev_p = sp.p;

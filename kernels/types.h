@@ -85,6 +85,8 @@ typedef struct {
     int4 sampling;     // x the sampler of camera paths (SAMPLER_*, rng.h); y, z the direct
                        // integrator's light and BSDF samples per camera hit (0, 0: path tracing)
     Filter filter;     // the pixel reconstruction filter (filter.h)
+    int4 light_paths;  // x light paths take the caustics (light_paths.h) (1) or not (0), y camera
+                       // samples per light path
 } RenderParams;
 
 // Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose
