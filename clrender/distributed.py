@@ -379,7 +379,8 @@ def horizontal_strips(width, height, count):
 
 def merge_strips(scene, states):
     """The whole-image Accumulation of the strips' Accumulations (top to bottom): laid side by
-    side, never added. A strip without its aux buffers yet (no chunk done) reads as escaped rays."""
+    side, never added, but for the light paths' fixed-point sums over the whole image, which are
+    (exactly: integers). A strip without its aux buffers yet (no chunk done) reads as escaped rays."""
     width, height = scene.camera.resolution
     geometry = [s.geometry if s.geometry is not None else np.zeros((len(s.sums), 4), np.float32)
                 for s in states]
@@ -388,10 +389,12 @@ def merge_strips(scene, states):
     aov_sums = None if states[0].aov_sums is None else np.concatenate([s.aov_sums for s in states])
     filtered = [s.filtered if s.filtered is not None else np.zeros((len(s.sums), 4), np.float32) for s in states]
     splatted = any(s.filtered is not None for s in states)
+    lights = [s.light for s in states if s.light is not None]
     return Accumulation((0, 0, width, height), min(s.samples for s in states),
                         np.concatenate([s.sums for s in states]), sum(s.discarded for s in states),
                         sum(s.seconds for s in states), np.concatenate(geometry),
-                        np.concatenate(object_id), aov_sums, np.concatenate(filtered) if splatted else None)
+                        np.concatenate(object_id), aov_sums, np.concatenate(filtered) if splatted else None,
+                        sum(lights[1:], lights[0]) if lights else None, sum(s.light_paths for s in states))
 
 
 class _Chunk(NamedTuple):

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pyopencl as cl
 
-from . import filters, host_memory, layout, limits, splatting
+from . import filters, host_memory, layout, light_paths, limits, splatting
 from . import sample_items as sample_items_module
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
@@ -83,6 +83,10 @@ class Accumulation:
     filtered: np.ndarray = None  # (n, 4) float32 when splatting (splatting.py): the sums of w L
                                  # (xyz) and of w (w) of the samples splatted to each pixel; the
                                  # image is their ratio. None before the first sample or without.
+    light: np.ndarray = None     # (width * height, 3) int64 over the whole image: the fixed-point
+                                 # sums of the light paths of this tile's samples (light_paths.py),
+                                 # None where light paths do not apply
+    light_paths: int = 0         # how many light paths those sums hold
 
     @classmethod
     def start(cls, tile, sample_aovs=False):
@@ -117,6 +121,8 @@ def image_result(scene, state, aovs=(), denoising=None):
     with np.errstate(invalid="ignore", divide="ignore"):
         image = np.where(sums[:, 3:4] > 0, sums[:, :3] / sums[:, 3:4], 0.0)
     image = image.reshape(height, width, 3).astype(np.float32)
+    if state.light is not None:
+        image += light_paths.image(state.light, state.light_paths, scene.camera.filter, width, height)
     geometry, object_id = state.geometry, state.object_id
     if geometry is None:   # interrupted before sample 0: as if every centre ray escaped
         geometry, object_id = np.zeros((width * height, 4), np.float32), np.full(width * height, -1, np.int32)
@@ -329,10 +335,9 @@ class Renderer:
             local_size = CPU_LOCAL_SIZE
         self.local_size = local_size
         self.pass_seconds = pass_seconds
-        # PROTOTYPE (branch light-tracing-prototype): camera samples per light path when the path
-        # tracer leaves the caustics to light paths (kernels/light_paths.h); 0: it does not. The
-        # light paths' image is not yet part of the render's (tools/light_tracing_prototype.py adds it).
-        self.light_path_every = 0
+        # Camera samples per light path where light paths take the caustics (light_paths.py), else 0.
+        self.light_path_every = light_paths.EVERY if light_paths.applies(scene, self.features) else 0
+        self._light_kernel = None
         self.spectral_mis = spectral_mis
         fill_albedo_tables(self.queue, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
@@ -475,6 +480,7 @@ class Renderer:
 
         end = state.samples + samples
         done, per_pass, seconds = state.samples, samples_per_pass or 1, 0.0
+        light = _LightSums(state.light, state.light_paths) if self.light_path_every else None
         rows = tile_height if samples_per_pass else self._first_launch_rows(tile_width, tile_height)
         try:
             while done < end and (time_limit is None or seconds < time_limit):
@@ -509,6 +515,10 @@ class Renderer:
                     seconds += elapsed
                     if progress is not None and first_row + band < tile_height:   # a fraction of a sample
                         progress(done + count * (first_row + band) / tile_height, end, state.seconds + seconds)
+                if light is not None:
+                    start = time.perf_counter()
+                    self._trace_light_paths(light, state.tile, done, count, max_depth, rr_depth, seed)
+                    seconds += time.perf_counter() - start
                 done += count
                 if splat:
                     splat.samples = done
@@ -519,10 +529,42 @@ class Renderer:
         except KeyboardInterrupt as interrupt:
             self.queue.finish()
             raise RenderInterrupted(self._download(state, traced, accum_buffer, discarded_buffer, aux_buffers,
-                                                   aov_buffer, splat, seconds),
+                                                   aov_buffer, splat, seconds, light=light),
                                     getattr(interrupt, "signal", signal.SIGINT)) from None
         return self._download(state, traced, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, splat, seconds,
-                              done)
+                              done, light)
+
+    def _trace_light_paths(self, light, tile, first, count, max_depth, rr_depth, seed):
+        """Add the light paths of samples first .. first + count - 1 of the tile's pixels to
+        `light` (_LightSums): their kernel (kernels/light_paths.cl, built at first use) writes
+        their records, which are splatted and summed on the host (light_paths.py)."""
+        paths = light_paths.paths_of(tile, first, count)
+        if paths == 0:
+            return
+        if self._light_kernel is None:
+            program = build_program(self.context, {**self.features, "LANES": 1}, entry="light_paths.cl")
+            self._light_kernel = cl.Kernel(program, "light_paths")
+        mf = cl.mem_flags
+        params = render_params(self.scene, self.arrays, first, count, max_depth, rr_depth, seed, self.spectral_mis,
+                               tile=tile, light_path_every=self.light_path_every)
+        params_buffer = cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=params)
+        capacity = max(1024, paths)
+        while True:   # until the records fit (the same light paths each time: keyed by pixel and sample)
+            records = cl.Buffer(self.context, mf.READ_WRITE, capacity * light_paths.RECORD_FLOATS * 4)
+            written = np.zeros(1, np.int32)
+            written_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=written)
+            global_size, local_size = self._launch_size(tile[2], tile[3])
+            self._light_kernel(self.queue, global_size, local_size, params_buffer, *self._buffers, records,
+                               written_buffer, np.int32(capacity))
+            cl.enqueue_copy(self.queue, written, written_buffer)
+            if written[0] <= capacity:
+                break
+            capacity = int(written[0])
+        out = np.empty((int(written[0]), light_paths.RECORD_FLOATS), np.float32)
+        if len(out):
+            cl.enqueue_copy(self.queue, out, records)
+        width, height = self.scene.camera.resolution
+        light.add(light_paths.splat(out, self.scene.camera.filter, width, height), paths)
 
     def _splat_buffers(self, state, traced, samples):
         """_SplatBuffers for accumulating `samples` onto `state` over the pixels `traced`, or None
@@ -644,7 +686,7 @@ class Renderer:
         return 1, self._band_rows(target, height)
 
     def _download(self, state, traced, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, splat, seconds,
-                  samples=None):
+                  samples=None, light=None):
         """The Accumulation after the launches completed on `state`'s buffers (of the pixels
         `traced`), which hold `samples` per pixel (None: count them, after Ctrl-C)."""
         n = traced[2] * traced[3]
@@ -676,7 +718,20 @@ class Renderer:
             filtered = np.empty((len(sums), 4), np.float32)
             cl.enqueue_copy(self.queue, filtered, splat.filtered)
         return Accumulation(state.tile, samples, sums, state.discarded + int(discarded[0]),
-                            state.seconds + seconds, geometry, object_id, aov_sums, filtered)
+                            state.seconds + seconds, geometry, object_id, aov_sums, filtered,
+                            *((light.sums, light.paths) if light is not None else (state.light, state.light_paths)))
+
+
+class _LightSums:
+    """The light paths' fixed-point sums over the whole image (light_paths.py) while a tile
+    accumulates, and how many light paths they hold."""
+
+    def __init__(self, sums, paths):
+        self.sums, self.paths = (None if sums is None else sums.copy()), paths
+
+    def add(self, sums, paths):
+        self.sums = sums if self.sums is None else self.sums + sums
+        self.paths += paths
 
 
 @dataclass

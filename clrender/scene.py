@@ -235,6 +235,9 @@ class RenderSettings:
     # sample's position drawn from its own pixel's filter; kernels/filter.h). The same image in
     # expectation; splatting has less noise per pixel, importance sampling uncorrelated noise.
     filter_method: str = "splat"
+    # Caustics (light -> delta surfaces -> non-delta ...) traced from the lights, the path tracer
+    # leaving them out (clrender/light_paths.py), where the scene allows.
+    light_paths: bool = True
 
 
 @dataclass
@@ -616,6 +619,7 @@ def _read_render(node):
         hide_emitters=node.boolean("hide_emitters", False),
         sampler=node.string("sampler", "sobol", choices=SAMPLERS),
         filter_method=node.string("filter_method", "splat", choices=FILTER_METHODS),
+        light_paths=node.boolean("light_paths", True),
         integrator=node.string("integrator", "path", choices=INTEGRATORS),
         aovs=_read_aovs(node),
     )

@@ -66,7 +66,7 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* bl
     out[k++] = OFFSET(p, media); out[k++] = OFFSET(p, volume);
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile); out[k++] = OFFSET(p, splat);
     out[k++] = OFFSET(p, splat_reach);
-    out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter);
+    out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter); out[k++] = OFFSET(p, light_paths);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
     out[k++] = OFFSET(a, colour_m2);

@@ -75,6 +75,11 @@ def run_combination(case, device):
     if features["GRID_MEDIA"]:
         info = add(info, render(with_albedo_grid(small), device, method, launches=1,
                                 aovs=SAMPLE_AOVS if features["AOVS"] else ()))
+    if features["DIELECTRIC"] and not (features["MEDIA"] or features["TOON"]):
+        # Light paths (clrender/light_paths.py) need a pinhole: the scene's thin lens closed.
+        pinhole, _ = feature_scene(features, (4, 4))
+        pinhole.camera.aperture_radius = 0.0
+        info = add(info, render(pinhole, device, method, launches=1, packets=packets))
     if not packets:
         sample_aovs = SAMPLE_AOVS if features["AOVS"] else ()   # their records summed by sum_samples
         info = add(info, render(small, device, method, launches=2, aovs=sample_aovs, sample_items=True))

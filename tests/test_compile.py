@@ -24,6 +24,20 @@ def test_test_kernels_build_with_every_environment(context):
         assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 8
 
 
+def test_light_paths_build_wherever_they_may_apply(context):
+    # clrender/light_paths.py: no media or toon shading; built at one lane whatever the render's.
+    built = set()
+    for features in all_feature_combinations():
+        if features["MEDIA"] or features["TOON"] or features["GRID_MEDIA"]:
+            continue
+        features = {**features, "LANES": 1}
+        if describe(features) in built:
+            continue
+        built.add(describe(features))
+        assert cl.Kernel(build_program(context, features, entry="light_paths.cl"), "light_paths").num_args == 21
+    assert len(built) >= 8
+
+
 def test_build_error_carries_the_compiler_log(context, tmp_path, monkeypatch):
     (tmp_path / "broken.cl").write_text('#include "helper.h"\n__kernel void k() { int x = undefined_name; }\n')
     (tmp_path / "helper.h").write_text("// nothing\n")
