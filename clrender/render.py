@@ -633,6 +633,8 @@ class Renderer:
         if (np.shape(state.sums) != (n, 4) or (state.aov_sums is not None and np.shape(state.aov_sums) != (n,))
                 or (state.filtered is not None and np.shape(state.filtered) != (n, 4))):
             raise ArgumentError("state", f"its sums do not have the {n} pixels of its tile")
+        if state.light is not None and np.shape(state.light) != (width * height, 3):
+            raise ArgumentError("state.light", f"must be the {width * height} pixels of the image's light-path sums")
         limits.number(state.samples, "state.samples", low=0, high=MAX_SPP, integer=True)
         limits.setting("spp", samples, "samples")
         if state.samples + samples > MAX_SPP:
