@@ -2,7 +2,7 @@
 import sys
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,6 +55,12 @@ class SceneArrays:
     textures: np.ndarray        # layout.TEXTURE records (one dummy without textures)
     texels: np.ndarray          # uint8 texels of every bitmap (textures.texture_arrays)
     length_scale: float = 1.0   # kernel lengths = scene lengths x this power of two (device_length_scale)
+    # The caustic guide (guide.py), filled on the device where it applies: layout.GUIDE_LOBE
+    # records (one empty lobe without a guide) and RenderParams' guide_grid, guide_cells, guide_cone.
+    guide: np.ndarray = field(default_factory=lambda: np.zeros(1, layout.GUIDE_LOBE))
+    guide_grid: tuple = (0.0, 0.0, 0.0, 0.0)
+    guide_cells: tuple = (0, 0, 0, 0)
+    guide_cone: tuple = (0.0, 0.0, 0.0, 0.0)
 
 
 def active_environment(scene):

@@ -235,7 +235,18 @@ RENDER_PARAMS = np.dtype([
     ("filter", FILTER),    # the pixel reconstruction filter
     ("light_paths", I4),   # x: light paths take the caustics (kernels/light_paths.h) (1) or not (0);
                            # y: camera samples per light path
+    ("guide_grid", F4),    # the caustic guide's cells (kernels/guide.h): xyz the grid's lowest corner,
+                           # w 1 / the cells' edge
+    ("guide_cells", I4),   # xyz cells per axis, w 1: diffuse sampling uses the guide, 0: it does not
+    ("guide_cone", F4),    # x the guide's share of diffuse samples, y cos of its cones' half angle,
+                           # z 1 / a cone's solid angle
 ])
+
+# One of a caustic guide cell's GUIDE_LOBES lobes (kernels/guide.h, clrender/guide.py): the
+# direction light arrives from (xyz), w the cumulative weight of the cell's lobes up to this one
+# (the last 1; 0 in an empty cell).
+GUIDE_LOBES = 4
+GUIDE_LOBE = _struct(("direction", F4))
 
 # Per-pixel sums of the sample-level AOVs (kernels/aovs.h, feature AOVS), beside the colour sums
 # whose w counts the samples: albedo, normal and emission (xyz) summed over the samples, colour_m2
@@ -257,6 +268,7 @@ STRUCTS = {
     "Filter": FILTER,
     "RenderParams": RENDER_PARAMS,
     "AovSums": AOV_SUMS,
+    "GuideLobe": GUIDE_LOBE,
 }
 
 # Enumerations shared with the kernels: emitted as #defines ahead of the kernel source, so the
@@ -406,6 +418,7 @@ def c_constants():
     lines.append(f"#define FILTER_CELLS {FILTER_CELLS}")
     lines.append(f"#define FILTER_EDGES {FILTER_EDGES}")
     lines.append(f"#define ENV_CDF_BLOCK {ENV_CDF_BLOCK}")
+    lines.append(f"#define GUIDE_LOBES {GUIDE_LOBES}")
     lines.append(f"#define MARCH_STEP_OPTICAL_DEPTH {float(MARCH_STEP_OPTICAL_DEPTH)!r}f")
     lines.append(f"#define MARCH_MAX_STEPS_PER_VOXEL {float(MARCH_MAX_STEPS_PER_VOXEL)!r}f")
     return "\n".join(lines) + "\n"

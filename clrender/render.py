@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pyopencl as cl
 
-from . import filters, host_memory, layout, light_paths, limits, splatting
+from . import filters, guide, host_memory, layout, light_paths, limits, splatting
 from . import sample_items as sample_items_module
 from .aovs import aov_images, needs_sample_aovs, parse_aovs, pixel_centre_record, sample_aov_images
 from .denoise import DenoiseSettings, check_denoiser, denoise_render
@@ -223,6 +223,9 @@ def render_params(scene, arrays, first_sample, samples, max_depth, rr_depth, see
     p["sampling"] = (sampler_code(scene, sampler), *direct_samples(scene.render), 0)
     p["filter"] = filters.filter_record(camera.filter)
     p["light_paths"] = (int(light_path_every > 0), light_path_every, 0, 0)
+    p["guide_grid"] = arrays.guide_grid
+    p["guide_cells"] = arrays.guide_cells
+    p["guide_cone"] = arrays.guide_cone
     return p
 
 
@@ -341,6 +344,8 @@ class Renderer:
         self.spectral_mis = spectral_mis
         fill_albedo_tables(self.queue, self.arrays)
         self._buffers = [self._upload(getattr(self.arrays, name)) for name in self.ARRAYS]
+        if guide.applies(scene, self.features):
+            self._build_guide()
         self._gather = splatting.Gather(self.context, scene.camera.filter, packets) if splatting.splats(scene) else None
         if sample_items is None:
             sample_items = sample_items_module.wanted(self.device, self.features)
@@ -352,7 +357,7 @@ class Renderer:
     # The scene arrays passed to the kernel, in argument order after the RenderParams.
     ARRAYS = ("nodes", "blocks", "spheres", "shading", "info", "materials", "media", "emitters",
               "emitter_cdf", "env_texels", "env_cdf", "specular_albedo", "grid_data", "majorant_data",
-              "uvs", "textures", "texels")
+              "uvs", "textures", "texels", "guide")
 
     def update_array(self, name, array):
         """Replace one of the scene arrays on the device (same dtype and meaning), e.g. an
@@ -533,6 +538,31 @@ class Renderer:
                                     getattr(interrupt, "signal", signal.SIGINT)) from None
         return self._download(state, traced, accum_buffer, discarded_buffer, aux_buffers, aov_buffer, splat, seconds,
                               done, light)
+
+    def _build_guide(self):
+        """The caustic guide (guide.py): its photons traced on the device
+        (kernels/guide_photons.cl), their records binned on the host into the `guide` array and
+        the RenderParams fields that switch it on; nothing where no photon lands."""
+        program = build_program(self.context, {**self.features, "LANES": 1}, entry="guide_photons.cl")
+        mf = cl.mem_flags
+        params = render_params(self.scene, self.arrays, 0, 0, 1, 1, 0, self.spectral_mis)
+        params_buffer = cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=params)
+        records = cl.Buffer(self.context, mf.READ_WRITE, guide.PHOTONS * guide.RECORD_FLOATS * 4)   # one each at most
+        written = np.zeros(1, np.int32)
+        written_buffer = cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=written)
+        target = guide.specular_sphere(self.scene, self.arrays.length_scale)
+        cl.Kernel(program, "guide_photons")(self.queue, (guide.PHOTONS,), None, params_buffer, *self._buffers,
+                                            target, np.uint32(guide.SEED), np.int32(guide.PHOTONS), records,
+                                            written_buffer, np.int32(guide.PHOTONS))
+        cl.enqueue_copy(self.queue, written, written_buffer)
+        out = np.empty((min(int(written[0]), guide.PHOTONS), guide.RECORD_FLOATS), np.float32)
+        if len(out):
+            cl.enqueue_copy(self.queue, out, records)
+        built = guide.build(out)
+        if built is None:
+            return
+        lobes, self.arrays.guide_grid, self.arrays.guide_cells, self.arrays.guide_cone = built
+        self.update_array("guide", lobes)
 
     def _trace_light_paths(self, light, tile, first, count, max_depth, rr_depth, seed):
         """Add the light paths of samples first .. first + count - 1 of the tile's pixels to

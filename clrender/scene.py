@@ -238,6 +238,9 @@ class RenderSettings:
     # Caustics (light -> delta surfaces -> non-delta ...) traced from the lights, the path tracer
     # leaving them out (clrender/light_paths.py), where the scene allows.
     light_paths: bool = True
+    # Diffuse sampling guided towards the caustics of directional lights through glossy glass and
+    # metal (clrender/guide.py), where the scene has them.
+    caustic_guide: bool = True
 
 
 @dataclass
@@ -620,6 +623,7 @@ def _read_render(node):
         sampler=node.string("sampler", "sobol", choices=SAMPLERS),
         filter_method=node.string("filter_method", "splat", choices=FILTER_METHODS),
         light_paths=node.boolean("light_paths", True),
+        caustic_guide=node.boolean("caustic_guide", True),
         integrator=node.string("integrator", "path", choices=INTEGRATORS),
         aovs=_read_aovs(node),
     )

@@ -91,13 +91,7 @@ void trace_light_path(const Scene* scene, Rng* rng, __global float4* records, __
     }
 }
 
-KERNEL void light_paths(__constant RenderParams* params, __global const WideBvhNode* nodes,
-    __global const TriangleBlock* blocks, __global const Sphere* spheres, __global const TriangleShading* shading,
-    __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media,
-    __global const Emitter* emitters, __global const float* emitter_cdf, __global const float4* env_texels,
-    __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data,
-    __global const float* majorant_data, __global const float2* uvs, __global const Texture* textures,
-    __global const uchar* texels, __global float4* records, __global int* count, int capacity) {
+KERNEL void light_paths(RENDER_SCENE_ARGUMENTS, __global float4* records, __global int* count, int capacity) {
     int tx = get_global_id(0), ty = get_global_id(1);
     if (tx >= params->tile.z || ty >= params->tile.w) return;
     Scene scene = SCENE_OF_RENDER_PASS_ARGUMENTS;

@@ -260,7 +260,7 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     lane_float3 le = sample_light_lanes(scene, sp->p, u, &wi, &dist, &pdf_w, &pmf, &delta, &environment, &env_uv);
     lane_float light_pdf_w = pmf * pdf_w;
     lane_float3 f = eval_diffuse(albedo, sp, wi);
-    lane_float bsdf_pdf_w = sample_diffuse_pdf(sp, wi);
+    lane_float bsdf_pdf_w = 0.0f;   // the diffuse lanes' below, where MIS needs it
     lane_int glossy_lanes = (glossy->rough | glossy->plastic) & lanes;
     if (lane_any(glossy_lanes)) {
         lane_float glossy_pdf_w;
@@ -269,6 +269,10 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     }
     lane_int lit = lanes & (dist > 0.0f) & (light_pdf_w > 0.0f) & !is_black(le) & !is_black(f);
     if (!lane_any(lit)) return radiance;
+    // (A delta light's sample weighs 1: only the others need the diffuse density, which with a
+    // caustic guide costs lookups.)
+    lane_int diffuse_mis = lit & !delta & !glossy_lanes;
+    if (lane_any(diffuse_mis)) bsdf_pdf_w = select(bsdf_pdf_w, sample_diffuse_pdf(scene, sp, wi), diffuse_mis);
 #if ENVIRONMENT == ENVIRONMENT_IMAGE
     prefetch_environment_texels(scene, env_uv, lit & environment);
 #endif
@@ -295,10 +299,11 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
                              lane_int smooth, lane_int conductor, const GlossyLanes* glossy, lane_float u_lobe,
                              lane_float u_glossy_lobe, lane_float2 u, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
-    bs.wi = sample_diffuse(sp, u);
-    bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
+    bs.wi = sample_diffuse(scene, sp, u, &bs.pdf_w);
     // For cosine sampling f * cos / pdf is the albedo itself.
     bs.weight = l3_select(l3_splat(0.0f), color, bs.pdf_w > 0.0f);
+    if (scene->params->guide_cells.w != 0)   // the guide's mixture (materials/diffuse.h)
+        bs.weight = l3_select(l3_splat(0.0f), l3_div(eval_diffuse(color, sp, bs.wi), bs.pdf_w), bs.pdf_w > 0.0f);
 #if DIELECTRIC
     lane_int glossy_lanes = (glossy->rough | glossy->plastic) & lanes;
     if (lane_any(glossy_lanes)) {

@@ -27,23 +27,27 @@ typedef struct {
     __global const float2* uvs;          // texture coordinates of each primitive slot's 3 corners
     __global const Texture* textures;    // textures/texture.h
     __global const uchar* texels;        // every bitmap's texels, as stored (Texture.info.y: first byte)
+    __global const GuideLobe* guide;     // the caustic guide's lobes, GUIDE_LOBES per cell (guide.h)
 } Scene;
 
-// The arguments of render_pass, in the order the host passes them (render.py: RenderParams,
-// Renderer.ARRAYS, then the per-pixel buffers, and the launch's first row of the tile: an
-// argument, not a global offset, which PoCL compiles the kernel again for), for both of its
-// forms (integrator.cl, integrator_packets.cl), and the Scene they make.
-#define RENDER_PASS_ARGUMENTS __constant RenderParams* params, __global const WideBvhNode* nodes, \
+// The scene's arguments of every kernel that traces paths through it (render_pass, light_paths,
+// guide_photons), in the order the host passes them (render.py: RenderParams, Renderer.ARRAYS),
+// and the Scene they make (SCENE_OF_RENDER_PASS_ARGUMENTS).
+#define RENDER_SCENE_ARGUMENTS __constant RenderParams* params, __global const WideBvhNode* nodes, \
     __global const TriangleBlock* blocks, __global const Sphere* spheres, __global const TriangleShading* shading, \
     __global const TriangleInfo* info, __global const Material* materials, __global const Medium* media, \
     __global const Emitter* emitters, __global const float* emitter_cdf, __global const float4* env_texels, \
     __global const float* env_cdf, __global const float* specular_albedo, __global const float* grid_data, \
     __global const float* majorant_data, __global const float2* uvs, __global const Texture* textures, \
-    __global const uchar* texels, __global float4* accumulator, __global int* discarded_samples, \
+    __global const uchar* texels, __global const GuideLobe* guide
+// The arguments of render_pass: the scene's, then the per-pixel buffers, and the launch's first
+// row of the tile (an argument, not a global offset, which PoCL compiles the kernel again for),
+// for both of its forms (integrator.cl, integrator_packets.cl).
+#define RENDER_PASS_ARGUMENTS RENDER_SCENE_ARGUMENTS, __global float4* accumulator, __global int* discarded_samples, \
     __global float4* aux_geometry, __global int* aux_object, __global AovSums* aov_sums, \
     __global float* splat_records, int first_row
 #define SCENE_OF_RENDER_PASS_ARGUMENTS {params, nodes, blocks, spheres, shading, info, materials, media, emitters, \
-    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels}
+    emitter_cdf, env_texels, env_cdf, specular_albedo, grid_data, majorant_data, uvs, textures, texels, guide}
 
 // Per lane (lanes.h).
 typedef struct {

@@ -22,7 +22,8 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* bl
                           __global TriangleShading* sh, __global TriangleInfo* info,
                           __global Material* m, __global Texture* t, __global Emitter* e,
                           __global Medium* md, __global Camera* c, __global Filter* f,
-                          __global RenderParams* p, __global AovSums* a, __global int* out) {
+                          __global RenderParams* p, __global AovSums* a, __global GuideLobe* g,
+                          __global int* out) {
     int k = 0;
     out[k++] = sizeof(WideBvhNode);
     out[k++] = OFFSET(node, lo_x); out[k++] = OFFSET(node, hi_x); out[k++] = OFFSET(node, lo_y);
@@ -67,9 +68,12 @@ KERNEL void struct_layout(__global WideBvhNode* node, __global TriangleBlock* bl
     out[k++] = OFFSET(p, scene_sphere); out[k++] = OFFSET(p, lights); out[k++] = OFFSET(p, tile); out[k++] = OFFSET(p, splat);
     out[k++] = OFFSET(p, splat_reach);
     out[k++] = OFFSET(p, sampling); out[k++] = OFFSET(p, filter); out[k++] = OFFSET(p, light_paths);
+    out[k++] = OFFSET(p, guide_grid); out[k++] = OFFSET(p, guide_cells); out[k++] = OFFSET(p, guide_cone);
     out[k++] = sizeof(AovSums);
     out[k++] = OFFSET(a, albedo); out[k++] = OFFSET(a, normal); out[k++] = OFFSET(a, emission);
     out[k++] = OFFSET(a, colour_m2);
+    out[k++] = sizeof(GuideLobe);
+    out[k++] = OFFSET(g, direction);
 }
 
 // ----- BVH: closest hit per ray (over the primitive slots: triangles and spheres) -----------
@@ -224,6 +228,9 @@ SurfacePoint test_surface_point(int front_face, float3 ns) {
     return sp;
 }
 
+// The RenderParams of the BSDF kernels below: all zero (no caustic guide: diffuse sampling by the cosine).
+__constant RenderParams BSDF_TEST_PARAMS = {0};
+
 // One sample of sample_bsdf per work-item, for wo[i]: (wi, pdf_w) and (weight, eta * (delta ? -1 : 1)).
 // albedo: the material's energy-compensation tables (or one unused float).
 KERNEL void sample_bsdf_values(__global const Material* material, __global const float* albedo,
@@ -232,6 +239,7 @@ KERNEL void sample_bsdf_values(__global const Material* material, __global const
     int i = get_global_id(0);
     Material m = *material;
     Scene scene;
+    scene.params = &BSDF_TEST_PARAMS;
     scene.specular_albedo = albedo;
     SurfacePoint sp = test_surface_point(front_face, ns.xyz);
     Rng rng = rng_for_sample((uint)i, 1u, seed);
@@ -247,10 +255,29 @@ KERNEL void eval_bsdf_values(__global const Material* material, __global const f
     int i = get_global_id(0);
     Material m = *material;
     Scene scene;
+    scene.params = &BSDF_TEST_PARAMS;
     scene.specular_albedo = albedo;
     SurfacePoint sp = test_surface_point(front_face, ns.xyz);
     out[i] = (float4)(eval_bsdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz),
                       sample_bsdf_pdf(&scene, &m, &sp, wo[i].xyz, wi[i].xyz));
+}
+
+// Diffuse sampling at points[i] (normal +z, a scene's RenderParams and caustic guide: guide.h):
+// (wi, pdf_w) of one sample, and sample_diffuse_pdf of dirs[i] there (x; yzw 0).
+KERNEL void sample_diffuse_values(__constant RenderParams* params, __global const GuideLobe* guide,
+                                  __global const float4* points, __global const float4* dirs, uint seed,
+                                  __global float4* out_wi, __global float4* out_pdf) {
+    int i = get_global_id(0);
+    Scene scene;
+    scene.params = params;
+    scene.guide = guide;
+    SurfacePoint sp = test_surface_point(1, (float3)(0.0f, 0.0f, 1.0f));
+    sp.p = points[i].xyz;
+    Rng rng = rng_for_sample((uint)i, 2u, seed);
+    float pdf_w;
+    float3 wi = sample_diffuse(&scene, &sp, rng_float2(&rng), &pdf_w);
+    out_wi[i] = (float4)(wi, pdf_w);
+    out_pdf[i] = (float4)(sample_diffuse_pdf(&scene, &sp, dirs[i].xyz), 0.0f, 0.0f, 0.0f);
 }
 
 #if DIELECTRIC

@@ -87,7 +87,15 @@ typedef struct {
     Filter filter;     // the pixel reconstruction filter (filter.h)
     int4 light_paths;  // x light paths take the caustics (light_paths.h) (1) or not (0), y camera
                        // samples per light path
+    float4 guide_grid;   // the caustic guide (guide.h): xyz the grid's lowest corner, w 1 / cell edge
+    int4 guide_cells;    // xyz cells per axis, w diffuse sampling uses the guide (1) or not (0)
+    float4 guide_cone;   // x the guide's share of diffuse samples, y cos of the cones' half angle,
+                         // z 1 / a cone's solid angle
 } RenderParams;
+
+// A lobe of a caustic guide cell (guide.h; layout.py GUIDE_LOBE): direction.xyz the direction light
+// arrives from, direction.w the cumulative weight of the cell's lobes up to this one.
+typedef struct { float4 direction; } GuideLobe;
 
 // Per-pixel sums of the sample-level AOVs (AOVS=1, kernels/aovs.h), beside the colour sums whose
 // w counts the samples: albedo.xyz, normal.xyz and emission.xyz summed over the samples;

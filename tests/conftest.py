@@ -176,3 +176,18 @@ def oclgrind_library():
         if path.endswith("liboclgrind-rt-icd.so") and os.path.isfile(path):
             return path
     return None
+
+
+def assert_splits_keep_the_bits(renderer):
+    """A 16 x 16 scene's 16-spp image (seed 3) the same bits in one pass, in passes of 3, and as
+    two strips of two chunks each (as distributed.py renders them), merged."""
+    from clrender.distributed import merge_strips
+    from clrender.render import Accumulation, image_result
+
+    whole = renderer.render(spp=16, seed=3, samples_per_pass=16).image
+    assert np.array_equal(renderer.render(spp=16, seed=3, samples_per_pass=3).image, whole)
+    strips = []
+    for tile in ((0, 0, 16, 7), (0, 7, 16, 9)):
+        state = renderer.accumulate(Accumulation.start(tile), 5, seed=3)
+        strips.append(renderer.accumulate(state, 11, seed=3))
+    assert np.array_equal(image_result(renderer.scene, merge_strips(renderer.scene, strips)).image, whole)

@@ -22,7 +22,7 @@ import numpy as np
 import pyopencl as cl
 
 import clrender
-from clrender import filters, layout, textures, wide_bvh
+from clrender import filters, guide, layout, textures, wide_bvh
 from clrender.aovs import SAMPLE_AOVS
 from clrender.arrays import _material_array, build_scene_arrays
 from clrender.bvh import build_bvh
@@ -35,6 +35,9 @@ from clrender.triangle_blocks import triangle_blocks
 from test_layout import ORDER as STRUCT_ORDER
 
 MARK = "@@oclgrind-case"
+# The caustic guide's photons (guide_photons.cl, in every render of a scene with a directional
+# light and glossy glass) under the simulator: its paths, not the guide's quality, are the point.
+guide.PHOTONS = 256
 RESOLUTION = (8, 8)
 mf = cl.mem_flags
 
@@ -172,6 +175,16 @@ def run_test_kernels(case, device):
             kernel("eval_bsdf_values")(queue, (n,), None, material, albedo, np.int32(front), ns,
                                        upload(context, wo), upload(context, wo[::-1] * [1, 1, -1, 1]),
                                        *outputs(context, (n, 4)))
+    # Diffuse sampling with a caustic guide (kernels/guide.h): one cell of two lobes, points in
+    # and out of it.
+    params = render_params(scene, arrays, 0, 1, 4, 2, 0)
+    params["guide_grid"], params["guide_cells"], params["guide_cone"] = (0, 0, 0, 1), (1, 1, 1, 1), (0.25, 0.99, 30, 0)
+    lobes = np.zeros(layout.GUIDE_LOBES, layout.GUIDE_LOBE)
+    lobes["direction"] = [[0, 0, 1, 0.7], [1, 0, 0, 1], [0, 0, 0, 1], [0, 0, 0, 1]]
+    kernel("sample_diffuse_values")(queue, (n,), None, upload(context, params), upload(context, lobes),
+                                    upload(context, float4([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [0.2, 0.9, 0.1],
+                                                            [-1e30, 0, 0]])),
+                                    upload(context, wo), np.uint32(2), *outputs(context, (n, 4), (n, 4)))
     if features["DIELECTRIC"]:
         kernel("fresnel_refract_values")(queue, (n,), None, upload(context, np.float32([[0.9, 1.5], [0.1, 1.5],
                                                                                         [0.3, 0.7], [1.0, 1.0]])),

@@ -11,7 +11,7 @@ from clrender.features import all_feature_combinations, describe, scene_features
 @pytest.mark.parametrize("features", list(all_feature_combinations()), ids=describe)
 def test_every_feature_combination_builds(context, features):
     program = build_program(context, features)
-    assert cl.Kernel(program, "render_pass").num_args == 25
+    assert cl.Kernel(program, "render_pass").num_args == 26
 
 
 def test_test_kernels_build_with_every_environment(context):
@@ -24,8 +24,9 @@ def test_test_kernels_build_with_every_environment(context):
         assert cl.Kernel(build_program(context, features, entry="tests.cl"), "trace_rays").num_args == 8
 
 
-def test_light_paths_build_wherever_they_may_apply(context):
-    # clrender/light_paths.py: no media or toon shading; built at one lane whatever the render's.
+def test_light_paths_and_guide_photons_build_wherever_they_may_apply(context):
+    # clrender/light_paths.py, clrender/guide.py: no media or toon shading; built at one lane
+    # whatever the render's.
     built = set()
     for features in all_feature_combinations():
         if features["MEDIA"] or features["TOON"] or features["GRID_MEDIA"]:
@@ -34,7 +35,8 @@ def test_light_paths_build_wherever_they_may_apply(context):
         if describe(features) in built:
             continue
         built.add(describe(features))
-        assert cl.Kernel(build_program(context, features, entry="light_paths.cl"), "light_paths").num_args == 21
+        assert cl.Kernel(build_program(context, features, entry="light_paths.cl"), "light_paths").num_args == 22
+        assert cl.Kernel(build_program(context, features, entry="guide_photons.cl"), "guide_photons").num_args == 25
     assert len(built) >= 8
 
 

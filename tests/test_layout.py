@@ -10,7 +10,7 @@ from conftest import build_test_kernels
 
 ORDER = [  # the argument order of struct_layout in kernels/tests.cl
     "WideBvhNode", "TriangleBlock", "Sphere", "TriangleShading", "TriangleInfo", "Material", "Texture", "Emitter",
-    "Medium", "Camera", "Filter", "RenderParams", "AovSums"]
+    "Medium", "Camera", "Filter", "RenderParams", "AovSums", "GuideLobe"]
 
 
 def expected_layout():

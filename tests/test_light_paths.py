@@ -13,9 +13,8 @@ import pytest
 import clrender
 from clrender import filters, light_paths
 from clrender.features import scene_features
-from clrender.render import Accumulation, image_result
 from clrender.scene import Filter
-from conftest import z_bound
+from conftest import assert_splits_keep_the_bits, z_bound
 
 
 def ball_on_a_floor(light_paths_on=True, resolution=24, **camera):
@@ -56,18 +55,7 @@ def test_light_paths_keep_the_image_and_lower_the_caustics_noise(device, packets
 
 
 def test_the_split_into_passes_and_tiles_keeps_the_bits(device):
-    scene = ball_on_a_floor(True, resolution=16)
-    renderer = clrender.Renderer(scene, device)
-    whole = renderer.render(spp=16, seed=3, samples_per_pass=16).image
-    assert np.array_equal(renderer.render(spp=16, seed=3, samples_per_pass=3).image, whole)
-    # Two strips, each in two chunks (as distributed.py renders them), merged.
-    from clrender.distributed import merge_strips
-
-    strips = []
-    for tile in ((0, 0, 16, 7), (0, 7, 16, 9)):
-        state = renderer.accumulate(Accumulation.start(tile), 5, seed=3)
-        strips.append(renderer.accumulate(state, 11, seed=3))
-    assert np.array_equal(image_result(scene, merge_strips(scene, strips)).image, whole)
+    assert_splits_keep_the_bits(clrender.Renderer(ball_on_a_floor(True, resolution=16), device))
 
 
 @pytest.mark.parametrize("change,expected", [

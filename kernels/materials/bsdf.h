@@ -125,7 +125,7 @@ INLINE float sample_bsdf_pdf(const Scene* scene, const Material* m, const Surfac
         return rough_specular_pdf(m, sp, n, wo, wi);
     }
 #endif
-    return sample_diffuse_pdf(sp, wi);
+    return sample_diffuse_pdf(scene, sp, wi);
 }
 
 #if DIELECTRIC
@@ -185,10 +185,10 @@ INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const Surfa
     }
 #endif
     BsdfSample bs = bsdf_sample_none();
-    bs.wi = sample_diffuse(sp, rng_float2(rng));
-    bs.pdf_w = sample_diffuse_pdf(sp, bs.wi);
+    bs.wi = sample_diffuse(scene, sp, rng_float2(rng), &bs.pdf_w);
     // For cosine sampling f * cos / pdf is the albedo itself; dividing would only add rounding.
     bs.weight = bs.pdf_w > 0.0f ? material_color(m) : (float3)(0.0f);
+    if (scene->params->guide_cells.w != 0 && bs.pdf_w > 0.0f) bs.weight = eval_diffuse(material_color(m), sp, bs.wi) / bs.pdf_w;
     return bs;
 }
 
