@@ -228,7 +228,7 @@ SurfacePoint test_surface_point(int front_face, float3 ns) {
     return sp;
 }
 
-// The RenderParams of the BSDF kernels below: all zero (no caustic guide: diffuse sampling by the cosine).
+// The RenderParams of the BSDF kernels below (and shading_map_values): all zero (no caustic guide: diffuse sampling by the cosine).
 __constant RenderParams BSDF_TEST_PARAMS = {0};
 
 // One sample of sample_bsdf per work-item, for wo[i]: (wi, pdf_w) and (weight, eta * (delta ? -1 : 1)).
@@ -490,6 +490,7 @@ KERNEL void shading_map_values(__global const Material* material, __global const
                                __global float4* out_f, __global float4* out_n) {
     int i = get_global_id(0);
     Scene scene;
+    scene.params = &BSDF_TEST_PARAMS;
     scene.textures = textures;
     scene.texels = texels;
     __global const float4* f = frame + 5 * i;

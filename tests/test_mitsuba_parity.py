@@ -61,13 +61,15 @@ def load_quietly(path, **parameters):
 # ============================================================================================
 # Images
 # ============================================================================================
-def render_both(path, device, spp=SPP, renders=RENDERS, sampler=None, **parameters):
+def render_both(path, device, spp=SPP, renders=RENDERS, sampler=None, mitsuba_spp=None, **parameters):
     """(clrender renders, Mitsuba renders), each (renders, height, width, 3), with Mitsuba's
-    variant as set; `sampler` overrides clrender's (the scene's)."""
+    variant as set; `sampler` overrides clrender's (the scene's), `mitsuba_spp` Mitsuba's spp
+    (default `spp`; the comparisons take each renderer's own variance across its renders)."""
     parameters = {"spp": str(spp), **{k: str(v) for k, v in parameters.items()}}
     theirs = mi.load_file(str(path), **parameters)
     # [..., :3]: a moment integrator adds its second moments as channels.
-    mitsuba = np.array([np.array(mi.render(theirs, spp=spp, seed=seed))[..., :3] for seed in range(renders)])
+    mitsuba = np.array([np.array(mi.render(theirs, spp=mitsuba_spp or spp, seed=seed))[..., :3]
+                        for seed in range(renders)])
     renderer = clrender.Renderer(load_quietly(path, **parameters), device, sampler=sampler)
     ours = np.array([renderer.render(spp=spp, seed=1000 + seed).image for seed in range(renders)])
     return ours, mitsuba

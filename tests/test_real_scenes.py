@@ -255,6 +255,16 @@ PARITY = {
     "tutorials-cbox": ("cbox.xml", (32, 32), 64, {}),
     "tutorials-simple-teapot": ("simple.xml", (32, 32), 16, {}),
 }
+# Mitsuba's spp as a multiple of ours, where our estimator has a lighter tail than Mitsuba's: a
+# z-test needs each renderer's mean of RENDERS renders near Gaussian, and ppg-torus's caustics
+# through the glass block reach Mitsuba's path tracer in under 5 % of its 64-spp renders of a
+# 4 x 4 block (the block's mean 0.32, its median render 0.21), so 24 renders often hold none;
+# ours, with the caustic guide (clrender/guide.py), finds them in most renders. Over 1,000
+# renders of each, 11 of 41 draws of 24 at 64 spp failed the comparison below, none of 10 with
+# Mitsuba at 256 spp (the worst |z| per draw 2.7 in the median).
+MITSUBA_SPP_FACTOR = {"ppg-torus": 4}
+
+
 @pytest.fixture(scope="module")
 def mitsuba_llvm():
     """Mitsuba with its llvm_ad_rgb variant, and tests/test_mitsuba_parity.py's comparison."""
@@ -274,7 +284,8 @@ def z_limit(count):
 def test_real_scene_renders_as_in_mitsuba(tmp_path, device, mitsuba_llvm, scene):
     file, (width, height), spp, parameters = PARITY[scene]
     path = small_copy(real_scene(scene), file, tmp_path / scene, width, height)
-    ours, mitsuba = mitsuba_llvm.render_both(path, device, spp=spp, renders=RENDERS, **parameters)
+    ours, mitsuba = mitsuba_llvm.render_both(path, device, spp=spp, renders=RENDERS,
+                                             mitsuba_spp=spp * MITSUBA_SPP_FACTOR.get(scene, 1), **parameters)
     # Both splat with the scenes' gaussian and tent filters: neighbouring pixels share samples.
     mitsuba_llvm.assert_same_image(ours, mitsuba, z_limit, independent_pixels=False)
 
