@@ -466,6 +466,8 @@ def _render_distributed(args, outputs, parameters, aovs, plan):
             for index, result in partial:
                 save_image(result.image, outputs[index], exposure=args.exposure, layers=_layers(args, aovs, result))
                 _report(outputs[index], result, where, status)
+            if not saving and not partial:
+                print("interrupted before any chunk finished: nothing saved", file=sys.stderr)
             return status
 
 

@@ -2,6 +2,7 @@
 the local render: any strips, any chunking, a worker killed mid-render, batches, the CLI."""
 import logging
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -355,9 +356,10 @@ def test_ctrl_c_on_the_cli_writes_the_partial_image_without_tracebacks(tmp_path,
     reader = threading.Thread(target=lambda: seen.extend(iter(lambda: process.stderr.read(1), "")))
     reader.start()
     deadline = time.monotonic() + 120
-    while " spp [" not in "".join(seen) and time.monotonic() < deadline:   # the bar is up
+    # Chunks are flowing: the bar counts samples (workers may still be building kernels when it
+    # first shows 0).
+    while not re.search(r"[1-9][\d.]*/1000000 spp \[", "".join(seen)) and time.monotonic() < deadline:
         time.sleep(0.1)
-    time.sleep(1)   # chunks are flowing
     for _ in range(times):
         (os.killpg if group else os.kill)(process.pid, signum)
         time.sleep(0.02)
