@@ -13,6 +13,7 @@ from .triangle_blocks import triangle_blocks, triangle_edges
 from .bvh import intersect_brute_force
 from .errors import SceneError
 from .origins import at_source
+from .textures import lets_light_through
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -506,7 +507,7 @@ def _material_array(materials, textures=(), length_scale=1.0):
         _set(record, "bump_map", m.bump_map)
         _set(record, "bump_scale", m.bump_scale * length_scale)
         _set(record, "opacity", m.opacity)
-        _set(record, "masked", int(any(_lets_light_through(materials[j]) for j in (i, m.back) if j >= 0)))
+        _set(record, "masked", int(any(lets_light_through(materials[j]) for j in (i, m.back) if j >= 0)))
         _set(record, "emission", m.emission)
         if kind == "interface":   # the transmittance of the boundary
             _set(record, "color", m.tint if m.index_matched else 1.0)
@@ -532,11 +533,6 @@ def _material_array(materials, textures=(), length_scale=1.0):
         for name, texture in m.textures.items():
             layout.set_texture_reference(record, name, texture)
     return out
-
-
-def _lets_light_through(material):
-    """A mask: an opacity below 1, or one from a texture."""
-    return material.opacity < 1 or "opacity" in material.textures
 
 
 def _set(material, name, value):

@@ -10,7 +10,7 @@ import itertools
 import numpy as np
 
 from .arrays import active_environment
-from .textures import detail_beyond_textures, scene_uses_textures
+from .textures import detail_beyond_textures, lets_light_through, scene_uses_textures
 from .errors import ArgumentError
 from .layout import ENVIRONMENT_MODES, VOLUME_METHODS
 
@@ -105,14 +105,17 @@ def packets_cover(scene, features):
     untinted, conductor (rough ones without energy compensation) or plastic, its colour and its
     opacity (a mask) alone from textures (no other textured parameter, bump or normal map or back
     material), emitting triangles and spheres, point, spot and directional lights and the
-    environment, path tracing (not the direct integrator) and emitters visible to the camera."""
+    environment, and emitters visible to the camera; path tracing, or the direct integrator where
+    no surface is a mask (its camera rays cross masks as the path tracer's do not)."""
     if any(features[name] != value for name, value in PACKET_FEATURES.items()):
         return False
-    if scene.render.integrator != "path" or scene.render.hide_emitters:
+    if scene.render.hide_emitters:
         return False
     for shape in scene.shapes:
         material = scene.materials[shape.material]
         if material.type not in ("diffuse", "emissive", "dielectric", "conductor", "plastic"):
+            return False
+        if scene.render.integrator == "direct" and lets_light_through(material):
             return False
         if set(material.textures) - {"color", "opacity"} or detail_beyond_textures(material, masks=False):
             return False

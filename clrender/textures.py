@@ -267,6 +267,11 @@ def has_surface_detail(material):
     return bool(material.textures) or detail_beyond_textures(material)
 
 
+def lets_light_through(material):
+    """A mask: an opacity below 1, or one from a texture."""
+    return material.opacity < 1 or "opacity" in material.textures
+
+
 def detail_beyond_textures(material, masks=True):
     """An opacity below 1 (if `masks`), a bump or normal map, a back material, or tangent-dependent
     lobes."""

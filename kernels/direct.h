@@ -13,16 +13,7 @@
 #include "materials/bsdf.h"
 #include "aovs.h"
 #include "path.h"
-
-bool direct_integrator(const Scene* scene) {
-    return scene->params->sampling.y + scene->params->sampling.z > 0;
-}
-
-// Whether a BSDF sample can find emission at all: emitting shapes or an environment (point, spot
-// and directional lights are never hit). Without, BSDF samples add exactly 0 and are not traced.
-bool emission_can_be_hit(const Scene* scene) {
-    return scene->params->lights.x > 0 || scene->params->environment.x >= 0;
-}
+#include "direct_samples.h"
 
 // The emission one BSDF sample from sp finds, MIS-weighted against n_light light samples.
 float3 direct_bsdf_sample(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,

@@ -1,6 +1,7 @@
 // The megakernel in packets (LANES 8, lanes.h; features.py picks it on CPU devices for the scenes
-// path_packets.h covers): one work-item traces the camera paths of 8 adjacent pixels of a row, in
-// step, so the CPU runs them in its vector lanes. Otherwise as integrator.cl: samples in index
+// path_packets.h covers): one work-item traces the camera paths (or with the direct integrator
+// the camera samples, direct_packets.h) of 8 adjacent pixels of a row, in step, so the CPU runs
+// them in its vector lanes. Otherwise as integrator.cl: samples in index
 // order, random numbers keyed by the pixel of the full image, the pixel-centre record written
 // by the launch holding sample 0, non-finite samples dropped and counted, with AOVS the
 // sample-level AOVs summed beside the colour (aovs.h), with splatting each sample written as a
@@ -11,6 +12,7 @@
 #include "camera.h"
 #include "scene.h"
 #include "path_packets.h"
+#include "direct_packets.h"
 #include "aux_buffers.h"
 #include "splat.h"
 #if LANES != 8
@@ -75,7 +77,9 @@ KERNEL void render_pass(RENDER_PASS_ARGUMENTS) {
         Rng rng = rng_for_path(pixel, (uint)s, (uint)params->config.z, params->sampling.x);
         CameraSample camera = sample_camera(params, x, y, &rng);
         AovLanes aov = {l3_splat(0.0f), l3_splat(0.0f), l3_splat(0.0f), 0};
-        lane_float3 radiance = l3_scale(trace_paths(&scene, camera.ray, in_tile, &rng, &aov), camera.weight);
+        lane_float3 radiance = l3_scale(direct_integrator(&scene) ? trace_direct_lanes(&scene, camera.ray, in_tile, &rng, &aov)
+                                                                   : trace_paths(&scene, camera.ray, in_tile, &rng, &aov),
+                                        camera.weight);
         // A non-finite sample is dropped (counted as black) and reported, never averaged in.
         int8 finite = isfinite(radiance.x) & isfinite(radiance.y) & isfinite(radiance.z);
         discarded -= in_tile & reports & !finite;

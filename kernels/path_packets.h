@@ -248,9 +248,11 @@ lane_float shadow_transmittance_lanes(const Scene* scene, lane_float3 origin, la
 #endif
 
 // Next-event estimation at the diffuse, rough and plastic vertices of `lanes` (path.h,
-// direct_light), from the 2D draw u: a light sample, a shadow ray.
+// direct_light), from the 2D draw u: a light sample, a shadow ray; bsdf_share scales the BSDF
+// technique's pdf in the MIS weight as there.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
-                               const GlossyLanes* glossy, lane_float3 wo, lane_float2 u, lane_int lanes) {
+                               const GlossyLanes* glossy, lane_float3 wo, lane_float2 u, lane_int lanes,
+                               float bsdf_share) {
     lane_float3 radiance = l3_splat(0.0f);
     if (scene->params->config.w == 0 || !lane_any(lanes)) return radiance;
     lane_float3 wi;
@@ -287,7 +289,7 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
 #if ENVIRONMENT != ENVIRONMENT_NONE
     if (lane_any(lit & environment)) le = l3_select(le, environment_radiance_at(scene, env_uv), environment);
 #endif
-    lane_float weight = select(power_heuristic(light_pdf_w, bsdf_pdf_w), (lane_float)(1.0f), delta);
+    lane_float weight = select(power_heuristic(light_pdf_w, bsdf_pdf_w * bsdf_share), (lane_float)(1.0f), delta);
     return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
 }
 
@@ -340,6 +342,28 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
     bs.delta |= smooth;
 #endif
     return bs;
+}
+
+// What the lanes' vertices scatter with: smooth dielectrics and conductors (delta lobes; where
+// `conductor` a mirror), glossy lobes (rough ones and plastic), else diffuse of `color`. A
+// one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light reaches it,
+// and a path ends there.
+typedef struct {
+    lane_int conductor, black_back, smooth;
+    lane_float3 color;
+    GlossyLanes glossy;
+} SurfaceLanes;
+
+SurfaceLanes surface_lanes(const Scene* scene, const LaneHit* hit, const SurfacePoint* sp, lane_float3 wo,
+                           lane_int alive) {
+    SurfaceLanes s;
+    lane_int kind = material_kind_at(scene->materials, sp->material);
+    s.conductor = kind == MATERIAL_CONDUCTOR;
+    s.black_back = (material_one_sided_at(scene->materials, sp->material) != 0) & !sp->front_face;
+    s.color = l3_select(surface_color_lanes(scene, hit, sp->material, alive), l3_splat(0.0f), s.black_back);
+    s.glossy = glossy_lanes(scene, sp, kind, s.color, s.black_back, wo);
+    s.smooth = ((kind == MATERIAL_DIELECTRIC) | s.conductor) & !s.glossy.rough;
+    return s;
 }
 
 // The sample-level AOVs of the lanes' paths (aovs.h, AovSample): those of the first non-delta
@@ -472,16 +496,11 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
 #endif
         if (!lane_any(alive)) break;
         SurfacePoint sp = surface_point(scene, &hit, ray.direction);
-        // Smooth dielectrics and conductors: delta lobes; rough ones and plastic: glossy lobes.
-        lane_int kind = material_kind_at(scene->materials, sp.material);
-        lane_int conductor = kind == MATERIAL_CONDUCTOR;
-        // A one-sided material seen from behind is black (bsdf.h, is_one_sided_back): no light
-        // reaches it, and the path ends there.
-        lane_int black_back = (material_one_sided_at(scene->materials, sp.material) != 0) & !sp.front_face;
-        lane_float3 color = l3_select(surface_color_lanes(scene, &hit, sp.material, alive), l3_splat(0.0f), black_back);
         lane_float3 wo = l3_neg(ray.direction);
-        GlossyLanes glossy = glossy_lanes(scene, &sp, kind, color, black_back, wo);
-        lane_int smooth = ((kind == MATERIAL_DIELECTRIC) | conductor) & !glossy.rough;
+        SurfaceLanes surface = surface_lanes(scene, &hit, &sp, wo, alive);
+        lane_int conductor = surface.conductor, black_back = surface.black_back, smooth = surface.smooth;
+        lane_float3 color = surface.color;
+        GlossyLanes glossy = surface.glossy;
         aov_record_surfaces(scene, aov, &sp, color, throughput, eta_scale, alive & !smooth);
         lane_float3 emitted = emitted_radiance_lanes(scene, &sp, prev_p, ray.direction, prev_pdf_w, prev_delta);
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)),
@@ -492,7 +511,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         // numbers where rng_float takes one, so the smooth lanes give one back.
         lane_float2 u_light = rng_float2(rng);
         if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
-        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth);
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth, 1.0f);
         // A rough or plastic vertex then draws its lobe's number as a smooth one did (bsdf.h,
         // sample_bsdf: a dielectric's reflection or refraction, plastic's coat or base; a
         // conductor does not use it); the other lanes give it back.

@@ -29,7 +29,7 @@ from clrender.bvh import build_bvh
 from clrender.device import build_program
 from clrender.energy import fill_albedo_tables
 from clrender.feature_scenes import feature_scene
-from clrender.features import FEATURE_VALUES
+from clrender.features import FEATURE_VALUES, scene_features
 from clrender.render import render_params
 from clrender.triangle_blocks import triangle_blocks
 from test_layout import ORDER as STRUCT_ORDER
@@ -93,6 +93,14 @@ def run_combination(case, device):
     if not (packets or features["MEDIA"] or features["TOON"]):
         small.render = replace(small.render, integrator="direct", emitter_samples=2, bsdf_samples=3)
         info = add(info, render(small, device, launches=1))
+    if packets:
+        # The direct integrator in packets (kernels/direct_packets.h), which take no masks.
+        small.render = replace(small.render, integrator="direct", emitter_samples=2, bsdf_samples=3)
+        for material in small.materials:
+            material.opacity = 1.0
+            material.textures.pop("opacity", None)
+        assert scene_features(small, packets=True)["LANES"] == features["LANES"]
+        info = add(info, render(small, device, launches=1, packets=True))
     return info
 
 
