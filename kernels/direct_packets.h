@@ -58,7 +58,7 @@ lane_float3 trace_direct_lanes(const Scene* scene, Ray ray, lane_int alive, Rng*
     lane_float3 radiance = l3_splat(0.0f);
     LaneHit hit;
     lane_int escaped = alive;
-    alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
+    alive = closest_camera_hits(scene, ray.origin, ray.direction, alive, &hit);
 #if ENVIRONMENT != ENVIRONMENT_NONE
     escaped &= !alive;
     if (lane_any(escaped)) {

@@ -475,7 +475,8 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
     for (int depth = 1; depth <= max_depth; ++depth) {
         LaneHit hit;
         lane_int escaped = alive;
-        alive = closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
+        alive = depth == 1 ? closest_camera_hits(scene, ray.origin, ray.direction, alive, &hit)
+                           : closest_hits(scene, ray.origin, ray.direction, INFINITY, alive, &hit);
 #if TEXTURES
         lane_int ended = 0;
         alive = cross_masks(scene, &ray, alive, &hit, &radiance, throughput, prev_p, prev_pdf_w, prev_delta,

@@ -224,6 +224,26 @@ def test_packets_record_the_direct_integrators_aovs(device):
     assert hidden[1].image.sum() < results[1].image.sum()
 
 
+def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device):
+    # A packet's camera rays are walked together (kernels/bvh_packets.h); a tile starting at
+    # another column groups other pixels into packets, and each pixel's sums must stay the same
+    # bits. The tall block twice over in other colours (coincident triangles: equal distances,
+    # which the lowest slot wins whatever the walk's order) and the glass sphere, traced whole
+    # and as a tile from column 3.
+    data = json.loads((SCENES / "cornell_glass.json").read_text())
+    data["materials"] += [{"name": "red_twin", "type": "diffuse", "albedo": [0.8, 0.1, 0.1]},
+                          {"name": "blue_twin", "type": "diffuse", "albedo": [0.1, 0.1, 0.8]}]
+    tall = next(shape for shape in data["shapes"] if shape["name"] == "tall_block")
+    data["shapes"] += [dict(tall, name=f"{colour}_twin", material=f"{colour}_twin") for colour in ("red", "blue")]
+    data["camera"]["resolution"] = [40, 32]
+    scene = clrender.load_scene_dict(data, base_dir=SCENES)
+    renderer = clrender.Renderer(scene, device, packets=True)
+    assert renderer.features["LANES"] == 8
+    whole = renderer.accumulate(clrender.Accumulation.start((0, 0, 40, 32)), 3, seed=5).sums.reshape(32, 40, 4)
+    tile = renderer.accumulate(clrender.Accumulation.start((3, 0, 37, 32)), 3, seed=5).sums.reshape(32, 37, 4)
+    assert np.array_equal(tile, whole[:, 3:])
+
+
 def test_packets_cover_tiles_that_are_not_a_multiple_of_eight_wide(device):
     # 29 columns: the last work-item of each row has 5 lanes in the image and 3 outside, which
     # must neither trace nor write.
