@@ -16,7 +16,7 @@
 #if LANES == 8
 // The nearer of two hits: (t, slot) ordered by distance, then slot.
 int8 nearer_hit(float8 t, int8 slot, float8 best_t, int8 best_slot) {
-    return t < best_t | (t == best_t & slot < best_slot);
+    return (t < best_t) | ((t == best_t) & (slot < best_slot));
 }
 
 // The spheres of leaf slots first .. first + count - 1 against the rays of `lanes`, one ray at a
@@ -47,7 +47,7 @@ void intersect_sphere_leaf_lanes(__global const Sphere* spheres, int first, int 
             fc[0][i] = h.from_centre.x; fc[1][i] = h.from_centre.y; fc[2][i] = h.from_centre.z;
         }
     }
-    int8 changed = vload8(0, prim) != hit->prim | (vload8(0, t) != hit->t);
+    int8 changed = (vload8(0, prim) != hit->prim) | (vload8(0, t) != hit->t);
     hit->t = vload8(0, t);
     hit->prim = vload8(0, prim);
     hit->sphere = vload8(0, sphere);
@@ -85,7 +85,7 @@ void intersect_triangle_block_lanes(__global const TriangleBlock* blocks, int bl
         float8 b2 = (dx * qv_x + dy * qv_y + dz * qv_z) * inv_det;
         float8 t = (e2_x[k] * qv_x + e2_y[k] * qv_y + e2_z[k] * qv_z) * inv_det;
         int8 s = (int8)(slot[k]);
-        int8 hits = lanes & det != 0.0f & b1 >= 0.0f & b2 >= 0.0f & b1 + b2 <= 1.0f & t > 0.0f &
+        int8 hits = lanes & (det != 0.0f) & (b1 >= 0.0f) & (b2 >= 0.0f) & (b1 + b2 <= 1.0f) & (t > 0.0f) &
                     nearer_hit(t, s, hit->t, hit->prim);
         if (!any(hits)) continue;
         hit->t = select(hit->t, t, hits);
