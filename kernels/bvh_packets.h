@@ -97,11 +97,12 @@ void intersect_triangle_block_lanes(__global const TriangleBlock* blocks, int bl
     }
 }
 
-// The nearest hits before t_max of the rays of `active`; hit->prim is -1 where a ray meets
-// nothing (the caller clamps it).
+// The nearest hits before t_max of the rays of `active`, or with any_hit some hit of each (shadow
+// rays: a ray stops searching at its first; which one it finds depends on the order of the walk,
+// whether it finds one does not); hit->prim is -1 where a ray meets nothing (the caller clamps it).
 void traverse_bvh_packet(__global const WideBvhNode* nodes, __global const TriangleBlock* blocks,
                          __global const Sphere* spheres, lane_float3 origin, lane_float3 dir, float8 t_max,
-                         int8 active, LaneHit* hit) {
+                         int8 active, bool any_hit, LaneHit* hit) {
     // ray_slabs per lane; the near plane of an axis differs between rays, so both planes are
     // tested and ordered, each with the margins that keep the test conservative (bvh.h).
     float8 safe_x = select(copysign((float8)(1e-12f), dir.x), dir.x, fabs(dir.x) > 1e-12f);
@@ -143,14 +144,19 @@ void traverse_bvh_packet(__global const WideBvhNode* nodes, __global const Trian
                                 max8(min8(az, bz) + enter_z, (float8)(0.0f)));
             float8 exit = min8(min8(max8(ax, bx) + exit_x, max8(ay, by) + exit_y), max8(az, bz) + exit_z) *
                           (1.0f + 2.0f * 3.0f * FLT_EPSILON);
-            int8 entered = entry <= exit & entry <= hit->t;
+            int8 entered = (entry <= exit) & (entry <= hit->t) & active;
             if (!any(entered)) continue;
-            if (count[lane] > 0) {
-                intersect_triangle_block_lanes(blocks, child[lane], count[lane], origin.x, origin.y, origin.z,
-                                               dir.x, dir.y, dir.z, entered, hit);
-            } else if (count[lane] < 0) {
-                intersect_sphere_leaf_lanes(spheres, child[lane], -count[lane], origin.x, origin.y, origin.z,
-                                            dir.x, dir.y, dir.z, entered, hit);
+            if (count[lane] != 0) {
+                if (count[lane] > 0)
+                    intersect_triangle_block_lanes(blocks, child[lane], count[lane], origin.x, origin.y, origin.z,
+                                                   dir.x, dir.y, dir.z, entered, hit);
+                else
+                    intersect_sphere_leaf_lanes(spheres, child[lane], -count[lane], origin.x, origin.y, origin.z,
+                                                dir.x, dir.y, dir.z, entered, hit);
+                if (any_hit) {
+                    active &= hit->prim < 0;
+                    if (!any(active)) return;
+                }
             } else {
                 float8 e = select((float8)(INFINITY), entry, entered);
                 float4 e4 = min8(e, e.s45670123).lo;
@@ -166,7 +172,7 @@ void traverse_bvh_packet(__global const WideBvhNode* nodes, __global const Trian
                 stack_t[k] = nearest;
             }
         }
-        float8 t = hit->t;
+        float8 t = select((float8)(-INFINITY), hit->t, active);   // (any_hit: the rays still searching)
         float4 t4 = max8(t, t.s45670123).lo;
         float2 t2 = select(t4.hi, t4.lo, t4.lo > t4.hi);
         float farthest = t2.x > t2.y ? t2.x : t2.y;

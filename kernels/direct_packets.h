@@ -84,7 +84,7 @@ lane_float3 trace_direct_lanes(const Scene* scene, Ray ray, lane_int alive, Rng*
             lane_float2 u = rng_float2(rng);
             rng_give_back(rng, !lit, false);
             sum = l3_add(sum, direct_light_lanes(scene, &sp, surface.color, &surface.glossy, wo, u, lit,
-                                                 (float)n_bsdf / (float)n_light));
+                                                 (float)n_bsdf / (float)n_light, true));
         }
         radiance = l3_select(radiance, l3_add(radiance, l3_div(sum, (lane_float)((float)n_light))), lit);
     }

@@ -220,10 +220,13 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
 // The fraction of light reaching dist along the `lanes`' shadow rays from origin (path.h's
 // shadow_ray): 1 where nothing is in the way, 0 where an unmasked surface is, else the product of
 // 1 - opacity over the masks crossed (media/transport.h, shadow_transmittance); 0 in other lanes.
+// `coherent`: the rays leave adjacent camera hits, and no surface is a mask (coherent_occluders).
 lane_float shadow_transmittance_lanes(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float dist,
-                                      lane_int lanes) {
+                                      lane_int lanes, bool coherent) {
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    lane_int blocker = occluders(scene, origin, dir, dist * (1.0f - 1e-4f), lanes);
+    lane_float t_max = dist * (1.0f - 1e-4f);
+    lane_int blocker = coherent ? coherent_occluders(scene, origin, dir, t_max, lanes)
+                                : occluders(scene, origin, dir, t_max, lanes);
     lane_float tr = select((lane_float)(0.0f), (lane_float)(1.0f), lanes & (blocker < 0));
     // Any blocker ends an unmasked shadow ray; a mask needs the surfaces in order.
     lane_int through = (blocker >= 0) & material_masked_at(scene->materials, LANE_LOAD_INT(scene->info, max(blocker, (lane_int)(0)), .info.x));
@@ -249,10 +252,10 @@ lane_float shadow_transmittance_lanes(const Scene* scene, lane_float3 origin, la
 
 // Next-event estimation at the diffuse, rough and plastic vertices of `lanes` (path.h,
 // direct_light), from the 2D draw u: a light sample, a shadow ray; bsdf_share scales the BSDF
-// technique's pdf in the MIS weight as there.
+// technique's pdf in the MIS weight as there; `coherent` as shadow_transmittance_lanes.
 lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 albedo,
                                const GlossyLanes* glossy, lane_float3 wo, lane_float2 u, lane_int lanes,
-                               float bsdf_share) {
+                               float bsdf_share, bool coherent) {
     lane_float3 radiance = l3_splat(0.0f);
     if (scene->params->config.w == 0 || !lane_any(lanes)) return radiance;
     lane_float3 wi;
@@ -279,12 +282,14 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     prefetch_environment_texels(scene, env_uv, lit & environment);
 #endif
 #if TEXTURES
-    lane_float tr = shadow_transmittance_lanes(scene, spawn_ray_origin(sp, wi), wi, dist, lit);
+    lane_float tr = shadow_transmittance_lanes(scene, spawn_ray_origin(sp, wi), wi, dist, lit, coherent);
     lit &= tr > 0.0f;
     f = l3_scale(f, tr);
 #else
     // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    lit &= occluders(scene, spawn_ray_origin(sp, wi), wi, dist * (1.0f - 1e-4f), lit) < 0;
+    lane_float t_max = dist * (1.0f - 1e-4f);
+    lit &= (coherent ? coherent_occluders(scene, spawn_ray_origin(sp, wi), wi, t_max, lit)
+                     : occluders(scene, spawn_ray_origin(sp, wi), wi, t_max, lit)) < 0;
 #endif
 #if ENVIRONMENT != ENVIRONMENT_NONE
     if (lane_any(lit & environment)) le = l3_select(le, environment_radiance_at(scene, env_uv), environment);
@@ -512,7 +517,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         // numbers where rng_float takes one, so the smooth lanes give one back.
         lane_float2 u_light = rng_float2(rng);
         if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
-        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth, 1.0f);
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth, 1.0f, false);
         // A rough or plastic vertex then draws its lobe's number as a smooth one did (bsdf.h,
         // sample_bsdf: a dielectric's reflection or refraction, plastic's coat or base; a
         // conductor does not use it); the other lanes give it back.

@@ -147,7 +147,7 @@ lane_int closest_camera_hits(const Scene* scene, lane_float3 origin, lane_float3
 #if LANES == 1
     return closest_hits(scene, origin, dir, INFINITY, active, hit);
 #else
-    traverse_bvh_packet(scene->nodes, scene->blocks, scene->spheres, origin, dir, (float8)(INFINITY), active, hit);
+    traverse_bvh_packet(scene->nodes, scene->blocks, scene->spheres, origin, dir, (float8)(INFINITY), active, false, hit);
     lane_int found = active & (hit->prim >= 0);
     hit->t = select((float8)(INFINITY), hit->t, found);
     hit->prim = max(hit->prim, (int8)(0));   // not max(int8, int): Oclgrind computes that wrong
@@ -169,6 +169,15 @@ lane_int occluders(const Scene* scene, lane_float3 origin, lane_float3 dir, lane
     for (int i = 0; i < 8; ++i)
         blocker[i] = live[i] ? occluder(scene, (float3)(o[0][i], o[1][i], o[2][i]), (float3)(d[0][i], d[1][i], d[2][i]), t[i]) : -1;
     return vload8(0, blocker);
+}
+
+// occluders for shadow rays from adjacent camera hits toward one light (coherent: one walk for
+// the packet, bvh_packets.h). Which occluder a lane gets depends on its packet-mates, whether it
+// gets one does not: for callers that need no more (no masks: features.packets_cover).
+lane_int coherent_occluders(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float t_max, lane_int active) {
+    LaneHit hit;
+    traverse_bvh_packet(scene->nodes, scene->blocks, scene->spheres, origin, dir, t_max, active, true, &hit);
+    return hit.prim;
 }
 #endif
 

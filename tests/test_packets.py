@@ -224,13 +224,16 @@ def test_packets_record_the_direct_integrators_aovs(device):
     assert hidden[1].image.sum() < results[1].image.sum()
 
 
-def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device):
-    # A packet's camera rays are walked together (kernels/bvh_packets.h); a tile starting at
-    # another column groups other pixels into packets, and each pixel's sums must stay the same
-    # bits. The tall block twice over in other colours (coincident triangles: equal distances,
-    # which the lowest slot wins whatever the walk's order) and the glass sphere, traced whole
-    # and as a tile from column 3.
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device, integrator):
+    # A packet's camera rays are walked together (kernels/bvh_packets.h), and so are the direct
+    # integrator's shadow rays from them; a tile starting at another column groups other pixels
+    # into packets, and each pixel's sums must stay the same bits. The tall block twice over in
+    # other colours (coincident triangles: equal distances, which the lowest slot wins whatever
+    # the walk's order; shadows cast by three blocks) and the glass sphere, traced whole and as
+    # a tile from column 3.
     data = json.loads((SCENES / "cornell_glass.json").read_text())
+    data.setdefault("render", {})["integrator"] = integrator
     data["materials"] += [{"name": "red_twin", "type": "diffuse", "albedo": [0.8, 0.1, 0.1]},
                           {"name": "blue_twin", "type": "diffuse", "albedo": [0.1, 0.1, 0.8]}]
     tall = next(shape for shape in data["shapes"] if shape["name"] == "tall_block")

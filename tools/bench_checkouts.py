@@ -66,7 +66,7 @@ def main():
     args = parser.parse_args()
     a, b = args.a.resolve(), args.b.resolve()
     scenes = [str(Path(s).resolve()) for s in args.scenes]
-    run(a, scenes, 1, 1), run(b, scenes, 1, 1)   # kernel builds into the caches
+    run(a, scenes, args.spp, 1), run(b, scenes, args.spp, 1)   # kernel builds into the caches
     ratios = {}
     for number in range(args.rounds):
         order = (a, b) if number % 2 == 0 else (b, a)
