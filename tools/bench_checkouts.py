@@ -6,7 +6,7 @@ threads run in it; less sensitive than wall time to other work on the machine); 
 per round (same load), and its median over the rounds.
 
     python3 tools/bench_checkouts.py /work/main . [--scenes scenes/cornell_box.json ...]
-                                     [--rounds 5] [--renders 3] [--spp 16]
+                                     [--rounds 5] [--renders 3] [--spp 16] [--packets-only]
 
 Each process imports clrender from its checkout (PYTHONPATH) and runs there, with the scenes'
 absolute paths; kernel caches are warm after the first round.
@@ -25,7 +25,7 @@ DEFAULT_SCENES = ("scenes/cornell_box.json", "scenes/cornell_glass.json", "scene
 CHILD = """
 import json, os, statistics, sys
 import clrender
-spp, renders, scenes = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3:]
+spp, renders, kernels, scenes = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3], sys.argv[4:]
 
 def samples_per_cpu_second(renderer, seed):
     before = os.times()
@@ -35,7 +35,7 @@ def samples_per_cpu_second(renderer, seed):
 
 rates = {}
 for path in scenes:
-    for packets in (False, True):
+    for packets in {"both": (False, True), "packets": (True,)}[kernels]:
         renderer = clrender.Renderer(clrender.load_scene(path), packets=packets)
         if packets and renderer.features["LANES"] == 1:
             continue
@@ -46,9 +46,9 @@ print(json.dumps(rates))
 """
 
 
-def run(checkout, scenes, spp, renders):
+def run(checkout, scenes, spp, renders, kernels):
     env = dict(os.environ, PYTHONPATH=str(checkout))
-    done = subprocess.run([sys.executable, "-c", CHILD, str(spp), str(renders), *scenes], cwd=checkout, env=env,
+    done = subprocess.run([sys.executable, "-c", CHILD, str(spp), str(renders), kernels, *scenes], cwd=checkout, env=env,
                           capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{checkout}: {done.stderr[-3000:]}")
@@ -63,14 +63,16 @@ def main():
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--renders", type=int, default=3)
     parser.add_argument("--spp", type=int, default=16)
+    parser.add_argument("--packets-only", action="store_true", help="skip the megakernel's renders")
     args = parser.parse_args()
     a, b = args.a.resolve(), args.b.resolve()
     scenes = [str(Path(s).resolve()) for s in args.scenes]
-    run(a, scenes, args.spp, 1), run(b, scenes, args.spp, 1)   # kernel builds into the caches
+    kernels = "packets" if args.packets_only else "both"
+    run(a, scenes, args.spp, 1, kernels), run(b, scenes, args.spp, 1, kernels)   # kernel builds into the caches
     ratios = {}
     for number in range(args.rounds):
         order = (a, b) if number % 2 == 0 else (b, a)
-        rates = {checkout: run(checkout, scenes, args.spp, args.renders) for checkout in order}
+        rates = {checkout: run(checkout, scenes, args.spp, args.renders, kernels) for checkout in order}
         for name in rates[a]:
             ratios.setdefault(name, []).append(rates[b][name] / rates[a][name])
         print(f"round {number + 1}: " + ", ".join(f"{name} {ratios[name][-1]:.3f}" for name in ratios), flush=True)
