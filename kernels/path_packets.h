@@ -216,6 +216,16 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
     return radiance;
 }
 
+// Some surface (its primitive slot) on each of the `lanes`' shadow rays from origin to dist, short
+// of the light's own surface; -1 where there is none. `coherent`: the rays leave adjacent camera
+// hits and the caller does not ask which surface blocks them (coherent_occluders).
+lane_int shadow_blockers(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float dist, lane_int lanes,
+                         bool coherent) {
+    // A relative margin, valid at every scene scale.
+    lane_float t_max = dist * (1.0f - 1e-4f);
+    return coherent ? coherent_occluders(scene, origin, dir, t_max, lanes) : occluders(scene, origin, dir, t_max, lanes);
+}
+
 #if TEXTURES
 // The fraction of light reaching dist along the `lanes`' shadow rays from origin (path.h's
 // shadow_ray): 1 where nothing is in the way, 0 where an unmasked surface is, else the product of
@@ -223,10 +233,7 @@ lane_float3 sample_light_lanes(const Scene* scene, lane_float3 p, lane_float2 u,
 // `coherent`: the rays leave adjacent camera hits, and no surface is a mask (coherent_occluders).
 lane_float shadow_transmittance_lanes(const Scene* scene, lane_float3 origin, lane_float3 dir, lane_float dist,
                                       lane_int lanes, bool coherent) {
-    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    lane_float t_max = dist * (1.0f - 1e-4f);
-    lane_int blocker = coherent ? coherent_occluders(scene, origin, dir, t_max, lanes)
-                                : occluders(scene, origin, dir, t_max, lanes);
+    lane_int blocker = shadow_blockers(scene, origin, dir, dist, lanes, coherent);
     lane_float tr = select((lane_float)(0.0f), (lane_float)(1.0f), lanes & (blocker < 0));
     // Any blocker ends an unmasked shadow ray; a mask needs the surfaces in order.
     lane_int through = (blocker >= 0) & material_masked_at(scene->materials, LANE_LOAD_INT(scene->info, max(blocker, (lane_int)(0)), .info.x));
@@ -286,10 +293,7 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     lit &= tr > 0.0f;
     f = l3_scale(f, tr);
 #else
-    // Stop short of the light's own surface by a relative margin, valid at every scene scale.
-    lane_float t_max = dist * (1.0f - 1e-4f);
-    lit &= (coherent ? coherent_occluders(scene, spawn_ray_origin(sp, wi), wi, t_max, lit)
-                     : occluders(scene, spawn_ray_origin(sp, wi), wi, t_max, lit)) < 0;
+    lit &= shadow_blockers(scene, spawn_ray_origin(sp, wi), wi, dist, lit, coherent) < 0;
 #endif
 #if ENVIRONMENT != ENVIRONMENT_NONE
     if (lane_any(lit & environment)) le = l3_select(le, environment_radiance_at(scene, env_uv), environment);
@@ -517,7 +521,15 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         // numbers where rng_float takes one, so the smooth lanes give one back.
         lane_float2 u_light = rng_float2(rng);
         if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
-        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth, 1.0f, false);
+        // The camera hits' shadow rays as one packet where no surface can be a mask: masks (a
+        // TEXTURES feature) read which surface blocks a ray, and that depends on the packet.
+#if TEXTURES
+        bool coherent_shadows = false;
+#else
+        bool coherent_shadows = depth == 1;
+#endif
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth, 1.0f,
+                                                coherent_shadows);
         // A rough or plastic vertex then draws its lobe's number as a smooth one did (bsdf.h,
         // sample_bsdf: a dielectric's reflection or refraction, plastic's coat or base; a
         // conductor does not use it); the other lanes give it back.

@@ -226,8 +226,9 @@ def test_packets_record_the_direct_integrators_aovs(device):
 
 @pytest.mark.parametrize("integrator", ["path", "direct"])
 def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device, integrator):
-    # A packet's camera rays are walked together (kernels/bvh_packets.h), and so are the direct
-    # integrator's shadow rays from them; a tile starting at another column groups other pixels
+    # A packet's camera rays are walked together (kernels/bvh_packets.h), and so are the shadow
+    # rays from their hits (the path tracer's where no surface is a mask, as in this scene); a
+    # tile starting at another column groups other pixels
     # into packets, and each pixel's sums must stay the same bits. The tall block twice over in
     # other colours (coincident triangles: equal distances, which the lowest slot wins whatever
     # the walk's order; shadows cast by three blocks) and the glass sphere, traced whole and as

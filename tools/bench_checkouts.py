@@ -40,7 +40,7 @@ for path in scenes:
         if packets and renderer.features["LANES"] == 1:
             continue
         renderer.render(spp=1, seed=0)
-        name = f"{path.rsplit('/', 1)[-1]} {'packets' if packets else 'megakernel'}"
+        name = f"{path} {'packets' if packets else 'megakernel'}"
         rates[name] = statistics.median(samples_per_cpu_second(renderer, s) for s in range(renders))
 print(json.dumps(rates))
 """
@@ -53,6 +53,16 @@ def run(checkout, scenes, spp, renders, kernels):
     if done.returncode != 0:
         raise RuntimeError(f"{checkout}: {done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def short_names(paths):
+    """Each path's shortest tail of folders that no other path ends with (mirrored scenes share
+    file names: .../real-mitsuba-cbox-256x256/independent/cbox.xml)."""
+    for depth in range(1, max(len(Path(p).parts) for p in paths) + 1):
+        names = {p: "/".join(Path(p).parts[-depth:]) for p in paths}
+        if len(set(names.values())) == len(paths):
+            return names
+    return {p: p for p in paths}
 
 
 def main():
@@ -69,12 +79,14 @@ def main():
     scenes = [str(Path(s).resolve()) for s in args.scenes]
     kernels = "packets" if args.packets_only else "both"
     run(a, scenes, args.spp, 1, kernels), run(b, scenes, args.spp, 1, kernels)   # kernel builds into the caches
+    names = short_names(scenes)
     ratios = {}
     for number in range(args.rounds):
         order = (a, b) if number % 2 == 0 else (b, a)
         rates = {checkout: run(checkout, scenes, args.spp, args.renders, kernels) for checkout in order}
-        for name in rates[a]:
-            ratios.setdefault(name, []).append(rates[b][name] / rates[a][name])
+        for key in rates[a]:
+            path, kernel = key.rsplit(" ", 1)
+            ratios.setdefault(f"{names[path]} {kernel}", []).append(rates[b][key] / rates[a][key])
         print(f"round {number + 1}: " + ", ".join(f"{name} {ratios[name][-1]:.3f}" for name in ratios), flush=True)
     print(f"\nsamples per CPU second, {b} / {a}: median of {args.rounds} rounds (min-max)")
     for name, values in ratios.items():
