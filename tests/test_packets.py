@@ -228,11 +228,10 @@ def test_packets_record_the_direct_integrators_aovs(device):
 def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device, integrator):
     # A packet's camera rays are walked together (kernels/bvh_packets.h), and so are the shadow
     # rays from their hits (the path tracer's where no surface is a mask, as in this scene); a
-    # tile starting at another column groups other pixels
-    # into packets, and each pixel's sums must stay the same bits. The tall block twice over in
-    # other colours (coincident triangles: equal distances, which the lowest slot wins whatever
-    # the walk's order; shadows cast by three blocks) and the glass sphere, traced whole and as
-    # a tile from column 3.
+    # tile starting at another column groups other pixels into packets, and each pixel's sums
+    # must stay the same bits. The tall block twice over in other colours (coincident triangles:
+    # equal distances, which the lowest slot wins whatever the walk's order; shadows cast by
+    # three blocks) and the glass sphere, traced whole and as a tile from column 3.
     data = json.loads((SCENES / "cornell_glass.json").read_text())
     data.setdefault("render", {})["integrator"] = integrator
     data["materials"] += [{"name": "red_twin", "type": "diffuse", "albedo": [0.8, 0.1, 0.1]},

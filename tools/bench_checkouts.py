@@ -57,8 +57,8 @@ def run(checkout, scenes, spp, renders, kernels):
 
 def short_names(paths):
     """Each path's shortest tail of folders that no other path ends with (mirrored scenes share
-    file names: .../real-mitsuba-cbox-256x256/independent/cbox.xml)."""
-    for depth in range(1, max(len(Path(p).parts) for p in paths) + 1):
+    file names: .../real-mitsuba-cbox-256x256/independent/cbox.xml), else the whole path."""
+    for depth in range(1, max(len(Path(p).parts) for p in paths)):
         names = {p: "/".join(Path(p).parts[-depth:]) for p in paths}
         if len(set(names.values())) == len(paths):
             return names
