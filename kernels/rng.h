@@ -7,18 +7,18 @@
 //   "Practical Hash-based Owen Scrambling" (JCGT 2020). The counter is a dimension: each draw
 //   (rng_float or rng_float2) takes the next one. A pixel's samples in dimension d are the 2D
 //   Sobol (0,2)-sequence (dimensions 0 and 1), each coordinate Owen-scrambled and the sample
-//   index shuffled by a nested uniform scramble, all seeded by hash(pixel, d, seed); the
-//   scrambles of different dimensions are independent, so a path's numbers are as independent as
-//   with hashing while the samples of one pixel stratify every 2D draw.
+//   index permuted at random within its octave (sobol_shuffled_index), all seeded by
+//   hash(pixel, d, seed); the scrambles of different dimensions are independent, so a path's
+//   numbers are as independent as with hashing while the samples of one pixel stratify every 2D
+//   draw.
 #ifndef CLRENDER_RNG_H
 #define CLRENDER_RNG_H
 #include "lanes.h"
 
 // SAMPLER_INDEPENDENT, SAMPLER_SOBOL: clrender/layout.py SAMPLERS.
-// index_reversed: the sample index with its bits reversed, the form the index scramble needs
-// (reversed once per path, not once per draw). Per lane (lanes.h): the lanes of a work-item
-// draw in step, and their counters differ only where a lane's draw takes fewer numbers.
-typedef struct { lane_uint key; lane_uint counter; lane_uint index_reversed; int sampler; } Rng;
+// index: the sample index (Sobol's). Per lane (lanes.h): the lanes of a work-item draw in step,
+// and their counters differ only where a lane's draw takes fewer numbers.
+typedef struct { lane_uint key; lane_uint counter; lane_uint index; int sampler; } Rng;
 
 // "lowbias32" integer hash (C. Wellons, 2018): full avalanche with two multiplies.
 lane_uint hash_u32(lane_uint x) {
@@ -45,7 +45,7 @@ Rng rng_for_sample(lane_uint pixel, uint sample, uint seed) {
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(sample ^ hash_u32(seed ^ 0x5bd1e995u)));
     rng.counter = 0u;
-    rng.index_reversed = 0u;   // unused by the independent generator
+    rng.index = 0u;   // unused by the independent generator
     rng.sampler = SAMPLER_INDEPENDENT;
     return rng;
 }
@@ -56,7 +56,7 @@ Rng rng_for_path(lane_uint pixel, uint sample, uint seed, int sampler) {
     Rng rng;
     rng.key = hash_u32(pixel ^ hash_u32(seed ^ 0x2c1b3c6du));   // not the sample: scrambles are per pixel
     rng.counter = 0u;
-    rng.index_reversed = reverse_bits(sample);
+    rng.index = sample;
     rng.sampler = SAMPLER_SOBOL;
     return rng;
 }
@@ -115,10 +115,32 @@ SobolSeeds sobol_dimension_seeds(const Rng* rng) {
     return seeds;
 }
 
-// The sample index of the current dimension, shuffled by a nested uniform scramble (its first
-// reversal done once in rng_for_path).
+// A random permutation of 0 .. mask (mask = 2^k - 1) chosen by `seed`: four rounds of an odd
+// multiply (low bits into high) and a xor-shift by about k / 2 (high bits into low), each a
+// bijection of k bits. (Kensler's hash, tried first, hardly mixes bits into bit 0 for k <= 5: the
+// first halves of two dimensions' octaves then coincided.)
+lane_uint permute_bits(lane_uint i, lane_uint mask, lane_uint seed) {
+    lane_uint shift = max((lane_uint)(1u), (32u - clz(mask)) >> 1);
+    i = ((i ^ seed) * ((seed >> 7) | 1u)) & mask;
+    i ^= i >> shift;
+    i = ((i + (seed >> 13)) * 0x9e3779b9u) & mask;
+    i ^= i >> shift;
+    i = ((i ^ (seed >> 19)) * 0x85ebca6bu) & mask;
+    i ^= i >> shift;
+    i = ((i + (seed >> 25)) * 0xc2b2ae35u) & mask;
+    return i ^ (i >> shift);
+}
+
+// The sample index of the current dimension: the index permuted at random within its octave
+// [2^j, 2^(j+1)) (0 and 1 stay). The first 2^k samples of a pixel are then Sobol's first 2^k
+// points in every dimension, a (0,2)-net however many samples the render takes, and which point
+// of one dimension goes with which of another is random, as in pbrt-v4's padded Sobol sampler and
+// Mitsuba's ldsampler (there over all of a render's samples, which needs their count). A nested
+// uniform scramble of the index (Burley 2020), used before, keeps the pairs {2m, 2m + 1} together
+// in every dimension: the teapot's variance at 64 spp was 1.15x (docs/performance.md).
 lane_uint sobol_shuffled_index(const Rng* rng, lane_uint seed) {
-    return reverse_bits(laine_karras_permutation(rng->index_reversed, seed));
+    lane_uint below_octave = ((lane_uint)(0xffffffffu) >> clz(rng->index | 1u)) >> 1;
+    return (rng->index & ~below_octave) | permute_bits(rng->index & below_octave, below_octave, seed);
 }
 
 // Uniform in [0, 1): 24 random mantissa bits, so 1.0f is never returned.
