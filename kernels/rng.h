@@ -104,14 +104,17 @@ lane_uint owen_sobol1(lane_uint index, lane_uint seed) {
 // generator's seed of the current dimension.
 lane_uint hash_of_counter(const Rng* rng) { return hash_u32(rng->key + rng->counter * 0x9e3779b9u); }
 
-// The current dimension's seeds: one hash of (pixel, seed, dimension), then the index shuffle's
-// seed and the two coordinates' scramble seeds as its products with distinct odd constants
-// (bijections of the hash, so each is as uniform as the hash; a hash apiece would sit on the
-// path's dependency chain).
+// The current dimension's seeds: one hash of (pixel, seed, dimension), then the index
+// permutation's seed and the two coordinates' scramble seeds as its products with distinct odd
+// constants, rotated (bijections of the hash, so each is as uniform as the hash; a hash apiece
+// would sit on the path's dependency chain). The rotation brings a product's high bits, which
+// every bit of the hash moves, to the low bits that decide a scramble's first digits: the
+// products' own low bits are the hash's (bit 0 of both, so a point's coordinates took the same
+// first-digit flip, and sample 0 of every pixel lay in two of the four quadrants).
 typedef struct { lane_uint index; lane_uint x; lane_uint y; } SobolSeeds;
 SobolSeeds sobol_dimension_seeds(const Rng* rng) {
     lane_uint h = hash_of_counter(rng);
-    SobolSeeds seeds = {h, h * 0x2c1b3c6du, h * 0x297a2d39u};
+    SobolSeeds seeds = {h, rotate(h * 0x2c1b3c6du, (lane_uint)(16u)), rotate(h * 0x297a2d39u, (lane_uint)(8u))};
     return seeds;
 }
 

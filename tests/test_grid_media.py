@@ -721,7 +721,12 @@ def test_rays_grazing_the_grid_box(device, method):
         assert result.discarded_samples == 0 and np.all(np.isfinite(result.image))
         assert np.all(result.image[:4] == 1.0)     # above the face: nothing in the way
         if position[2] == 0:
-            assert np.all(result.image[5:] < 1e-3)  # below: through 2 units of sigma_a = 4
+            # Below: through 2 units of sigma_a = 4. Each sample's path crosses the box unabsorbed
+            # with probability e^-8 (the tracking's estimate of an absorber is 0 or 1 per
+            # sample), so of these 36 pixels' 144 samples three or more escape with probability
+            # 2e-5; a ray the box test lost escapes every time (all 4 samples of its pixel).
+            escaped = np.rint(result.image[5:, :, 0].sum() * 4)
+            assert escaped <= 2, escaped
 
 
 @pytest.mark.parametrize("method", ["null", "raymarch"])

@@ -144,3 +144,16 @@ def test_dimensions_pair_their_points_at_random(context, queue):
         both_low = np.sum((points[:, :, a, u] < 0.5) & (points[:, :, b, v] < 0.5), axis=1)
         assert abs(both_low.mean() - 16) < 5 * np.sqrt(expected / 4096)
         assert abs(both_low.var(ddof=1) - expected) < tolerance, (a, u, b, v, both_low.var(ddof=1), expected)
+
+
+def test_each_sample_is_uniform_over_the_square(context, queue):
+    """Sample i of a pixel, for each small i alone, lies anywhere in the unit square with equal
+    probability (over pixels), in every dimension: what makes a render of few samples unbiased.
+    Chi-square of 8 x 8 cells over 4096 pixels. Scramble seeds of a dimension's two coordinates
+    that share their lowest bits flip both first digits alike: sample 0 then keeps to two of the
+    four quadrants."""
+    points = path_samples(context, queue, "sobol", 4096, 4, 3)
+    for i in range(4):
+        for d in range(3):
+            statistic, bound = chi_square_2d(points[:, i, d, 0], points[:, i, d, 1])
+            assert statistic < bound, (i, d, statistic)
