@@ -370,9 +370,8 @@ def test_a_scene_scaled_by_any_factor_renders_as_the_original(factor):
     """Only the rounding of the scaled coordinates (float64 to float32, one ulp of a vertex)
     differs. A path bouncing near the box's corners, where distances are small, magnifies that
     rounding several hundred times: over seeds 1-60 a pixel of these 4-spp images differed by
-    up to 2.7e-5 of its value (5.4e-5 with the sampler's octave permutation, which draws other
-    paths), so 1e-4; a scale bug (lengths in absolute units, underflow) changes pixels by far
-    more, or makes them black or NaN."""
+    up to 5.4e-5 of its value, so 1e-4; a scale bug (lengths in absolute units, underflow)
+    changes pixels by far more, or makes them black or NaN."""
     reference = clrender.render(scaled_cornell(1.0), spp=4, seed=3, device=TEST_DEVICE)
     scaled = clrender.render(scaled_cornell(factor), spp=4, seed=3, device=TEST_DEVICE)
     np.testing.assert_allclose(scaled, reference, rtol=1e-4, atol=1e-6)

@@ -717,7 +717,8 @@ def test_rays_grazing_the_grid_box(device, method):
                 "media": [medium], "medium": "m", "materials": [],
                 "lights": [{"type": "environment", "radiance": 1.0}], "render": {"max_depth": 8}}
         renderer = clrender.Renderer(clrender.load_scene_dict(data), device, volume_method=method)
-        result = renderer.render(spp=4, seed=2)
+        spp = 4
+        result = renderer.render(spp=spp, seed=2)
         assert result.discarded_samples == 0 and np.all(np.isfinite(result.image))
         assert np.all(result.image[:4] == 1.0)     # above the face: nothing in the way
         if position[2] == 0:
@@ -725,7 +726,7 @@ def test_rays_grazing_the_grid_box(device, method):
             # with probability e^-8 (the tracking's estimate of an absorber is 0 or 1 per
             # sample), so of these 36 pixels' 144 samples three or more escape with probability
             # 2e-5; a ray the box test lost escapes every time (all 4 samples of its pixel).
-            escaped = np.rint(result.image[5:, :, 0].sum() * 4)
+            escaped = np.rint(result.image[5:, :, 0].sum() * spp)
             assert escaped <= 2, escaped
 
 

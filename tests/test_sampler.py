@@ -3,7 +3,8 @@
 sobol: bit-exact against Burley's construction with Sobol's generator matrices (the kernel uses
 shortcuts), every 2D draw of one pixel's first 2^k samples stratified as a (0,2)-sequence,
 values in [0, 1), draws of different dimensions and pixels independent (chi-square with its
-mean + 5 sd bound), and the points of different dimensions paired at random. Splitting invariance is covered by test_determinism.py (default sampler).
+mean + 5 sd bound), the points of different dimensions paired at random, and each sample uniform
+on its own. Splitting invariance is covered by test_determinism.py (default sampler).
 """
 import numpy as np
 import pyopencl as cl
@@ -132,7 +133,7 @@ def test_dimensions_pair_their_points_at_random(context, queue):
     """Which of a pixel's points one dimension gives a sample does not tell which another gives
     it: the count of a pixel's 64 samples whose first coordinate lies below 1/2 in both of two
     dimensions varies over pixels as with each octave [2^j, 2^(j+1)) of the sample index
-    permuted at random (rng.h, sobol_shuffled_index): hypergeometric per octave, 4.53 in all.
+    permuted at random (rng.h, sobol_shuffled_index): hypergeometric per octave, 4.54 in all.
     Bound: 5 standard errors of a variance over 4096 pixels. A nested uniform scramble of the
     index, which keeps the pairs {2m, 2m + 1} together in every dimension, gives about 8 and
     raised the teapot's variance by a third; a permutation that hardly moves the index's lowest
