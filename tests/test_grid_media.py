@@ -13,7 +13,6 @@ import pytest
 import clrender
 from clrender import grids
 from clrender.arrays import build_scene_arrays
-from clrender.features import scene_features
 from clrender.render import render_params
 from conftest import build_test_kernels, camera, z_bound
 
