@@ -68,7 +68,13 @@ BsdfSample sample_dielectric_delta(lane_float3 reflect_tint, lane_float3 tint, l
     lane_float3 wt = bs.wi;
     lane_int refracts = refract(wo, n, eta, &wt);
     lane_int wrong_side = (!reflected) & refracts & (l3_dot(wt, ng) >= 0.0f);
-    if (lane_any(wrong_side)) refracts = select(refracts, refract(wo, ng, eta, &wt), wrong_side);
+    if (lane_any(wrong_side)) {
+        // Into a vector of its own: refract writes every lane that refracts about ng, and the
+        // other lanes' directions must not depend on their packet.
+        lane_float3 wt_ng = wt;
+        refracts = select(refracts, refract(wo, ng, eta, &wt_ng), wrong_side);
+        wt = l3_select(wt, wt_ng, wrong_side);
+    }
     reflected = reflected | !refracts;
     lane_float3 wr = reflect(wo, n);
     lane_int below = l3_dot(wr, ng) <= 0.0f;
