@@ -1,13 +1,14 @@
 """The noise of clrender's estimator against Mitsuba 3's on real scenes, at equal spp and without
 timing: both renderers render --seeds images of --spp samples of each scene with the same
-integrator and their independent samplers (tools/real_scenes.py mirrors the scene as
+integrator and their independent samplers, or Mitsuba's `ldsampler` against clrender's Sobol
+points (--mitsuba-sampler ldsampler --clrender-sampler sobol) (tools/real_scenes.py mirrors the scene as
 tools/peers.py --real-scenes does), once per --filters choice: `box` (every film's reconstruction
 filter replaced by the box, so every sample counts in its own pixel in both renderers: the
 estimators alone) and `scene` (the scene's own filter).
 
     python tools/variance.py ../shared/real-scenes/ppg-torus ... [--size 64] [--spp 64] [--seeds 48]
                              [--filters box scene] [--clrender-sampler independent|sobol]
-                             [--filter-method splat|importance]
+                             [--filter-method splat|importance] [--mitsuba-sampler independent|ldsampler]
     python tools/variance.py --test-scenes [NAME ...] --size 16 --spp 128 --seeds 16
 
 With --test-scenes, the scenes of tests/mitsuba_scenes.py (test_mitsuba_parity.py's; their filter
@@ -89,13 +90,14 @@ def splat_factor(f):
     return float((np.trapezoid(values, t) ** 2 / np.trapezoid(values ** 2, t)) ** 2)
 
 
-def compare(xml, params, choice, args):
-    """The table's cells after the scene for the mirrored scene `xml` and filter `choice`."""
+def compare(xml, theirs_xml, params, choice, args):
+    """The table's cells after the scene for the mirrored scene `xml` (Mitsuba's `theirs_xml`, the
+    same with its sampler) and filter `choice`."""
     from clrender.metrics import variance_ratio
 
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     ours = render_clrender(xml, params, args.spp, seeds, args.clrender_sampler, args.filter_method)
-    theirs = render_mitsuba(xml, params, args.spp, seeds, args.variant)
+    theirs = render_mitsuba(theirs_xml, params, args.spp, seeds, args.variant)
     ratio, error = variance_ratio(ours, theirs)
     v_ours, v_theirs = pixel_variances(ours), pixel_variances(theirs)
     f = scene_camera(xml, params).filter
@@ -107,14 +109,17 @@ def compare(xml, params, choice, args):
 
 
 def real_scene_cases(paths, args, scratch):
-    """(row label, mirrored XML, -D parameters, filter choice) of each real scene and filter."""
+    """(row label, mirrored XML, Mitsuba's (its sampler --mitsuba-sampler), -D parameters, filter
+    choice) of each real scene and filter."""
     for xml in real_scenes.scene_files(paths):
         name, params = real_scenes.scene_name(xml), real_scenes.parameters(xml)
         size = real_scenes.film_size(scene_camera(xml, params).resolution, args.size)
         for choice in args.filters:
-            mirrored = real_scenes.mirror(xml, Path(scratch) / f"{name}-{choice}", size, "independent",
-                                          rfilter="box" if choice == "box" else None)
-            yield f"{name} ({size[0]}x{size[1]})", mirrored, params, choice
+            rfilter = "box" if choice == "box" else None
+            mirrors = {sampler: real_scenes.mirror(xml, Path(scratch) / f"{name}-{choice}-{sampler}", size, sampler,
+                                                   rfilter=rfilter)
+                       for sampler in {"independent", args.mitsuba_sampler}}
+            yield f"{name} ({size[0]}x{size[1]})", mirrors["independent"], mirrors[args.mitsuba_sampler], params, choice
 
 
 def test_scene_cases(names, args, scratch):
@@ -125,8 +130,8 @@ def test_scene_cases(names, args, scratch):
 
     for name in names or sorted(mitsuba_scenes.SCENES):
         (Path(scratch) / name).mkdir()
-        yield f"{name} ({args.size}x{args.size})", mitsuba_scenes.write(Path(scratch) / name, name), \
-            {"res": str(args.size)}, "scene"
+        xml = mitsuba_scenes.write(Path(scratch) / name, name)
+        yield f"{name} ({args.size}x{args.size})", xml, xml, {"res": str(args.size)}, "scene"
 
 
 def main():
@@ -141,9 +146,13 @@ def main():
     parser.add_argument("--filters", nargs="+", choices=("box", "scene"), default=["box", "scene"])
     parser.add_argument("--clrender-sampler", choices=("independent", "sobol"), default="independent")
     parser.add_argument("--variant", default="llvm_ad_rgb")
+    parser.add_argument("--mitsuba-sampler", choices=("independent", "ldsampler"), default="independent",
+                        help="Mitsuba's sampler on the real scenes (the test scenes keep their own)")
     parser.add_argument("--filter-method", choices=("splat", "importance"),
                         help="clrender's render.filter_method (default: the scene's, splat)")
     args = parser.parse_args()
+    if args.test_scenes is not None and args.mitsuba_sampler != "independent":
+        parser.error("--mitsuba-sampler applies to real scenes; the test scenes keep their own sampler")
     if Path(DEBIAN_LLVM).is_file():
         os.environ.setdefault("DRJIT_LIBLLVM_PATH", DEBIAN_LLVM)
     from clrender.bench import markdown_table
@@ -152,11 +161,11 @@ def main():
     with tempfile.TemporaryDirectory() as scratch:
         cases = (test_scene_cases(args.test_scenes, args, scratch) if args.test_scenes is not None
                  else real_scene_cases(args.scenes, args, scratch))
-        for label, xml, params, choice in cases:
-            rows.append([label] + compare(xml, params, choice, args))
+        for label, xml, theirs_xml, params, choice in cases:
+            rows.append([label] + compare(xml, theirs_xml, params, choice, args))
             print(" | ".join(rows[-1]), flush=True)
     print(f"\n{args.spp} spp, {args.seeds} seeds ({args.first_seed}..{args.first_seed + args.seeds - 1}) per renderer; clrender's sampler "
-          f"{args.clrender_sampler}, filter method {args.filter_method or 'splat'}, Mitsuba's independent ({args.variant}); variance: mean over pixels and "
+          f"{args.clrender_sampler}, filter method {args.filter_method or 'splat'}, Mitsuba's {args.mitsuba_sampler} ({args.variant}); variance: mean over pixels and "
           f"channels of one image's per-pixel variance across the seeds\n")
     print(markdown_table(["scene (size)", "filter", "clrender variance", "Mitsuba variance",
                           "clrender / Mitsuba", "(99 % of pixels)", "(median pixels)", "splat", "means"], rows))
