@@ -1,10 +1,10 @@
 """The noise of clrender's estimator against Mitsuba 3's on real scenes, at equal spp and without
 timing: both renderers render --seeds images of --spp samples of each scene with the same
-integrator and their independent samplers, or Mitsuba's `ldsampler` against clrender's Sobol
-points (--mitsuba-sampler ldsampler --clrender-sampler sobol) (tools/real_scenes.py mirrors the scene as
-tools/peers.py --real-scenes does), once per --filters choice: `box` (every film's reconstruction
-filter replaced by the box, so every sample counts in its own pixel in both renderers: the
-estimators alone) and `scene` (the scene's own filter).
+integrator and their independent samplers (or, with --mitsuba-sampler ldsampler
+--clrender-sampler sobol, Mitsuba's low-discrepancy sampler against clrender's Sobol points;
+tools/real_scenes.py mirrors the scene as tools/peers.py --real-scenes does), once per --filters
+choice: `box` (every film's reconstruction filter replaced by the box, so every sample counts in
+its own pixel in both renderers: the estimators alone) and `scene` (the scene's own filter).
 
     python tools/variance.py ../shared/real-scenes/ppg-torus ... [--size 64] [--spp 64] [--seeds 48]
                              [--filters box scene] [--clrender-sampler independent|sobol]
@@ -119,7 +119,8 @@ def real_scene_cases(paths, args, scratch):
             mirrors = {sampler: real_scenes.mirror(xml, Path(scratch) / f"{name}-{choice}-{sampler}", size, sampler,
                                                    rfilter=rfilter)
                        for sampler in {"independent", args.mitsuba_sampler}}
-            yield f"{name} ({size[0]}x{size[1]})", mirrors["independent"], mirrors[args.mitsuba_sampler], params, choice
+            yield (f"{name} ({size[0]}x{size[1]})", mirrors["independent"], mirrors[args.mitsuba_sampler], params,
+                   choice)
 
 
 def test_scene_cases(names, args, scratch):
@@ -164,9 +165,10 @@ def main():
         for label, xml, theirs_xml, params, choice in cases:
             rows.append([label] + compare(xml, theirs_xml, params, choice, args))
             print(" | ".join(rows[-1]), flush=True)
-    print(f"\n{args.spp} spp, {args.seeds} seeds ({args.first_seed}..{args.first_seed + args.seeds - 1}) per renderer; clrender's sampler "
-          f"{args.clrender_sampler}, filter method {args.filter_method or 'splat'}, Mitsuba's {args.mitsuba_sampler} ({args.variant}); variance: mean over pixels and "
-          f"channels of one image's per-pixel variance across the seeds\n")
+    print(f"\n{args.spp} spp, {args.seeds} seeds ({args.first_seed}..{args.first_seed + args.seeds - 1}) per renderer; "
+          f"clrender's sampler {args.clrender_sampler}, filter method {args.filter_method or 'splat'}, Mitsuba's "
+          f"{args.mitsuba_sampler} ({args.variant}); variance: mean over pixels and channels of one image's per-pixel "
+          f"variance across the seeds\n")
     print(markdown_table(["scene (size)", "filter", "clrender variance", "Mitsuba variance",
                           "clrender / Mitsuba", "(99 % of pixels)", "(median pixels)", "splat", "means"], rows))
     print(f"\n`python tools/variance.py {' '.join(sys.argv[1:])}`")
