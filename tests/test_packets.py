@@ -257,6 +257,21 @@ def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device, integr
     assert np.array_equal(tile, whole[:, 3:])
 
 
+@pytest.mark.parametrize("name", ["plastic_cornell_glass", "mirror_cornell_box", "rough_mirror_cornell_box",
+                                  "frosted_skytexels_cornell_glass", "lit_cornell_glass", "bulbs_cornell_box",
+                                  "masked_cornell_box"])
+def test_paths_do_not_depend_on_which_pixels_share_a_packet(device, name):
+    # Nothing a lane computes may depend on its packet-mates, whatever materials and lights the
+    # packet mixes (a helper that writes all lanes' outputs is called into a variable of its
+    # own and selected where it applies): each pixel's sums keep their bits in a tile that starts
+    # at column 3, whose packets group other pixels.
+    renderer = clrender.Renderer(example(name), device, packets=True)
+    assert renderer.features["LANES"] == 8
+    whole = renderer.accumulate(clrender.Accumulation.start((0, 0, 40, 32)), 3, seed=5).sums.reshape(32, 40, 4)
+    tile = renderer.accumulate(clrender.Accumulation.start((3, 0, 37, 32)), 3, seed=5).sums.reshape(32, 37, 4)
+    assert np.array_equal(tile, whole[:, 3:])
+
+
 def test_packets_cover_tiles_that_are_not_a_multiple_of_eight_wide(device):
     # 29 columns: the last work-item of each row has 5 lanes in the image and 3 outside, which
     # must neither trace nor write.
