@@ -224,10 +224,20 @@ def test_packets_record_the_direct_integrators_aovs(device):
     assert hidden[1].image.sum() < results[1].image.sum()
 
 
+def assert_a_tile_from_column_3_keeps_the_bits(scene, device):
+    """A 40 x 32 scene's per-pixel sums (3 spp, packets) the same bits whole and in a tile from
+    column 3, whose packets group other pixels."""
+    renderer = clrender.Renderer(scene, device, packets=True)
+    assert renderer.features["LANES"] == 8
+    whole = renderer.accumulate(clrender.Accumulation.start((0, 0, 40, 32)), 3, seed=5).sums.reshape(32, 40, 4)
+    tile = renderer.accumulate(clrender.Accumulation.start((3, 0, 37, 32)), 3, seed=5).sums.reshape(32, 37, 4)
+    assert np.array_equal(tile, whole[:, 3:])
+
+
 # The glass sphere of cornell_glass as it is, and as a coarse mesh with interpolated normals:
 # near its silhouettes a lane's refraction about the shading normal would leave through the facet,
 # and sample_dielectric_delta refracts that lane about the facet's normal, which must leave the
-# other lanes' refractions as they are (it once rewrote every lane that could refract).
+# other lanes' refractions as they are (refract writes every lane that can refract).
 GLASS_SPHERES = {"analytic": {}, "smooth-normal-mesh": {"mesh": True, "subdivisions": 1, "smooth": True}}
 
 
@@ -250,11 +260,7 @@ def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device, integr
     data["shapes"] += [dict(tall, name=f"{colour}_twin", material=f"{colour}_twin") for colour in ("red", "blue")]
     data["camera"]["resolution"] = [40, 32]
     scene = clrender.load_scene_dict(data, base_dir=SCENES)
-    renderer = clrender.Renderer(scene, device, packets=True)
-    assert renderer.features["LANES"] == 8
-    whole = renderer.accumulate(clrender.Accumulation.start((0, 0, 40, 32)), 3, seed=5).sums.reshape(32, 40, 4)
-    tile = renderer.accumulate(clrender.Accumulation.start((3, 0, 37, 32)), 3, seed=5).sums.reshape(32, 37, 4)
-    assert np.array_equal(tile, whole[:, 3:])
+    assert_a_tile_from_column_3_keeps_the_bits(scene, device)
 
 
 @pytest.mark.parametrize("name", ["plastic_cornell_glass", "mirror_cornell_box", "rough_mirror_cornell_box",
@@ -263,13 +269,8 @@ def test_camera_hits_do_not_depend_on_which_pixels_share_a_packet(device, integr
 def test_paths_do_not_depend_on_which_pixels_share_a_packet(device, name):
     # Nothing a lane computes may depend on its packet-mates, whatever materials and lights the
     # packet mixes (a helper that writes all lanes' outputs is called into a variable of its
-    # own and selected where it applies): each pixel's sums keep their bits in a tile that starts
-    # at column 3, whose packets group other pixels.
-    renderer = clrender.Renderer(example(name), device, packets=True)
-    assert renderer.features["LANES"] == 8
-    whole = renderer.accumulate(clrender.Accumulation.start((0, 0, 40, 32)), 3, seed=5).sums.reshape(32, 40, 4)
-    tile = renderer.accumulate(clrender.Accumulation.start((3, 0, 37, 32)), 3, seed=5).sums.reshape(32, 37, 4)
-    assert np.array_equal(tile, whole[:, 3:])
+    # own and selected where it applies).
+    assert_a_tile_from_column_3_keeps_the_bits(example(name), device)
 
 
 def test_packets_cover_tiles_that_are_not_a_multiple_of_eight_wide(device):
