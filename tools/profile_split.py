@@ -8,7 +8,8 @@ and the CPU seconds of one render split into ray traversal and the rest of the k
 - Mitsuba: Embree (libembree) against its JIT-compiled kernel (Dr.Jit's anonymous code).
 
 Each process renders --renders + 1 images of --spp samples (the first also builds the kernels,
-whose compilation is neither part); the split is per render. PoCL only (Intel's runtime and GPUs
+whose compilation is neither part; the set-up's kernels, such as the caustic guide's photons, are
+in the rest); the split is per render. PoCL only (Intel's runtime and GPUs
 run JIT code without symbols); the machine should be otherwise idle, and the ratios come from
 one run. Needs Linux `perf`.
 
@@ -17,7 +18,6 @@ one run. Needs Linux `perf`.
 """
 import argparse
 import json
-import os
 import re
 import subprocess
 import sys
@@ -63,13 +63,13 @@ for seed in range(renders + 1):
 _ROW = re.compile(r"\s*(\d+)\s+(.*?)\s+\[[.k]\]\s+(\S+)")
 
 
-def perf_samples(command, env, frequency):
+def perf_samples(command, frequency):
     """Samples per DSO and symbol, {(dso, symbol): count}, of one run of `command` under
     `perf record` at `frequency` samples per second."""
     with tempfile.TemporaryDirectory() as scratch:
         data = Path(scratch) / "perf.data"
-        subprocess.run(["perf", "record", "-q", "-F", str(frequency), "-o", str(data), "--", *command], env=env,
-                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        subprocess.run(["perf", "record", "-q", "-F", str(frequency), "-o", str(data), "--", *command], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         report = subprocess.run(["perf", "report", "-i", str(data), "--stdio", "--sort", "dso,sym", "-F",
                                  "sample,dso,sym"], capture_output=True, text=True, check=True).stdout
     return report_counts(report)
@@ -116,7 +116,6 @@ def main():
     parser.add_argument("--frequency", type=int, default=1000, help="perf's samples per second")
     parser.add_argument("--cache", type=Path, default=Path.home() / ".cache" / "clrender" / "profile-split")
     args = parser.parse_args()
-    env = dict(os.environ)
     rows = []
     for xml in real_scenes.scene_files(args.scenes):
         with warnings.catch_warnings():
@@ -126,8 +125,8 @@ def main():
         name = real_scenes.scene_name(xml)
         mirrored = real_scenes.mirror(xml, args.cache / f"{name}-{size[0]}x{size[1]}", size, "independent")
         common = [str(mirrored), json.dumps(real_scenes.parameters(xml)), str(args.spp), str(args.renders)]
-        ours = split_clrender(perf_samples([sys.executable, "-c", CHILD_CLRENDER, *common], env, args.frequency))
-        theirs = split_mitsuba(perf_samples([sys.executable, "-c", CHILD_MITSUBA, *common, args.variant], env,
+        ours = split_clrender(perf_samples([sys.executable, "-c", CHILD_CLRENDER, *common], args.frequency))
+        theirs = split_mitsuba(perf_samples([sys.executable, "-c", CHILD_MITSUBA, *common, args.variant],
                                             args.frequency))
         per_render = args.frequency * (args.renders + 1)
         o_trav, o_rest, m_trav, m_rest = (n / per_render for n in (*ours, *theirs))
