@@ -32,11 +32,13 @@ import real_scenes  # noqa: E402
 import clrender  # noqa: E402
 from clrender.bench import markdown_table  # noqa: E402
 
-# clrender's traversal: the scalar walk, the packet walk, their leaf tests and per-lane wrappers
-# (kernels/bvh.h, bvh_packets.h, scene.h), whichever the compiler kept out of line.
-TRAVERSAL = {"traverse_bvh", "traverse_bvh_packet", "intersect_triangle_block", "intersect_triangle_block_lanes",
-             "intersect_leaf", "intersect_scene", "closest_hits", "closest_camera_hits", "occluder", "occluders",
-             "coherent_occluders", "shadow_blockers"}
+# clrender's traversal: the scalar walk, the packet walk, their box and leaf tests (triangles and
+# spheres) and per-lane wrappers (kernels/bvh.h, bvh_packets.h, sphere.h, scene.h), whichever the
+# compiler kept out of line.
+TRAVERSAL = {"traverse_bvh", "traverse_bvh_packet", "ray_slabs", "intersect_boxes", "lane_bits", "lowest_bit", "min8",
+             "max8", "nearer_hit", "intersect_leaf", "intersect_triangle_block", "intersect_triangle_block_lanes",
+             "intersect_sphere", "intersect_sphere_leaf_lanes", "intersect_scene", "closest_hits",
+             "closest_camera_hits", "occluder", "occluded", "occluders", "coherent_occluders", "shadow_blockers"}
 
 # The Sobol sampler, as tools/peers.py times clrender; Mitsuba with the scenes' own sampler.
 CHILD_CLRENDER = """
