@@ -1,35 +1,34 @@
 """Where a real scene's render time goes, against Mitsuba 3's: `perf record` of one process per
-renderer rendering the scene (mirrored as tools/peers.py does, the film's longer side --size),
-and the CPU seconds of one render split into ray traversal and the rest of the kernel:
+renderer rendering the scene, and the CPU seconds of one render split into ray traversal and the
+rest of the kernel:
 
 - clrender: the kernels' functions (PoCL's kernel libraries carry their symbols); traversal is
   the BVH walks and their per-lane wrappers (TRAVERSAL below), the rest every other function of
   the kernels (path loop, materials, lights, sampler, splatting).
 - Mitsuba: Embree (libembree) against its JIT-compiled kernel (Dr.Jit's anonymous code).
 
-Each process renders --renders + 1 images of --spp samples (the first also builds the kernels,
-whose compilation is neither part; the set-up's kernels, such as the caustic guide's photons, are
-in the rest); the split is per render. PoCL only (Intel's runtime and GPUs
-run JIT code without symbols); the machine should be otherwise idle, and the ratios come from
-one run. Needs Linux `perf`.
+The processes are tools/peers.py's real-scene children on the scene as peers.py mirrors it (the
+film's longer side --size, in peers.py's cache): a warm-up render, then --renders renders of
+--spp samples. Kernel compilation is neither part; the set-up's kernels (the caustic guide's
+photons) are in the rest; the split is per render, over all --renders + 1. PoCL only (Intel's
+runtime and GPUs run JIT code without symbols); the machine should be otherwise idle, and the
+ratios come from one run. Needs Linux `perf`.
 
     python tools/profile_split.py ../shared/real-scenes/mitsuba-cbox ... [--size 256] [--spp 64]
                                   [--renders 3] [--variant llvm_ad_rgb] [--cache DIR]
 """
 import argparse
-import json
 import re
 import subprocess
 import sys
 import tempfile
-import warnings
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import peers  # noqa: E402
 import real_scenes  # noqa: E402
 
-import clrender  # noqa: E402
 from clrender.bench import markdown_table  # noqa: E402
 
 # clrender's traversal: the scalar walk, the packet walk, their box and leaf tests (triangles and
@@ -39,28 +38,6 @@ TRAVERSAL = {"traverse_bvh", "traverse_bvh_packet", "ray_slabs", "intersect_boxe
              "max8", "nearer_hit", "intersect_leaf", "intersect_triangle_block", "intersect_triangle_block_lanes",
              "intersect_sphere", "intersect_sphere_leaf_lanes", "intersect_scene", "closest_hits",
              "closest_camera_hits", "occluder", "occluded", "occluders", "coherent_occluders", "shadow_blockers"}
-
-# The Sobol sampler, as tools/peers.py times clrender; Mitsuba with the scenes' own sampler.
-CHILD_CLRENDER = """
-import json, sys, warnings, clrender
-warnings.simplefilter("ignore")
-xml, params, spp, renders = sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-renderer = clrender.Renderer(clrender.load_scene(xml, params), sampler="sobol")
-for seed in range(renders + 1):
-    renderer.render(spp=spp, seed=seed)
-"""
-
-CHILD_MITSUBA = """
-import json, sys
-import drjit as dr
-import mitsuba as mi
-mi.set_variant(sys.argv[5])
-xml, params, spp, renders = sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-scene = mi.load_file(xml, **params)
-for seed in range(renders + 1):
-    dr.eval(mi.render(scene, spp=spp, seed=seed))
-    dr.sync_thread()
-"""
 
 _ROW = re.compile(r"\s*(\d+)\s+(.*?)\s+\[[.k]\]\s+(\S+)")
 
@@ -108,6 +85,22 @@ def split_mitsuba(counts):
     return traversal, jit
 
 
+def scene_row(xml, args, scratch):
+    """The table's row of one real scene: mirrored as tools/peers.py mirrors it (its cache), each
+    renderer's process as peers.py's real-scene child (a warm-up render, then --renders; clrender
+    with the Sobol sampler as peers.py times it, Mitsuba with the scene's `independent`)."""
+    name, params, mirrors, size, _ = peers.prepare_real(xml, args.size, ["independent"], args.cache)
+    ours, theirs = (
+        split(perf_samples(peers.real_child_command(renderer, mirrors["independent"], params, args.spp, 1,
+                                                    Path(scratch) / f"{renderer}.npy", args.variant,
+                                                    batches=args.renders, sampler="sobol", warmup=True),
+                           args.frequency))
+        for renderer, split in (("clrender", split_clrender), ("mitsuba", split_mitsuba)))
+    o_trav, o_rest, m_trav, m_rest = (n / (args.frequency * (args.renders + 1)) for n in (*ours, *theirs))
+    return [f"{name} ({size})", f"{o_trav:.2f}", f"{m_trav:.2f}", f"{o_trav / m_trav:.2f}", f"{o_rest:.2f}",
+            f"{m_rest:.2f}", f"{o_rest / m_rest:.2f}", f"{(o_trav + o_rest) / (m_trav + m_rest):.2f}"]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("scenes", nargs="+", help="real scene folders or XML files (tools/real_scenes.py)")
@@ -116,26 +109,14 @@ def main():
     parser.add_argument("--renders", type=int, default=3)
     parser.add_argument("--variant", default="llvm_ad_rgb")
     parser.add_argument("--frequency", type=int, default=1000, help="perf's samples per second")
-    parser.add_argument("--cache", type=Path, default=Path.home() / ".cache" / "clrender" / "profile-split")
+    parser.add_argument("--cache", type=Path, default=Path.home() / ".cache" / "clrender" / "peers",
+                        help="the mirrored scenes (tools/peers.py's cache)")
     args = parser.parse_args()
     rows = []
-    for xml in real_scenes.scene_files(args.scenes):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            resolution = clrender.load_scene(xml, real_scenes.parameters(xml)).camera.resolution
-        size = real_scenes.film_size(resolution, args.size)
-        name = real_scenes.scene_name(xml)
-        mirrored = real_scenes.mirror(xml, args.cache / f"{name}-{size[0]}x{size[1]}", size, "independent")
-        common = [str(mirrored), json.dumps(real_scenes.parameters(xml)), str(args.spp), str(args.renders)]
-        ours = split_clrender(perf_samples([sys.executable, "-c", CHILD_CLRENDER, *common], args.frequency))
-        theirs = split_mitsuba(perf_samples([sys.executable, "-c", CHILD_MITSUBA, *common, args.variant],
-                                            args.frequency))
-        per_render = args.frequency * (args.renders + 1)
-        o_trav, o_rest, m_trav, m_rest = (n / per_render for n in (*ours, *theirs))
-        rows.append([f"{name} ({size[0]}x{size[1]})", f"{o_trav:.2f}", f"{m_trav:.2f}", f"{o_trav / m_trav:.2f}",
-                     f"{o_rest:.2f}", f"{m_rest:.2f}", f"{o_rest / m_rest:.2f}",
-                     f"{(o_trav + o_rest) / (m_trav + m_rest):.2f}"])
-        print(f"{name}: done", flush=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        for xml in real_scenes.scene_files(args.scenes):
+            rows.append(scene_row(xml, args, scratch))
+            print(f"{rows[-1][0]}: done", flush=True)
     print(f"\nCPU seconds per render of {args.spp} spp (perf samples at {args.frequency} Hz over {args.renders + 1} "
           f"renders); ratios clrender / Mitsuba ({args.variant}), above 1: clrender slower")
     print(markdown_table(["scene", "clrender traversal", "Embree", "ratio", "clrender rest", "Mitsuba rest",
