@@ -75,7 +75,7 @@ float3 trace_direct(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
     if (!material_is_delta(&m) && n_light > 0) {
         float3 lit = (float3)(0.0f);
         for (int i = 0; i < n_light; ++i)
-            lit += direct_light(scene, &m, &sp, wo, -1, (float)n_bsdf / (float)n_light, rng);
+            lit += direct_light(scene, &m, &sp, wo, -1, (float)n_bsdf / (float)n_light, rng_float2(rng), rng);
         radiance += lit / (float)n_light;
     }
     if (n_bsdf > 0 && emission_can_be_hit(scene)) {

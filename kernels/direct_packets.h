@@ -30,7 +30,7 @@ lane_float3 direct_bsdf_samples(const Scene* scene, const SurfacePoint* sp, cons
     lane_float u_lobe = rng_float(rng);
     rng_give_back(rng, !lobes, true);
     BsdfSample bs = sample_bsdf_lanes(scene, sp, surface->color, wo, surface->smooth, surface->conductor,
-                                      &surface->glossy, u_lobe, u_lobe, rng_float2(rng), lanes);
+                                      &surface->glossy, u_lobe, rng_float2(rng), lanes);
     lanes &= (bs.pdf_w > 0.0f) & !is_black(bs.weight);
     if (!lane_any(lanes)) return l3_splat(0.0f);
     // The power heuristic is scale-invariant: the pdf times n_b / n_l weighs the counts; without

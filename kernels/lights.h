@@ -5,7 +5,6 @@
 #define CLRENDER_LIGHTS_H
 #include "types.h"
 #include "math.h"
-#include "rng.h"
 #include "sampling.h"
 #include "scene.h"
 
@@ -61,7 +60,10 @@ bool delta_light_sample(__global const Emitter* e, float3 p, float pmf, LightSam
 }
 
 // ----- one sample --------------------------------------------------------------------------
-INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
+// One 2D draw u picks the emitter (u.x) and, rescaled, places the sample on it: the points of a
+// stratified draw stay stratified over the whole light rather than over the share of them that
+// an independent pick sends to each emitter, and the draw saves a dimension.
+INLINE LightSample sample_light(const Scene* scene, float3 p, float2 u) {
     LightSample ls;
     ls.emitter = -1;
     ls.pdf_w = 0.0f;
@@ -70,10 +72,6 @@ INLINE LightSample sample_light(const Scene* scene, float3 p, Rng* rng) {
     ls.radiance = (float3)(0.0f);
     ls.wi = (float3)(0.0f, 0.0f, 1.0f);
     int count = scene->params->config.w;
-    // One 2D draw picks the emitter (u.x) and, rescaled, places the sample on it: the points of
-    // a stratified draw stay stratified over the whole light rather than over the share of them
-    // that an independent pick sends to each emitter, and the draw saves a dimension.
-    float2 u = rng_float2(rng);
     if (count == 0) return ls;
     float u_on_emitter;
     int index = sample_discrete_cdf_reuse(scene->emitter_cdf, count, u.x, &u_on_emitter);

@@ -41,11 +41,12 @@ INLINE float3 emitted_radiance(const Scene* scene, const Material* m, const Surf
     return le * power_heuristic(prev_pdf_w, light_pdf_w);
 }
 
-// Next-event estimation at a surface point. bsdf_share scales the BSDF technique's pdf in the
-// MIS weight: 1 for one sample of each, n_bsdf / n_light in the direct integrator (direct.h).
+// Next-event estimation at a surface point with the light sample drawn by u (rng: the shadow
+// ray's numbers in media). bsdf_share scales the BSDF technique's pdf in the MIS weight: 1 for
+// one sample of each, n_bsdf / n_light in the direct integrator (direct.h).
 INLINE float3 direct_light(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                           int medium, float bsdf_share, Rng* rng) {
-    LightSample ls = sample_light(scene, sp->p, rng);
+                           int medium, float bsdf_share, float2 u, Rng* rng) {
+    LightSample ls = sample_light(scene, sp->p, u);
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float3 f = eval_bsdf(scene, m, sp, wo, ls.wi) * shading_map_factor(m, sp, ls.wi);
     if (is_black(f)) return (float3)(0.0f);
@@ -67,13 +68,12 @@ bool hidden_from_camera(const Scene* scene, const SurfacePoint* sp) {
     return (scene->params->environment.w & HIDE_EMITTING_SHAPES) != 0 && sp->emitter >= 0;
 }
 
-// Survive with probability equal to the throughput without the eta^2 radiance scaling of
-// refraction, capped so that bright paths (e.g. in high-albedo media) are never kept forever
-// and weights stay bounded by 1 / 0.95.
-bool survive_roulette(float3* throughput, float eta_scale, int depth, int rr_depth, Rng* rng) {
-    if (depth < rr_depth) return true;
+// Russian roulette with the number u: survive with probability equal to the throughput without
+// the eta^2 radiance scaling of refraction, capped so that bright paths (e.g. in high-albedo
+// media) are never kept forever and weights stay bounded by 1 / 0.95.
+bool survive_roulette(float3* throughput, float eta_scale, float u) {
     float survive = fmin(max_component(*throughput) * eta_scale, 0.95f);
-    if (rng_float(rng) >= survive) return false;
+    if (u >= survive) return false;
     *throughput /= survive;
     return true;
 }
@@ -131,7 +131,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
                 ray.direction = sample_medium_phase(scene, medium, ray.direction, rng_float2(rng), &prev_pdf_w);
                 ray.origin = prev_p = p;
                 prev_delta = !light_sample;
-                if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
+                if (depth >= rr_depth && !survive_roulette(&throughput, eta_scale, rng_float(rng))) break;
                 ++depth;
                 continue;
             }
@@ -191,9 +191,11 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
             break;
         }
 #endif
-        if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, 1.0f, rng);
+        // The vertex's numbers (rng.h; a delta vertex leaves its light sample's unused).
+        VertexNumbers u = draw_vertex_numbers(rng);
+        if (!material_is_delta(&m)) radiance += throughput * direct_light(scene, &m, &sp, wo, medium, 1.0f, u.light, rng);
 
-        BsdfSample bs = sample_bsdf(scene, &m, &sp, wo, rng);
+        BsdfSample bs = sample_bsdf_with(scene, &m, &sp, wo, u.choice.x, u.direction);
         bs.weight *= shading_map_factor(&m, &sp, bs.wi);
         if (!(bs.pdf_w > 0.0f) || is_black(bs.weight)) break;
         throughput *= bs.weight;
@@ -207,7 +209,7 @@ float3 trace_path(const Scene* scene, Ray ray, Rng* rng, AovSample* aov) {
 #if MEDIA
         if (dot(bs.wi, sp.ng) < 0.0f) medium = medium_beyond(&sp);
 #endif
-        if (!survive_roulette(&throughput, eta_scale, depth, rr_depth, rng)) break;
+        if (depth >= rr_depth && !survive_roulette(&throughput, eta_scale, u.choice.y)) break;
         ++depth;
     }
     return radiance;

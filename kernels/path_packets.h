@@ -302,13 +302,13 @@ lane_float3 direct_light_lanes(const Scene* scene, const SurfacePoint* sp, lane_
     return l3_select(radiance, l3_scale(l3_mul(f, le), weight / light_pdf_w), lit);
 }
 
-// The scattering of the lanes' vertices: the diffuse lobe; where `smooth`, the smooth
-// dielectric's pair of delta lobes (picked with u_lobe, path.h's rnl), or where also `conductor`
-// the conductor's mirror; where glossy->rough or glossy->plastic, the glossy lobes
-// (sample_glossy_lanes, the lobe chosen with u_glossy_lobe).
+// The scattering of the lanes' vertices (bsdf.h, sample_bsdf_with): the diffuse lobe; where
+// `smooth`, the smooth dielectric's pair of delta lobes, or where also `conductor` the
+// conductor's mirror; where glossy->rough or glossy->plastic, the glossy lobes
+// (sample_glossy_lanes); a lobe picked with u_lobe, the direction drawn with u.
 BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_float3 color, lane_float3 wo,
                              lane_int smooth, lane_int conductor, const GlossyLanes* glossy, lane_float u_lobe,
-                             lane_float u_glossy_lobe, lane_float2 u, lane_int lanes) {
+                             lane_float2 u, lane_int lanes) {
     BsdfSample bs = bsdf_sample_none();
     bs.wi = sample_diffuse(scene, sp, u, &bs.pdf_w);
     // For cosine sampling f * cos / pdf is the albedo itself.
@@ -318,7 +318,7 @@ BsdfSample sample_bsdf_lanes(const Scene* scene, const SurfacePoint* sp, lane_fl
 #if DIELECTRIC
     lane_int glossy_lanes = (glossy->rough | glossy->plastic) & lanes;
     if (lane_any(glossy_lanes)) {
-        BsdfSample glossy_bs = sample_glossy_lanes(glossy, sp, wo, u_glossy_lobe, u, glossy_lanes);
+        BsdfSample glossy_bs = sample_glossy_lanes(glossy, sp, wo, u_lobe, u, glossy_lanes);
         bs.wi = l3_select(bs.wi, glossy_bs.wi, glossy_lanes);
         bs.pdf_w = select(bs.pdf_w, glossy_bs.pdf_w, glossy_lanes);
         bs.weight = l3_select(bs.weight, glossy_bs.weight, glossy_lanes);
@@ -516,11 +516,8 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, emitted)),
                              alive & !light_paths_take(scene, &events, sp.emitter));
         if (depth == max_depth) break;
-        // A diffuse, rough or plastic vertex draws its light sample, a smooth one its lobe (rng_float, the
-        // first coordinate of the same dimension); the independent sampler's 2D draw takes two
-        // numbers where rng_float takes one, so the smooth lanes give one back.
-        lane_float2 u_light = rng_float2(rng);
-        if (rng->sampler != SAMPLER_SOBOL) rng->counter -= select((lane_uint)(0u), (lane_uint)(1u), smooth);
+        // The vertex's numbers, as path.h draws them (a smooth vertex leaves its light sample's unused).
+        VertexNumbers u = draw_vertex_numbers(rng);
         // The camera hits' shadow rays as one packet where no surface can be a mask: masks (a
         // TEXTURES feature) read which surface blocks a ray, and that depends on the packet.
 #if TEXTURES
@@ -528,21 +525,12 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
 #else
         bool coherent_shadows = depth == 1;
 #endif
-        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u_light, alive & !smooth, 1.0f,
+        lane_float3 direct = direct_light_lanes(scene, &sp, color, &glossy, wo, u.light, alive & !smooth, 1.0f,
                                                 coherent_shadows);
-        // A rough or plastic vertex then draws its lobe's number as a smooth one did (bsdf.h,
-        // sample_bsdf: a dielectric's reflection or refraction, plastic's coat or base; a
-        // conductor does not use it); the other lanes give it back.
-        lane_float u_glossy_lobe = 0.0f;
-        lane_int glossy_lobes = glossy.rough | glossy.plastic;
-        if (lane_any(glossy_lobes)) {
-            u_glossy_lobe = rng_float(rng);
-            rng->counter -= select((lane_uint)(1u), (lane_uint)(0u), glossy_lobes);
-        }
         // Selected, not added everywhere: the throughput of a finished lane may be anything.
         radiance = l3_select(radiance, l3_add(radiance, l3_mul(throughput, direct)), alive);
-        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, &glossy, u_light.x, u_glossy_lobe,
-                                          rng_float2(rng), alive);
+        BsdfSample bs = sample_bsdf_lanes(scene, &sp, color, wo, smooth, conductor, &glossy, u.choice.x, u.direction,
+                                          alive);
         alive &= (bs.pdf_w > 0.0f) & !is_black(bs.weight) & !black_back;
         throughput = l3_mul(throughput, bs.weight);
         caustic_events_add(&events, depth, bs.delta);
@@ -555,7 +543,7 @@ lane_float3 trace_paths(const Scene* scene, Ray ray, lane_int alive, Rng* rng, A
         if (depth >= rr_depth) {
             // path.h, survive_roulette
             lane_float survive = fmin(max_component(throughput) * eta_scale, 0.95f);
-            alive &= rng_float(rng) < survive;
+            alive &= u.choice.y < survive;
             throughput = l3_div(throughput, survive);
         }
         if (!lane_any(alive)) break;

@@ -172,4 +172,33 @@ lane_float2 rng_float2(Rng* rng) {
     return make_lane_float2(a, rng_float(rng));
 }
 
+// The numbers of one surface vertex of a camera path (path.h and path_packets.h draw them alike):
+// three consecutive 2D draws, its light sample, its BSDF sample's direction, and its lobe
+// choice (x) and Russian roulette (y). Drawn together because each Sobol draw is a chain of about
+// a dozen dependent integer multiplies (hash, index permutation, scrambles) whose result the
+// path waits for; three chains side by side overlap (the Cornell boxes' renders x1.05-1.09,
+// docs/performance.md).
+typedef struct { lane_float2 light, direction, choice; } VertexNumbers;
+
+VertexNumbers draw_vertex_numbers(Rng* rng) {
+    VertexNumbers n;
+    if (rng->sampler != SAMPLER_SOBOL) {
+        n.light = rng_float2(rng);
+        n.direction = rng_float2(rng);
+        n.choice = rng_float2(rng);
+        return n;
+    }
+    Rng next = *rng, after = *rng;
+    next.counter += 1u;
+    after.counter += 2u;
+    SobolSeeds s0 = sobol_dimension_seeds(rng), s1 = sobol_dimension_seeds(&next), s2 = sobol_dimension_seeds(&after);
+    lane_uint i0 = sobol_shuffled_index(rng, s0.index), i1 = sobol_shuffled_index(rng, s1.index),
+              i2 = sobol_shuffled_index(rng, s2.index);
+    n.light = make_lane_float2(uint_to_unit_float(owen_sobol0(i0, s0.x)), uint_to_unit_float(owen_sobol1(i0, s0.y)));
+    n.direction = make_lane_float2(uint_to_unit_float(owen_sobol0(i1, s1.x)), uint_to_unit_float(owen_sobol1(i1, s1.y)));
+    n.choice = make_lane_float2(uint_to_unit_float(owen_sobol0(i2, s2.x)), uint_to_unit_float(owen_sobol1(i2, s2.y)));
+    rng->counter += 3u;
+    return n;
+}
+
 #endif

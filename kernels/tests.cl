@@ -106,6 +106,21 @@ KERNEL void path_samples(int sampler, uint seed, int samples, int dims, __global
     }
 }
 
+// ----- a path vertex's numbers (rng.h): draw_vertex_numbers after a first draw, then the same
+// three draws one at a time from a copy; out[8 k ..]: the six pairs, then both counters. --------
+KERNEL void vertex_numbers(int sampler, uint seed, int samples, __global float2* out) {
+    int i = get_global_id(0), j = get_global_id(1);
+    Rng together = rng_for_path((uint)j, (uint)i, seed, sampler);
+    rng_float2(&together);
+    Rng apart = together;
+    VertexNumbers n = draw_vertex_numbers(&together);
+    __global float2* o = out + (j * samples + i) * 8;
+    o[0] = n.light; o[1] = n.direction; o[2] = n.choice;
+    o[3] = rng_float2(&apart); o[4] = rng_float2(&apart); o[5] = rng_float2(&apart);
+    o[6] = (float2)((float)together.counter, (float)apart.counter);
+    o[7] = (float2)(0.0f);
+}
+
 // ----- pixel filter (filter.h): the offset and weight of sample i of pixel `pixel` of `size` --
 KERNEL void filter_samples(__constant Filter* filter, int pixel, int size, uint seed, __global float2* out) {
     int i = get_global_id(0);
@@ -177,7 +192,7 @@ KERNEL void sample_area_emitter(__global const Emitter* emitters, __global const
     scene.emitter_cdf = emitter_cdf;
     Rng rng = rng_for_sample((uint)i, 3u, seed);
     float3 p = points[i].xyz;
-    LightSample ls = sample_light(&scene, p, &rng);
+    LightSample ls = sample_light(&scene, p, rng_float2(&rng));
     float3 q = p + ls.dist * ls.wi;
     float3 n = normalize(q - emitters->p0.xyz);
     float cos_light = -dot(ls.wi, emitters->p0.w < 0.0f ? -n : n);

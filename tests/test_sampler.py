@@ -70,6 +70,22 @@ def path_samples(context, queue, sampler, pixels, samples, dims, seed=11):
     return out[..., :3].astype(float)
 
 
+@pytest.mark.parametrize("sampler", ["sobol", "independent"])
+def test_a_vertex_draws_the_next_three_dimensions(context, queue, sampler):
+    """draw_vertex_numbers (path.h's and the packets' numbers of a vertex) gives, bit for bit,
+    the three 2D draws one at a time would, and moves the counter as far."""
+    pixels, samples = 16, 64
+    out = np.empty((pixels, samples, 8, 2), np.float32)
+    buffer = cl.Buffer(context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    cl.Kernel(build_test_kernels(context), "vertex_numbers")(
+        queue, (samples, pixels), None, np.int32(layout.SAMPLERS[sampler]), np.uint32(5), np.int32(samples), buffer)
+    cl.enqueue_copy(queue, out, buffer)
+    together, apart, counters = out[:, :, 0:3], out[:, :, 3:6], out[:, :, 6]
+    assert np.array_equal(together.view(np.uint32), apart.view(np.uint32))
+    assert np.all(counters[..., 0] == counters[..., 1]) and counters[0, 0, 0] == (4 if sampler == "sobol" else 8)
+    assert len(np.unique(together.reshape(-1))) > 0.99 * together.size   # six distinct numbers a vertex
+
+
 @pytest.fixture(scope="module")
 def sobol_points(context, queue):
     return path_samples(context, queue, "sobol", 64, 2**LOG2_SAMPLES, 6)

@@ -171,25 +171,42 @@ BsdfSample sample_plastic_bsdf(const Scene* scene, const Material* m, const Surf
 }
 #endif
 
-INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
-                       Rng* rng) {
+// Whether sampling the material picks one of several lobes (a dielectric's reflection or
+// refraction, plastic's coat or base, the principled model's lobes) with a number of its own.
+bool material_picks_lobe(const Material* m) {
+#if DIELECTRIC
+    return material_kind(m) == MATERIAL_PRINCIPLED || is_specular_material(m) || material_kind(m) == MATERIAL_PLASTIC;
+#else
+    return false;
+#endif
+}
+
+// A direction from the material's lobes: rnl picks the lobe (material_picks_lobe), rn places
+// the direction in it.
+INLINE BsdfSample sample_bsdf_with(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                                   float rnl, float2 rn) {
     if (is_one_sided_back(m, sp)) return bsdf_sample_none();
 #if DIELECTRIC
-    bool principled = material_kind(m) == MATERIAL_PRINCIPLED;
-    if (principled || is_specular_material(m) || material_kind(m) == MATERIAL_PLASTIC) {
-        float rnl = rng_float(rng);
-        float2 rn = rng_float2(rng);
-        if (principled) return sample_principled_material(m, sp, specular_normal(sp, wo), wo, rnl, rn);
-        if (material_kind(m) == MATERIAL_PLASTIC) return sample_plastic_bsdf(scene, m, sp, wo, rnl, rn);
-        return sample_specular_bsdf(scene, m, sp, wo, rnl, rn);
-    }
+    if (material_kind(m) == MATERIAL_PRINCIPLED) return sample_principled_material(m, sp, specular_normal(sp, wo), wo, rnl, rn);
+    if (material_kind(m) == MATERIAL_PLASTIC) return sample_plastic_bsdf(scene, m, sp, wo, rnl, rn);
+    if (is_specular_material(m)) return sample_specular_bsdf(scene, m, sp, wo, rnl, rn);
 #endif
     BsdfSample bs = bsdf_sample_none();
-    bs.wi = sample_diffuse(scene, sp, rng_float2(rng), &bs.pdf_w);
+    bs.wi = sample_diffuse(scene, sp, rn, &bs.pdf_w);
     // For cosine sampling f * cos / pdf is the albedo itself; dividing would only add rounding.
     bs.weight = bs.pdf_w > 0.0f ? material_color(m) : (float3)(0.0f);
     if (scene->params->guide_cells.w != 0 && bs.pdf_w > 0.0f) bs.weight = eval_diffuse(material_color(m), sp, bs.wi) / bs.pdf_w;
     return bs;
+}
+
+// sample_bsdf_with drawing its numbers (the light paths, the guide's photons and the direct
+// integrator): a lobe's where the material picks one, then the direction's; none from a
+// one-sided back.
+INLINE BsdfSample sample_bsdf(const Scene* scene, const Material* m, const SurfacePoint* sp, float3 wo,
+                              Rng* rng) {
+    if (is_one_sided_back(m, sp)) return bsdf_sample_none();
+    float rnl = material_picks_lobe(m) ? rng_float(rng) : 0.0f;
+    return sample_bsdf_with(scene, m, sp, wo, rnl, rng_float2(rng));
 }
 
 #endif

@@ -164,7 +164,7 @@ float3 eval_toon_radiance(const Scene* scene, const Material* m, const SurfacePo
     // E[share * T] = sum p_j T_j over the area lights, and radiance / pdf_w (pdf_w includes q_j)
     // estimates their irradiance.
     if (scene->params->lights.x > 0) {
-        LightSample ls = sample_light(scene, sp->p, rng);
+        LightSample ls = sample_light(scene, sp->p, rng_float2(rng));
         if (!ls.delta && ls.dist < INFINITY && ls.pdf_w > 0.0f)
             toon_add_light(scene, m, sp, wo, ls.wi, ls.dist, ls.radiance / ls.pdf_w,
                            emitter_power_share(scene, ls.emitter) / emitter_selection_pmf(scene, ls.emitter),

@@ -69,7 +69,7 @@ float3 shadow_transmittance(const Scene* scene, float3 origin, float3 dir, float
 // direction. mis: whether phase sampling may also reach the light from here (not so when the
 // path ends at this vertex: medium_scatters_once), else the light sample has full weight.
 float3 direct_light_in_medium(const Scene* scene, float3 p, float3 dir, int medium, bool mis, Rng* rng) {
-    LightSample ls = sample_light(scene, p, rng);
+    LightSample ls = sample_light(scene, p, rng_float2(rng));
     if (!(ls.pdf_w > 0.0f) || is_black(ls.radiance)) return (float3)(0.0f);
     float phase = eval_medium_phase(scene, medium, dir, ls.wi);
     float pdf_ratio;
