@@ -3,8 +3,9 @@
 sobol: bit-exact against Burley's construction with Sobol's generator matrices (the kernel uses
 shortcuts), every 2D draw of one pixel's first 2^k samples stratified as a (0,2)-sequence,
 values in [0, 1), draws of different dimensions and pixels independent (chi-square with its
-mean + 5 sd bound), the points of different dimensions paired at random, and each sample uniform
-on its own. Splitting invariance is covered by test_determinism.py (default sampler).
+mean + 5 sd bound), the points of different dimensions paired at random, each sample uniform
+on its own, and a path vertex's three draws at once (draw_vertex_numbers) those one at a time.
+Splitting invariance is covered by test_determinism.py (default sampler).
 """
 import numpy as np
 import pyopencl as cl
