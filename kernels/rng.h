@@ -14,6 +14,7 @@
 #ifndef CLRENDER_RNG_H
 #define CLRENDER_RNG_H
 #include "lanes.h"
+#include "math.h"
 
 // SAMPLER_INDEPENDENT, SAMPLER_SOBOL: clrender/layout.py SAMPLERS.
 // index: the sample index (Sobol's). Per lane (lanes.h): the lanes of a work-item draw in step,
@@ -159,14 +160,21 @@ lane_float rng_float(Rng* rng) {
     return uint_to_unit_float(bits);
 }
 
+// Both coordinates of the Sobol dimension `ahead` past the current one, the counter left as it is.
+INLINE lane_float2 sobol_float2_ahead(const Rng* rng, uint ahead) {
+    Rng at = *rng;
+    at.counter += ahead;
+    SobolSeeds seeds = sobol_dimension_seeds(&at);
+    lane_uint index = sobol_shuffled_index(&at, seeds.index);
+    return make_lane_float2(uint_to_unit_float(owen_sobol0(index, seeds.x)), uint_to_unit_float(owen_sobol1(index, seeds.y)));
+}
+
 // Sobol: one dimension, both coordinates of its (0,2)-sequence. Independent: two draws.
 lane_float2 rng_float2(Rng* rng) {
     if (rng->sampler == SAMPLER_SOBOL) {
-        SobolSeeds seeds = sobol_dimension_seeds(rng);
-        lane_uint index = sobol_shuffled_index(rng, seeds.index);
+        lane_float2 u = sobol_float2_ahead(rng, 0u);
         rng->counter += 1u;
-        return make_lane_float2(uint_to_unit_float(owen_sobol0(index, seeds.x)),
-                                uint_to_unit_float(owen_sobol1(index, seeds.y)));
+        return u;
     }
     lane_float a = rng_float(rng);
     return make_lane_float2(a, rng_float(rng));
@@ -188,15 +196,9 @@ VertexNumbers draw_vertex_numbers(Rng* rng) {
         n.choice = rng_float2(rng);
         return n;
     }
-    Rng next = *rng, after = *rng;
-    next.counter += 1u;
-    after.counter += 2u;
-    SobolSeeds s0 = sobol_dimension_seeds(rng), s1 = sobol_dimension_seeds(&next), s2 = sobol_dimension_seeds(&after);
-    lane_uint i0 = sobol_shuffled_index(rng, s0.index), i1 = sobol_shuffled_index(rng, s1.index),
-              i2 = sobol_shuffled_index(rng, s2.index);
-    n.light = make_lane_float2(uint_to_unit_float(owen_sobol0(i0, s0.x)), uint_to_unit_float(owen_sobol1(i0, s0.y)));
-    n.direction = make_lane_float2(uint_to_unit_float(owen_sobol0(i1, s1.x)), uint_to_unit_float(owen_sobol1(i1, s1.y)));
-    n.choice = make_lane_float2(uint_to_unit_float(owen_sobol0(i2, s2.x)), uint_to_unit_float(owen_sobol1(i2, s2.y)));
+    n.light = sobol_float2_ahead(rng, 0u);
+    n.direction = sobol_float2_ahead(rng, 1u);
+    n.choice = sobol_float2_ahead(rng, 2u);
     rng->counter += 3u;
     return n;
 }
