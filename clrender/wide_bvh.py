@@ -1,45 +1,21 @@
 """The eight-wide BVH the kernel traverses, collapsed from the binary SAH tree (bvh.py).
 
 Each wide node holds up to eight children's boxes in structure-of-arrays form (one child per
-float8 lane), so the kernel tests all eight with a handful of vector instructions. A wide node
-starts from a binary node's two children and fills its lanes greedily: while a lane is free, the
-interior child of largest surface area (the one rays enter most often) is replaced by its own
-two children (as Embree and pbrt collapse binary trees). Before that, a subtree of at most
-MAX_LEAF triangles (or MAX_SPHERE_LEAF spheres) in contiguous slots becomes one leaf (the kernel
-tests a leaf's triangles eight at once, so fewer, fuller leaves cost fewer node visits for no more
-triangle tests), unless its box is much larger than its parts' (MERGED_AREA_LIMIT). Done level by
-level with numpy (a million triangles in well under a second).
+float8 lane), so the kernel tests all eight with a handful of vector instructions. Which binary
+subtrees become a wide node's lanes, and which become leaves, is chosen to minimise the wide
+tree's SAH cost (Ylitie, Karras and Laine 2017, sec. 3.2): a wide node visit and a leaf's block
+test each cost their box's surface area, since rays enter boxes in proportion to it (the kernel
+tests a leaf's up to eight triangles at once, so a leaf costs the same however many it holds). A
+subtree of at most MAX_LEAF triangles (or MAX_SPHERE_LEAF spheres) in contiguous slots may be one
+leaf; two walls meeting at a corner stay two leaves, since one leaf's box would span the room.
+The greedy collapse it replaced (fill a node's lanes by opening its largest child) left 4.2 of 8
+lanes used on the real scenes' trees, the optimum about 7 (docs/performance.md, "Twenty-sixth pass").
+Bottom-up over the binary levels, then top-down, with numpy (a million triangles in about a
+second).
 """
 import numpy as np
 
 from . import layout
-
-
-def collapse(bvh, sphere_slots=None):
-    """(nodes, depth): the wide tree (dtype layout.WIDE_BVH_NODE; node 0 the root) of a binary
-    Bvh. Leaves keep their primitive ranges (the same reordered primitive slots); a leaf of
-    spheres (sphere_slots: bool per slot, True for a sphere) gets its count negated, the
-    kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
-    lo, hi, index, count = _binary_slots(bvh.nodes)
-    area = _slot_areas(lo, hi)
-    index, count = _merge_small_subtrees(index, count, area, sphere_slots)
-    interior = (count == 0) & (index >= 0)
-    wide_of = np.full(len(bvh.nodes), -1, np.int64)  # binary node -> wide node
-    levels, frontier, numbered = [], np.array([0]), 0
-    while frontier.size:  # breadth first: a level's wide nodes are numbered together
-        wide_of[frontier] = np.arange(numbered, numbered + frontier.size)
-        numbered += frontier.size
-        node, side = _greedy_slots(frontier, area, index, interior)
-        levels.append((node, side))
-        below = (node >= 0) & interior[np.maximum(node, 0), side]
-        frontier = index[node[below], side[below]]
-    slot_node, slot_side = (np.concatenate(lanes) for lanes in zip(*levels))
-    nodes = _assemble(slot_node, slot_side, wide_of, lo, hi, index, count)
-    if sphere_slots is not None and np.any(sphere_slots):
-        leaf = nodes["count"] > 0
-        spheres = leaf & np.asarray(sphere_slots)[np.where(leaf, nodes["child"], 0)]
-        nodes["count"][spheres] *= -1
-    return nodes, len(levels)
 
 
 # Children per wide node: the lanes of layout.WIDE_BVH_NODE.
@@ -49,73 +25,147 @@ MAX_LEAF = 8
 # Spheres a merged leaf may hold: the kernel tests them one after another, so no more than the
 # binary builders put in a leaf (max_leaf_size).
 MAX_SPHERE_LEAF = 4
-# A subtree is merged only if its box's surface area is at most this times the summed areas of
-# the leaves it would otherwise be (rays enter a box in proportion to its area, so that sum is
-# the leaf tests it costs). Two walls meeting at a corner would merge into a leaf spanning the
-# room, entered by every ray instead of a third of them each: veach-bidir's room, 11 % of its
-# expected leaf tests (docs/performance.md, "Eleventh pass"). Slightly larger merged boxes are
-# still worth their saved lanes and nodes on fine meshes; 1.5 would merge the walls again.
-MERGED_AREA_LIMIT = 1.25
+# The cost of a wide node's visit and of a leaf's block test per unit of box area (relative: a
+# leaf costing twice a node made the same renders, docs/performance.md).
+NODE_COST = 1.0
+LEAF_COST = 1.0
 
 
-def _greedy_slots(roots, area, index, interior, width=WIDTH):
-    """Per binary node of `roots`, its wide node's `width` lanes as (binary node, side) slot
-    references (-1: an empty lane): its two children, then, while a lane is free, the interior
-    lane of largest surface area replaced by that child's two children."""
-    n = len(roots)
-    nodes = np.full((n, width), -1, np.int64)
-    sides = np.zeros((n, width), np.int64)
-    nodes[:, :2] = roots[:, None]
-    sides[:, 1] = 1
-    rows = np.arange(n)
-    for free in range(2, width):
-        valid = nodes[:, :free] >= 0
-        node, side = np.maximum(nodes[:, :free], 0), sides[:, :free]
-        expandable = valid & interior[node, side]
-        score = np.where(expandable, area[node, side], -1.0)
-        pick = np.argmax(score, axis=1)
-        grow = expandable[rows, pick]
-        child = index[node[rows, pick], side[rows, pick]]
-        # The picked lane takes the child's left child, the free lane its right child.
-        nodes[grow, pick[grow]] = child[grow]
-        sides[grow, pick[grow]] = 0
-        nodes[grow, free] = child[grow]
-        sides[grow, free] = 1
-    return nodes, sides
+def collapse(bvh, sphere_slots=None):
+    """(nodes, depth): the wide tree (dtype layout.WIDE_BVH_NODE; node 0 the root) of a binary
+    Bvh. Leaves keep their primitive ranges (the same reordered primitive slots); a leaf of
+    spheres (sphere_slots: bool per slot, True for a sphere) gets its count negated, the
+    kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
+    lo, hi, index, count = _binary_slots(bvh.nodes)
+    area = _slot_areas(lo, hi)
+    cost, as_leaf, first, sub_count = _slot_costs(index, count, area, sphere_slots)
+    wide = (count == 0) & (index >= 0) & ~as_leaf   # slots that are a wide node when a lane
+    wide_of = np.full(len(bvh.nodes), -1, np.int64)  # binary node -> wide node
+    levels, frontier, numbered = [], np.array([0]), 0
+    while frontier.size:  # breadth first: a level's wide nodes are numbered together
+        wide_of[frontier] = np.arange(numbered, numbered + frontier.size)
+        numbered += frontier.size
+        node, side = _wide_lanes(frontier, cost, index)
+        levels.append((node, side))
+        below = (node >= 0) & wide[np.maximum(node, 0), side]
+        frontier = index[node[below], side[below]]
+    slot_node, slot_side = (np.concatenate(lanes) for lanes in zip(*levels))
+    merged = as_leaf & (count == 0)   # subtrees that are one leaf: their primitives' range
+    nodes = _assemble(slot_node, slot_side, wide_of, lo, hi, np.where(merged, first, index),
+                      np.where(merged, sub_count, count))
+    if sphere_slots is not None and np.any(sphere_slots):
+        leaf = nodes["count"] > 0
+        spheres = leaf & np.asarray(sphere_slots)[np.where(leaf, nodes["child"], 0)]
+        nodes["count"][spheres] *= -1
+    return nodes, len(levels)
 
 
-def _merge_small_subtrees(index, count, area, sphere_slots):
-    """(index, count) of the binary tree's slots with every interior child whose subtree holds at
-    most MAX_LEAF triangles or MAX_SPHERE_LEAF spheres, not both, in contiguous slots, and whose box
-    (`area`: per slot) is at most MERGED_AREA_LIMIT times the areas of the leaves below it, made a
-    leaf over those slots. (PLOC lays every subtree's primitives out contiguously; the binned
-    builder does not always, and its subtrees that are not stay as they are.)"""
+def _slot_costs(index, count, area, sphere_slots):
+    """Per binary slot (node, side): cost[..., i - 1], the least SAH cost of its subtree given i
+    lanes of a wide node (i = 1: itself, a leaf or a wide node of its own; more: lanes shared out
+    among its descendants), non-increasing in i; as_leaf, whether its one-lane form is a leaf
+    (binary leaves, and subtrees that merge into one); and the first slot and count of the
+    primitives below it."""
     interior = (count == 0) & (index >= 0)
     leaf = count > 0
     sub_count = np.where(leaf, count, 0).astype(np.int64)
     first = np.where(leaf, index.astype(np.int64), np.iinfo(np.int64).max)
     last = np.where(leaf, index + count - 1, -1).astype(np.int64)
     spheres = np.zeros(index.shape, np.int64)   # spheres below each slot
-    if sphere_slots is not None and np.any(sphere_slots):
+    with_spheres = sphere_slots is not None and np.any(sphere_slots)
+    if with_spheres:
         spheres[leaf] = np.where(np.asarray(sphere_slots)[index[leaf]], count[leaf], 0)
-    leaf_area = np.where(leaf, area, 0.0)   # summed areas of the leaves each slot becomes
-    merge = np.zeros(index.shape, bool)
+    # Empty slots (a tree of one primitive) cost nothing; binary leaves their test whatever i.
+    cost = np.empty(index.shape + (WIDTH,), np.float32)
+    cost[...] = np.where(leaf, area * LEAF_COST, 0.0)[..., None]
+    as_leaf = leaf.copy()
     for level in _binary_levels(index, interior)[::-1]:   # bottom-up: children before parents
         for side in (0, 1):
             parents = level[interior[level, side]]
-            child = index[parents, side]
             slot = (parents, side)
+            child = index[slot]
             sub_count[slot] = sub_count[child].sum(axis=1)
             first[slot] = first[child].min(axis=1)
             last[slot] = last[child].max(axis=1)
-            spheres[slot] = spheres[child].sum(axis=1)
-            apart = leaf_area[child].sum(axis=1)
+            if with_spheres:
+                spheres[slot] = spheres[child].sum(axis=1)
             limit = np.where(spheres[slot] == 0, MAX_LEAF,
                              np.where(spheres[slot] == sub_count[slot], MAX_SPHERE_LEAF, 0))   # 0: mixed
-            merge[slot] = ((sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot])
-                           & (area[slot] <= MERGED_AREA_LIMIT * apart))
-            leaf_area[slot] = np.where(merge[slot], area[slot], apart)
-    return np.where(merge, first, index), np.where(merge, sub_count, count)
+            mergeable = (sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot])
+            shared = _shared_costs(cost, child)
+            leaf_cost = np.where(mergeable, area[slot] * LEAF_COST, np.inf).astype(np.float32)
+            wide_cost = (area[slot] * NODE_COST).astype(np.float32) + shared[:, WIDTH - 1]
+            as_leaf[slot] = leaf_cost <= wide_cost
+            shared[:, 0] = np.minimum(leaf_cost, wide_cost)
+            cost[slot] = np.minimum.accumulate(shared, axis=1)
+    return cost, as_leaf, first, sub_count
+
+
+def _shared_costs(cost, nodes):
+    """(len(nodes), WIDTH): [n, j - 1] the least cost of node n's two slots sharing j lanes, at
+    least one each (inf for j = 1)."""
+    left, right = cost[nodes, 0].T, cost[nodes, 1].T   # [k - 1, n]: the cost with k lanes
+    shared = np.full((WIDTH, len(nodes)), np.inf, np.float32)
+    for lanes in range(2, WIDTH + 1):
+        for k in range(1, lanes):
+            np.minimum(shared[lanes - 1], left[k - 1] + right[lanes - k - 1], out=shared[lanes - 1])
+    return shared.T
+
+
+def _best_split(cost, nodes, lanes):
+    """The lanes of node n's left slot in its cheapest sharing of `lanes` (per n) lanes (the
+    sums _shared_costs takes the least of, in its order: the same k for equal sums)."""
+    left, right = cost[nodes, 0], cost[nodes, 1]
+    rows = np.arange(len(nodes))
+    best = np.full(len(nodes), np.inf, np.float32)
+    split = np.zeros(len(nodes), np.int64)
+    for k in range(1, WIDTH):
+        sums = np.where(lanes - k >= 1, left[:, k - 1] + right[rows, np.maximum(lanes - k, 1) - 1], np.inf)
+        better = sums < best
+        best = np.where(better, sums, best)
+        split = np.where(better, k, split)
+    return split
+
+
+def _wide_lanes(roots, cost, index):
+    """Per binary node of `roots` (each a wide node), its lanes as (binary node, side) slot
+    references, (len(roots), WIDTH), -1 for an empty lane: its two slots share WIDTH lanes as
+    cheaply as they can, each slot given several lanes passing them on to its two children in
+    turn, until every slot has one. Lanes stay in the tree's left-to-right order."""
+    n = len(roots)
+    row = np.repeat(np.arange(n), 2)
+    node = np.repeat(roots, 2)
+    side = np.tile([0, 1], n)
+    left = _best_split(cost, roots, np.full(n, WIDTH))
+    lanes = np.stack([left, WIDTH - left], axis=1).reshape(-1)
+    order = np.tile([0, 1 << (WIDTH - 1)], n)   # a slot's place among its node's lanes
+    depth = np.ones(2 * n, np.int64)
+    while True:
+        # A slot with several lanes passes them on where that costs less than keeping one: the
+        # fewest lanes at which its cost reaches that of `lanes`.
+        reached = cost[node, side, :] <= cost[node, side, lanes - 1][:, None]
+        used = np.argmax(reached, axis=1) + 1
+        split = used > 1
+        if not np.any(split):
+            break
+        child = index[node[split], side[split]]
+        to_left = _best_split(cost, child, used[split])
+        shift = 1 << (WIDTH - 1 - depth[split])
+        keep = ~split
+        row = np.concatenate([row[keep], row[split], row[split]])
+        order = np.concatenate([order[keep], order[split], order[split] + shift])
+        depth = np.concatenate([depth[keep], depth[split] + 1, depth[split] + 1])
+        node = np.concatenate([node[keep], child, child])
+        side = np.concatenate([side[keep], np.zeros(len(child), np.int64), np.ones(len(child), np.int64)])
+        lanes = np.concatenate([lanes[keep], to_left, used[split] - to_left])
+    arranged = np.lexsort((order, row))
+    row, node, side = row[arranged], node[arranged], side[arranged]
+    lane = np.arange(len(row)) - np.searchsorted(row, row)
+    nodes = np.full((n, WIDTH), -1, np.int64)
+    sides = np.zeros((n, WIDTH), np.int64)
+    nodes[row, lane] = node
+    sides[row, lane] = side
+    return nodes, sides
 
 
 def _binary_levels(index, interior):
