@@ -64,14 +64,14 @@ def _slot_costs(index, count, area, sphere_slots):
     """Per binary slot (node, side): cost[..., i - 1], the least SAH cost of its subtree given i
     lanes of a wide node (i = 1: itself, a leaf or a wide node of its own; more: lanes shared out
     among its descendants), non-increasing in i; as_leaf, whether its one-lane form is a leaf
-    (binary leaves, and subtrees that merge into one); and the first slot and count of the
-    primitives below it."""
+    (binary leaves, and subtrees that merge into one); and, where it holds at most MAX_LEAF
+    primitives, the first slot and count of those primitives."""
     interior = (count == 0) & (index >= 0)
     leaf = count > 0
-    sub_count = np.where(leaf, count, 0).astype(np.int64)
-    first = np.where(leaf, index.astype(np.int64), np.iinfo(np.int64).max)
-    last = np.where(leaf, index + count - 1, -1).astype(np.int64)
-    spheres = np.zeros(index.shape, np.int64)   # spheres below each slot
+    sub_count = np.where(leaf, count, 0).astype(np.int32)
+    first = np.where(leaf, index, np.iinfo(np.int32).max).astype(np.int32)
+    last = np.where(leaf, index + count - 1, -1).astype(np.int32)
+    spheres = np.zeros(index.shape, np.int32)   # spheres below each slot
     with_spheres = sphere_slots is not None and np.any(sphere_slots)
     if with_spheres:
         spheres[leaf] = np.where(np.asarray(sphere_slots)[index[leaf]], count[leaf], 0)
@@ -82,34 +82,37 @@ def _slot_costs(index, count, area, sphere_slots):
     for level in _binary_levels(index, interior)[::-1]:   # bottom-up: children before parents
         for side in (0, 1):
             parents = level[interior[level, side]]
-            slot = (parents, side)
-            child = index[slot]
-            sub_count[slot] = sub_count[child].sum(axis=1)
-            first[slot] = first[child].min(axis=1)
-            last[slot] = last[child].max(axis=1)
+            child = index[parents, side]
+            # Counts above MAX_LEAF only matter as such: a subtree holding one holds more.
+            sub_count[parents, side] = np.minimum(sub_count[child].sum(axis=1), MAX_LEAF + 1)
+            few = sub_count[parents, side] <= MAX_LEAF
+            slot, few_child = (parents[few], side), child[few]
+            first[slot] = first[few_child].min(axis=1)
+            last[slot] = last[few_child].max(axis=1)
             if with_spheres:
-                spheres[slot] = spheres[child].sum(axis=1)
+                spheres[slot] = spheres[few_child].sum(axis=1)
             limit = np.where(spheres[slot] == 0, MAX_LEAF,
                              np.where(spheres[slot] == sub_count[slot], MAX_SPHERE_LEAF, 0))   # 0: mixed
-            mergeable = (sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot])
+            mergeable = np.zeros(len(parents), bool)
+            mergeable[few] = (sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot])
             shared = _shared_costs(cost, child)
-            leaf_cost = np.where(mergeable, area[slot] * LEAF_COST, np.inf).astype(np.float32)
-            wide_cost = (area[slot] * NODE_COST).astype(np.float32) + shared[:, WIDTH - 1]
-            as_leaf[slot] = leaf_cost <= wide_cost
-            shared[:, 0] = np.minimum(leaf_cost, wide_cost)
-            cost[slot] = np.minimum.accumulate(shared, axis=1)
+            leaf_cost = np.where(mergeable, area[parents, side] * LEAF_COST, np.inf).astype(np.float32)
+            wide_cost = (area[parents, side] * NODE_COST).astype(np.float32) + shared[WIDTH - 1]
+            as_leaf[parents, side] = leaf_cost <= wide_cost
+            shared[0] = np.minimum(leaf_cost, wide_cost)
+            cost[parents, side] = np.minimum.accumulate(shared, axis=0).T
     return cost, as_leaf, first, sub_count
 
 
 def _shared_costs(cost, nodes):
-    """(len(nodes), WIDTH): [n, j - 1] the least cost of node n's two slots sharing j lanes, at
+    """(WIDTH, len(nodes)): [j - 1, n] the least cost of node n's two slots sharing j lanes, at
     least one each (inf for j = 1)."""
     left, right = cost[nodes, 0].T, cost[nodes, 1].T   # [k - 1, n]: the cost with k lanes
     shared = np.full((WIDTH, len(nodes)), np.inf, np.float32)
     for lanes in range(2, WIDTH + 1):
         for k in range(1, lanes):
             np.minimum(shared[lanes - 1], left[k - 1] + right[lanes - k - 1], out=shared[lanes - 1])
-    return shared.T
+    return shared
 
 
 def _best_split(cost, nodes, lanes):
@@ -139,25 +142,25 @@ def _wide_lanes(roots, cost, index):
     left = _best_split(cost, roots, np.full(n, WIDTH))
     lanes = np.stack([left, WIDTH - left], axis=1).reshape(-1)
     order = np.tile([0, 1 << (WIDTH - 1)], n)   # a slot's place among its node's lanes
-    depth = np.ones(2 * n, np.int64)
-    while True:
+    depth = 1
+    placed = []   # (row, order, node, side) of the slots that are lanes
+    while row.size:
         # A slot with several lanes passes them on where that costs less than keeping one: the
         # fewest lanes at which its cost reaches that of `lanes`.
-        reached = cost[node, side, :] <= cost[node, side, lanes - 1][:, None]
-        used = np.argmax(reached, axis=1) + 1
+        several = np.flatnonzero(lanes > 1)
+        used = np.ones(len(row), np.int64)
+        used[several] = np.argmax(cost[node[several], side[several], :] <=
+                                  cost[node[several], side[several], lanes[several] - 1][:, None], axis=1) + 1
         split = used > 1
-        if not np.any(split):
-            break
+        placed.append((row[~split], order[~split], node[~split], side[~split]))
         child = index[node[split], side[split]]
         to_left = _best_split(cost, child, used[split])
-        shift = 1 << (WIDTH - 1 - depth[split])
-        keep = ~split
-        row = np.concatenate([row[keep], row[split], row[split]])
-        order = np.concatenate([order[keep], order[split], order[split] + shift])
-        depth = np.concatenate([depth[keep], depth[split] + 1, depth[split] + 1])
-        node = np.concatenate([node[keep], child, child])
-        side = np.concatenate([side[keep], np.zeros(len(child), np.int64), np.ones(len(child), np.int64)])
-        lanes = np.concatenate([lanes[keep], to_left, used[split] - to_left])
+        row, order = np.repeat(row[split], 2), np.repeat(order[split], 2)
+        order[1::2] += 1 << (WIDTH - 1 - depth)
+        node, side = np.repeat(child, 2), np.tile([0, 1], len(child))
+        lanes = np.stack([to_left, used[split] - to_left], axis=1).reshape(-1)
+        depth += 1
+    row, order, node, side = (np.concatenate(parts) for parts in zip(*placed))
     arranged = np.lexsort((order, row))
     row, node, side = row[arranged], node[arranged], side[arranged]
     lane = np.arange(len(row)) - np.searchsorted(row, row)
