@@ -8,10 +8,10 @@ test each cost their box's surface area, since rays enter boxes in proportion to
 tests a leaf's up to eight triangles at once, so a leaf costs the same however many it holds). A
 subtree of at most MAX_LEAF triangles (or MAX_SPHERE_LEAF spheres) in contiguous slots may be one
 leaf; two walls meeting at a corner stay two leaves, since one leaf's box would span the room.
-The greedy collapse it replaced (fill a node's lanes by opening its largest child) left 4.2 of 8
-lanes used on the real scenes' trees, the optimum about 7 (docs/performance.md, "Twenty-sixth pass").
-Bottom-up over the binary levels, then top-down, with numpy (a million triangles in about a
-second).
+The greedy collapse it replaced (fill a node's lanes by opening its largest child) used 4.2 of
+the 8 lanes on the real scenes' trees, the least-cost trees about 7 (docs/performance.md,
+"Twenty-sixth pass"). Bottom-up over the binary levels, then top-down, with numpy (a million
+triangles in under a second).
 """
 import numpy as np
 
