@@ -162,9 +162,8 @@ bool traverse_bvh(__global const WideBvhNode* nodes, __global const TriangleBloc
         __global const int* count = (__global const int*)&n->count;
         // Leaf children are intersected at once; interior ones (count 0) go on the stack, sorted
         // so that the nearest (far_first: the farthest) is on top (insertion among this node's
-        // entries only). One loop
-        // over the lanes, not eight copies: each call site of the leaf intersection would
-        // otherwise spill and reload the traversal's registers.
+        // entries only). One loop over the lanes, not eight copies: each call site of the leaf
+        // intersection would otherwise spill and reload the traversal's registers.
         int first_pushed = stack_size;
 #pragma unroll 1
         while (entered != 0) {
