@@ -38,14 +38,14 @@ def collapse(bvh, sphere_slots=None):
     kernel's primitive-type tag (build_bvh never mixes the two in a leaf)."""
     lo, hi, index, count = _binary_slots(bvh.nodes)
     area = _slot_areas(lo, hi)
-    cost, as_leaf, first, sub_count = _slot_costs(index, count, area, sphere_slots)
+    cost, split, as_leaf, first, sub_count = _slot_costs(index, count, area, sphere_slots)
     wide = (count == 0) & (index >= 0) & ~as_leaf   # slots that are a wide node when a lane
     wide_of = np.full(len(bvh.nodes), -1, np.int64)  # binary node -> wide node
     levels, frontier, numbered = [], np.array([0]), 0
     while frontier.size:  # breadth first: a level's wide nodes are numbered together
         wide_of[frontier] = np.arange(numbered, numbered + frontier.size)
         numbered += frontier.size
-        node, side = _wide_lanes(frontier, cost, index)
+        node, side = _wide_lanes(frontier, cost, split, index)
         levels.append((node, side))
         below = (node >= 0) & wide[np.maximum(node, 0), side]
         frontier = index[node[below], side[below]]
@@ -63,9 +63,10 @@ def collapse(bvh, sphere_slots=None):
 def _slot_costs(index, count, area, sphere_slots):
     """Per binary slot (node, side): cost[..., i - 1], the least SAH cost of its subtree given i
     lanes of a wide node (i = 1: itself, a leaf or a wide node of its own; more: lanes shared out
-    among its descendants), non-increasing in i; as_leaf, whether its one-lane form is a leaf
-    (binary leaves, and subtrees that merge into one); and, where it holds at most MAX_LEAF
-    primitives, the first slot and count of those primitives."""
+    among its descendants), non-increasing in i; per binary node, split[n, j - 1], the lanes of
+    its left slot in its two slots' cheapest sharing of j lanes; as_leaf, whether a slot's
+    one-lane form is a leaf (binary leaves, and subtrees that merge into one); and, where it holds
+    at most MAX_LEAF primitives, the first slot and count of those primitives."""
     interior = (count == 0) & (index >= 0)
     leaf = count > 0
     sub_count = np.where(leaf, count, 0).astype(np.int32)
@@ -78,6 +79,7 @@ def _slot_costs(index, count, area, sphere_slots):
     # Empty slots (a tree of one primitive) cost nothing; binary leaves their test whatever i.
     cost = np.empty(index.shape + (WIDTH,), np.float32)
     cost[...] = np.where(leaf, area * LEAF_COST, 0.0)[..., None]
+    split = np.zeros((len(index), WIDTH), np.int8)
     as_leaf = leaf.copy()
     for level in _binary_levels(index, interior)[::-1]:   # bottom-up: children before parents
         for side in (0, 1):
@@ -95,42 +97,32 @@ def _slot_costs(index, count, area, sphere_slots):
                              np.where(spheres[slot] == sub_count[slot], MAX_SPHERE_LEAF, 0))   # 0: mixed
             mergeable = np.zeros(len(parents), bool)
             mergeable[few] = (sub_count[slot] <= limit) & (last[slot] - first[slot] + 1 == sub_count[slot])
-            shared = _shared_costs(cost, child)
+            shared, split[child] = _shared_costs(cost, child)
             leaf_cost = np.where(mergeable, area[parents, side] * LEAF_COST, np.inf).astype(np.float32)
             wide_cost = (area[parents, side] * NODE_COST).astype(np.float32) + shared[WIDTH - 1]
             as_leaf[parents, side] = leaf_cost <= wide_cost
             shared[0] = np.minimum(leaf_cost, wide_cost)
             cost[parents, side] = np.minimum.accumulate(shared, axis=0).T
-    return cost, as_leaf, first, sub_count
+    # The root's two slots, shared as its children's were.
+    split[:1] = _shared_costs(cost, np.array([0]))[1]
+    return cost, split, as_leaf, first, sub_count
 
 
 def _shared_costs(cost, nodes):
-    """(WIDTH, len(nodes)): [j - 1, n] the least cost of node n's two slots sharing j lanes, at
-    least one each (inf for j = 1)."""
+    """For node n's two slots sharing j lanes, at least one each: (WIDTH, len(nodes)) least
+    costs [j - 1, n] (inf for j = 1) and (len(nodes), WIDTH) lanes of the left slot [n, j - 1]."""
     left, right = cost[nodes, 0].T, cost[nodes, 1].T   # [k - 1, n]: the cost with k lanes
     shared = np.full((WIDTH, len(nodes)), np.inf, np.float32)
+    split = np.zeros((WIDTH, len(nodes)), np.int8)
     for lanes in range(2, WIDTH + 1):
         for k in range(1, lanes):
-            np.minimum(shared[lanes - 1], left[k - 1] + right[lanes - k - 1], out=shared[lanes - 1])
-    return shared
+            sums = left[k - 1] + right[lanes - k - 1]
+            np.copyto(split[lanes - 1], k, where=sums < shared[lanes - 1])
+            np.minimum(shared[lanes - 1], sums, out=shared[lanes - 1])
+    return shared, split.T
 
 
-def _best_split(cost, nodes, lanes):
-    """The lanes of node n's left slot in its cheapest sharing of `lanes` (per n) lanes (the
-    sums _shared_costs takes the least of, in its order: the same k for equal sums)."""
-    left, right = cost[nodes, 0], cost[nodes, 1]
-    rows = np.arange(len(nodes))
-    best = np.full(len(nodes), np.inf, np.float32)
-    split = np.zeros(len(nodes), np.int64)
-    for k in range(1, WIDTH):
-        sums = np.where(lanes - k >= 1, left[:, k - 1] + right[rows, np.maximum(lanes - k, 1) - 1], np.inf)
-        better = sums < best
-        best = np.where(better, sums, best)
-        split = np.where(better, k, split)
-    return split
-
-
-def _wide_lanes(roots, cost, index):
+def _wide_lanes(roots, cost, split, index):
     """Per binary node of `roots` (each a wide node), its lanes as (binary node, side) slot
     references, (len(roots), WIDTH), -1 for an empty lane: its two slots share WIDTH lanes as
     cheaply as they can, each slot given several lanes passing them on to its two children in
@@ -139,7 +131,7 @@ def _wide_lanes(roots, cost, index):
     row = np.repeat(np.arange(n), 2)
     node = np.repeat(roots, 2)
     side = np.tile([0, 1], n)
-    left = _best_split(cost, roots, np.full(n, WIDTH))
+    left = split[roots, WIDTH - 1].astype(np.int64)
     lanes = np.stack([left, WIDTH - left], axis=1).reshape(-1)
     order = np.tile([0, 1 << (WIDTH - 1)], n)   # a slot's place among its node's lanes
     depth = 1
@@ -151,14 +143,14 @@ def _wide_lanes(roots, cost, index):
         used = np.ones(len(row), np.int64)
         used[several] = np.argmax(cost[node[several], side[several], :] <=
                                   cost[node[several], side[several], lanes[several] - 1][:, None], axis=1) + 1
-        split = used > 1
-        placed.append((row[~split], order[~split], node[~split], side[~split]))
-        child = index[node[split], side[split]]
-        to_left = _best_split(cost, child, used[split])
-        row, order = np.repeat(row[split], 2), np.repeat(order[split], 2)
+        passes = used > 1
+        placed.append((row[~passes], order[~passes], node[~passes], side[~passes]))
+        child = index[node[passes], side[passes]]
+        to_left = split[child, used[passes] - 1].astype(np.int64)
+        row, order = np.repeat(row[passes], 2), np.repeat(order[passes], 2)
         order[1::2] += 1 << (WIDTH - 1 - depth)
         node, side = np.repeat(child, 2), np.tile([0, 1], len(child))
-        lanes = np.stack([to_left, used[split] - to_left], axis=1).reshape(-1)
+        lanes = np.stack([to_left, used[passes] - to_left], axis=1).reshape(-1)
         depth += 1
     row, order, node, side = (np.concatenate(parts) for parts in zip(*placed))
     arranged = np.lexsort((order, row))
